@@ -1,0 +1,95 @@
+/// @file constraint_solver.hpp
+/// @brief Assembles and solves (J W J^T) x = b from evaluated constraint rows.
+///
+/// Tridiagonal systems (chains, a chain hanging from a surface bead) are factorised in O(n) by
+/// LDL^T; any other structure by a sparse LDL^T whose ordering is analysed once per model.
+/// A (near) singular matrix is detected from its pivots, reported, and solved regularised
+/// (J W J^T + delta I), so the result stays finite.
+#pragma once
+
+#include "constrained_particles/core/model.hpp"
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include <memory>
+#include <vector>
+
+namespace constrained_particles
+{
+/// Evaluates every constraint row of the model at (p, v). Stateless; rows is resized.
+void evaluateRows(const Model& model, const Points& positions, const Points& velocities,
+                  std::vector<ConstraintRow>& rows);
+
+/// Outcome of one factorisation.
+struct SolveReport
+{
+  SolveMethod method = SolveMethod::None;
+  bool singular = false;         ///< (near) singular: solved with regularization added
+  double min_pivot_ratio = 1.0;  ///< smallest pivot relative to its diagonal entry
+  double regularization = 0.0;   ///< delta added to the diagonal (0 unless singular)
+};
+
+/// Pivots below this fraction of their diagonal entry mark J W J^T as singular.
+constexpr double SINGULAR_PIVOT_RATIO = 1e-12;
+/// Regularization added when singular, relative to the largest diagonal entry.
+constexpr double SINGULAR_REGULARIZATION = 1e-9;
+
+/// Workspace for one model: the evaluated rows and the factorisation of J W J^T.
+/// Allocates in the constructor; evaluate/factorize/solve of a chain allocate nothing.
+class ConstraintSolver
+{
+public:
+  explicit ConstraintSolver(const Model& model);
+  ~ConstraintSolver();
+  ConstraintSolver(ConstraintSolver&&) noexcept;
+  ConstraintSolver& operator=(ConstraintSolver&&) noexcept;
+
+  const Model& model() const
+  {
+    return *model_;
+  }
+
+  /// Evaluates C, J and Jdot v of every row at positions [m] and velocities [m/s].
+  void evaluate(const Points& positions, const Points& velocities);
+  const std::vector<ConstraintRow>& rows() const
+  {
+    return rows_;
+  }
+
+  /// Assembles J W J^T from the evaluated rows and factorises it.
+  SolveReport factorize();
+  /// Solves (J W J^T) x = b in place, with the last factorisation.
+  void solveInPlace(Eigen::VectorXd& b) const;
+
+  /// y = (J W J^T) x, straight from the rows (for residuals).
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const;
+  /// y = J x, x one 3-vector per particle.
+  void multiplyJacobian(const Points& x, Eigen::VectorXd& y) const;
+  /// y = J W x, x one 3-vector per particle (pinned particles contribute nothing).
+  void multiplyJacobianInverseMass(const Points& x, Eigen::VectorXd& y) const;
+  /// out += J^T lambda, on free and pinned particles alike.
+  void addJacobianTranspose(const Eigen::VectorXd& lambda, Points& out) const;
+  /// out += scale W J^T lambda (zero on pinned particles).
+  void addInverseMassJacobianTranspose(const Eigen::VectorXd& lambda, double scale,
+                                       Points& out) const;
+  /// J W J^T as a dense matrix (tests and small systems only).
+  Eigen::MatrixXd denseMatrix() const;
+
+private:
+  void assembleTridiagonal();
+  SolveReport factorizeTridiagonal();
+  SolveReport factorizeSparse();
+  SolveReport factorizeDense();
+
+  const Model* model_;
+  std::vector<ConstraintRow> rows_;
+  // tridiagonal: diagonal, super-diagonal, and LDL^T factors
+  Eigen::VectorXd diagonal_, off_diagonal_, pivots_, lower_;
+  struct SparseState;
+  std::unique_ptr<SparseState> sparse_;
+  struct DenseState;
+  std::unique_ptr<DenseState> dense_;
+};
+
+}  // namespace constrained_particles

@@ -1,0 +1,134 @@
+/// @file dynamics.hpp
+/// @brief Constraint forces, integrators, stabilisation and projection.
+///
+/// Witkin's formulation: with W = M^-1 and applied forces f,
+///   (J W J^T) lambda = -(Jdot v + J W f) - (2 zeta omega Cdot + omega^2 C)   [Baumgarte term
+///   only when selected], f_c = J^T lambda, a = W (f + f_c).
+#pragma once
+
+#include "constrained_particles/core/constraint_solver.hpp"
+#include "constrained_particles/core/model.hpp"
+
+#include <string>
+#include <vector>
+
+namespace constrained_particles
+{
+/// Time integrators. A switch over this enum errors on unknown values.
+enum class Integrator
+{
+  ExplicitEuler,      ///< p += dt v, v += dt a(p, v): first order, energy grows
+  SemiImplicitEuler,  ///< v += dt a(p, v), p += dt v: first order, symplectic
+  RK4,                ///< classical Runge-Kutta, fourth order
+};
+
+/// Constraint drift correction.
+enum class Stabilization
+{
+  None,        ///< Cddot = 0 only: C drifts
+  Baumgarte,   ///< Cddot + 2 zeta omega Cdot + omega^2 C = 0
+  Projection,  ///< after each step: Newton projection of p onto C = 0, then of v onto J v = 0
+};
+
+const char* integratorName(Integrator integrator);
+const char* stabilizationName(Stabilization stabilization);
+/// @throws InvalidInput naming field and the valid names
+Integrator parseIntegrator(const std::string& name, const std::string& field = "integrator");
+/// @throws InvalidInput naming field and the valid names
+Stabilization parseStabilization(const std::string& name,
+                                 const std::string& field = "stabilization");
+std::vector<std::string> integratorNames();
+std::vector<std::string> stabilizationNames();
+
+/// How to take one step. Defaults are a good general choice.
+struct StepSettings
+{
+  double dt = 1e-3;                                         ///< time step [s], in (0, 1]
+  Integrator integrator = Integrator::RK4;                  ///< time integrator
+  Stabilization stabilization = Stabilization::Projection;  ///< drift correction
+  double baumgarte_frequency = 10.0;                        ///< f [Hz], omega = 2 pi f; in (0, 1e4]
+  double baumgarte_damping_ratio = 1.0;                     ///< zeta [1], in [0, 100]
+  double projection_tolerance = 1e-10;  ///< max position error after projection [m], > 0
+  int projection_max_iterations = 20;   ///< Newton iterations per projection, in [1, 1000]
+};
+
+/// @throws InvalidInput naming the first bad field and its valid range
+void validateStepSettings(const StepSettings& settings);
+
+/// Outcome of a projection of a state onto the constraints.
+struct ProjectionReport
+{
+  int iterations = 0;              ///< Newton iterations taken
+  bool converged = true;           ///< max position error <= tolerance
+  double max_position_error = 0;   ///< after projection [m]
+  double max_displacement = 0;     ///< largest distance a particle moved [m]
+  double max_velocity_change = 0;  ///< largest velocity change of a particle [m/s]
+  bool singular = false;           ///< J W J^T was singular during the projection
+};
+
+/// Acceleration function and workspace for one model.
+class Dynamics
+{
+public:
+  explicit Dynamics(const Model& model);
+
+  const Model& model() const
+  {
+    return solver_.model();
+  }
+
+  /// Computes a = W (f + J^T lambda) at (p, v) [m/s^2], pinned particles 0.
+  /// Fills multipliers(), constraintForces() and appliedForces().
+  /// @param baumgarte_omega omega [rad/s] (0: no Baumgarte term)
+  /// @param baumgarte_zeta damping ratio zeta [1]
+  SolveReport computeAccelerations(const Points& positions, const Points& velocities,
+                                   double baumgarte_omega, double baumgarte_zeta,
+                                   Points& accelerations);
+
+  /// One multiplier per row, then the reaction [N] of each pin (3 values).
+  const Eigen::VectorXd& multipliers() const
+  {
+    return multipliers_;
+  }
+  /// Total constraint force on each particle [N] (pinned: links plus pin reaction).
+  const Points& constraintForces() const
+  {
+    return constraint_forces_;
+  }
+  /// Applied forces at the last evaluation [N].
+  const Points& appliedForces() const
+  {
+    return applied_forces_;
+  }
+
+  /// Moves positions onto C = 0 by Newton steps dp = -W J^T (J W J^T)^-1 C; pins exact.
+  ProjectionReport projectPositions(Points& positions, double tolerance, int max_iterations);
+  /// Removes the constraint-violating velocity: dv = -W J^T (J W J^T)^-1 J v; pins at rest.
+  /// @return largest velocity change [m/s]
+  double projectVelocities(const Points& positions, Points& velocities, bool* singular = nullptr);
+
+  ConstraintSolver& solver()
+  {
+    return solver_;
+  }
+
+private:
+  void applyPins(Points& positions, Points* velocities) const;
+
+  ConstraintSolver solver_;
+  Eigen::VectorXd rhs_, multipliers_;
+  Points applied_forces_, constraint_forces_, zero_velocities_;
+};
+
+/// Outcome of one step.
+struct StepReport
+{
+  SolveReport solve;            ///< worst factorisation of the step (singular if any was)
+  ProjectionReport projection;  ///< when stabilization is Projection
+};
+
+/// Advances the state by settings.dt with the chosen integrator and stabilisation.
+/// Assumes model, state and settings were validated.
+StepReport step(const StepSettings& settings, State& state, Dynamics& dynamics);
+
+}  // namespace constrained_particles

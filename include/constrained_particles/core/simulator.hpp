@@ -1,0 +1,91 @@
+/// @file simulator.hpp
+/// @brief A model, its state and its step settings, with validated updates: a refused change
+/// leaves everything as it was.
+#pragma once
+
+#include "constrained_particles/core/diagnostics.hpp"
+#include "constrained_particles/core/dynamics.hpp"
+#include "constrained_particles/core/model.hpp"
+
+#include <memory>
+
+namespace constrained_particles
+{
+/// Steps one scene. Not thread-safe: callers serialise access.
+class Simulator
+{
+public:
+  /// Validates and compiles scene, initial state and settings; projects the initial state onto
+  /// the constraints. @throws InvalidInput naming the first bad field
+  Simulator(const Scene& scene, const State& initial_state, const StepSettings& settings,
+            SolveMethod method = SolveMethod::Automatic);
+
+  /// Takes `count` steps of settings().dt. @return report of the last step
+  StepReport step(int count = 1);
+
+  /// Back to the initial state (time 0, step count 0).
+  void reset();
+
+  /// Teleports to a state, projected onto the constraints (pins exact); time and step count
+  /// are kept from the current state.
+  /// @throws InvalidInput if the state is malformed or cannot be projected; state untouched
+  ProjectionReport setState(const State& state);
+
+  /// Replaces the scene and initial state, and resets. @throws InvalidInput; nothing changes
+  void setScene(const Scene& scene, const State& initial_state,
+                SolveMethod method = SolveMethod::Automatic);
+
+  /// @throws InvalidInput naming the bad setting; settings untouched
+  void setStepSettings(const StepSettings& settings);
+
+  const Model& model() const
+  {
+    return *model_;
+  }
+  const State& state() const
+  {
+    return state_;
+  }
+  const State& initialState() const
+  {
+    return initial_state_;
+  }
+  const StepSettings& stepSettings() const
+  {
+    return settings_;
+  }
+  const StepReport& lastStepReport() const
+  {
+    return last_report_;
+  }
+
+  /// Errors and energies of the current state.
+  Diagnostics diagnostics() const
+  {
+    return computeDiagnostics(*model_, state_);
+  }
+
+  /// Constraint forces [N] and multipliers at the current state, as the next step would apply
+  /// them (computed on demand).
+  void constraintForces(Points& forces, Eigen::VectorXd& multipliers);
+
+private:
+  /// Everything a scene change replaces together.
+  struct Compiled
+  {
+    std::unique_ptr<Model> model;
+    std::unique_ptr<Dynamics> dynamics;
+    State initial_state;
+  };
+  static Compiled compile(const Scene& scene, const State& initial_state,
+                          const StepSettings& settings, SolveMethod method);
+
+  std::unique_ptr<Model> model_;
+  std::unique_ptr<Dynamics> dynamics_;
+  State initial_state_;
+  State state_;
+  StepSettings settings_;
+  StepReport last_report_;
+};
+
+}  // namespace constrained_particles

@@ -1,0 +1,49 @@
+"""Counts test cases in catkin's JUnit XML results and prints 'N passed, M failed'.
+
+gtest and rostest both write one <testcase> per test; catkin writes a failing result when a
+test binary produced no file. Exits 1 if any test failed or none ran.
+"""
+import pathlib
+import sys
+import xml.etree.ElementTree as ElementTree
+
+
+def main(results_dir):
+    passed, failed, skipped = 0, 0, 0
+    failures = []
+    files = sorted(pathlib.Path(results_dir).rglob("*.xml"))
+    for path in files:
+        try:
+            root = ElementTree.parse(path).getroot()
+        except ElementTree.ParseError as error:
+            failed += 1
+            failures.append(f"{path.name}: unreadable result ({error})")
+            continue
+        cases = list(root.iter("testcase"))
+        if not cases and (root.get("failures", "0") != "0" or root.get("errors", "0") != "0"):
+            failed += 1
+            failures.append(f"{path.name}: no test cases, but failures recorded")
+        for case in cases:
+            name = f"{case.get('classname')}.{case.get('name')}"
+            if case.find("failure") is not None or case.find("error") is not None:
+                failed += 1
+                failures.append(name)
+            elif case.find("skipped") is not None or case.get("status") == "notrun":
+                skipped += 1
+            else:
+                passed += 1
+    for name in failures:
+        print(f"FAILED: {name}")
+    print(f"{len(files)} result files in {results_dir}")
+    if passed + failed == 0:
+        print("no test results found")
+        failed = 1
+    summary = f"{passed} passed, {failed} failed"
+    if skipped:
+        summary += f", {skipped} skipped"
+    print(summary)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1] if len(sys.argv) > 1 else "build/ws/build/test_results"))

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages this package builds, runs and tests with.
+# Idempotent: only calls apt when something is missing. Run as root.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake pkg-config libeigen3-dev libgtest-dev libboost-dev
+  catkin ros-core-dev ros-message-generation ros-message-runtime
+  libroscpp-dev librosconsole-dev libstd-srvs-dev libgeometry-msgs-dev
+  libtf2-ros-dev libtf2-eigen-dev libvisualization-msgs-dev
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
+  librostest-dev python3-rostest rosbash python3-rospy python3-roslaunch
+  python3-geometry-msgs python3-visualization-msgs python3-tf2-msgs
+  python3-std-srvs python3-catkin-pkg
+)
+# Optional extras (rviz, Xvfb) are requested with WITH_RVIZ=1.
+if [[ "${WITH_RVIZ:-0}" == 1 ]]; then
+  PACKAGES+=(rviz xvfb x11-apps imagemagick)
+fi
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]})); then
+  SUDO=""
+  if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+  echo "Installing missing packages: ${missing[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi

@@ -1,0 +1,362 @@
+#include "constrained_particles/core/constraint_solver.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/SparseCholesky>
+
+#include <algorithm>
+#include <cmath>
+
+namespace constrained_particles
+{
+void evaluateRows(const Model& model, const Points& positions, const Points& velocities,
+                  std::vector<ConstraintRow>& rows)
+{
+  const Scene& scene = model.scene();
+  const auto& row_constraints = model.rowConstraints();
+  rows.resize(row_constraints.size());
+  for (std::size_t r = 0; r < row_constraints.size(); ++r)
+  {
+    const Constraint& c = scene.constraints[row_constraints[r]];
+    if (const auto* link = std::get_if<LinkConstraint>(&c))
+      rows[r] = evaluateRow(*link, positions, velocities);
+    else if (const auto* surface = std::get_if<SurfaceConstraint>(&c))
+      rows[r] = evaluateRow(*surface, scene.surfaces[surface->surface], positions, velocities);
+  }
+}
+
+struct ConstraintSolver::SparseState
+{
+  Eigen::SparseMatrix<double> matrix;
+  std::vector<Eigen::Triplet<double>> triplets;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
+  Eigen::VectorXd permuted_diagonal;
+};
+
+struct ConstraintSolver::DenseState
+{
+  Eigen::LDLT<Eigen::MatrixXd> ldlt;
+};
+
+ConstraintSolver::ConstraintSolver(const Model& model) : model_(&model)
+{
+  const int m = model.numRows();
+  rows_.resize(m);
+  diagonal_.setZero(m);
+  off_diagonal_.setZero(std::max(m - 1, 0));
+  pivots_.setZero(m);
+  lower_.setZero(std::max(m - 1, 0));
+  if (model.solveMethod() == SolveMethod::Sparse)
+  {
+    sparse_ = std::make_unique<SparseState>();
+    sparse_->matrix.resize(m, m);
+  }
+  else if (model.solveMethod() == SolveMethod::Dense)
+  {
+    dense_ = std::make_unique<DenseState>();
+  }
+}
+
+ConstraintSolver::~ConstraintSolver() = default;
+ConstraintSolver::ConstraintSolver(ConstraintSolver&&) noexcept = default;
+ConstraintSolver& ConstraintSolver::operator=(ConstraintSolver&&) noexcept = default;
+
+void ConstraintSolver::evaluate(const Points& positions, const Points& velocities)
+{
+  evaluateRows(*model_, positions, velocities, rows_);
+}
+
+void ConstraintSolver::assembleTridiagonal()
+{
+  // diagonal: every touch of a free particle; off-diagonal: two rows meeting at one particle
+  const auto& w = model_->inverseMasses();
+  const auto& start = model_->incidenceStart();
+  const auto& incidence = model_->incidence();
+  diagonal_.setZero();
+  off_diagonal_.setZero();
+  for (int i = 0; i < model_->numParticles(); ++i)
+  {
+    const int begin = start[i], end = start[i + 1];
+    for (int a = begin; a < end; ++a)
+    {
+      const RowIncidence& ra = incidence[a];
+      const Vec3& ga = rows_[ra.row].gradient[ra.slot];
+      diagonal_[ra.row] += w[i] * ga.squaredNorm();
+      for (int b = a + 1; b < end; ++b)
+      {
+        const RowIncidence& rb = incidence[b];
+        off_diagonal_[std::min(ra.row, rb.row)] += w[i] * ga.dot(rows_[rb.row].gradient[rb.slot]);
+      }
+    }
+  }
+}
+
+SolveReport ConstraintSolver::factorize()
+{
+  switch (model_->solveMethod())
+  {
+    case SolveMethod::Tridiagonal:
+      return factorizeTridiagonal();
+    case SolveMethod::Sparse:
+      return factorizeSparse();
+    case SolveMethod::Dense:
+      return factorizeDense();
+    default:
+      return SolveReport{};
+  }
+}
+
+SolveReport ConstraintSolver::factorizeTridiagonal()
+{
+  assembleTridiagonal();
+  const int m = static_cast<int>(diagonal_.size());
+  SolveReport report;
+  report.method = SolveMethod::Tridiagonal;
+  const double max_diagonal = m > 0 ? diagonal_.maxCoeff() : 0.0;
+  double delta = 0.0;
+  // LDL^T without pivoting: J W J^T is positive semi-definite, so pivots only shrink to zero
+  for (int attempt = 0; attempt < 2; ++attempt)
+  {
+    // the report keeps the unregularised pivots: they say how singular the system is
+    double min_ratio = 1.0;
+    bool singular = false;
+    for (int k = 0; k < m; ++k)
+    {
+      const double d = diagonal_[k] + delta;
+      double pivot = d;
+      if (k > 0)
+      {
+        lower_[k - 1] = off_diagonal_[k - 1] / pivots_[k - 1];
+        pivot -= lower_[k - 1] * off_diagonal_[k - 1];
+      }
+      const double ratio = d > 0.0 ? pivot / d : 0.0;
+      min_ratio = std::min(min_ratio, ratio);
+      if (!(ratio > SINGULAR_PIVOT_RATIO))
+      {
+        if (delta == 0.0)
+        {
+          singular = true;
+          break;
+        }
+        // regularised: exact pivots are >= delta; only rounding can push one below
+        pivot = std::max(pivot, delta);
+      }
+      pivots_[k] = pivot;
+    }
+    if (attempt == 0)
+      report.min_pivot_ratio = min_ratio;
+    if (!singular)
+      return report;
+    report.singular = true;
+    delta = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+    report.regularization = delta;
+  }
+  return report;
+}
+
+SolveReport ConstraintSolver::factorizeSparse()
+{
+  SolveReport report;
+  report.method = SolveMethod::Sparse;
+  const int m = model_->numRows();
+  const auto& w = model_->inverseMasses();
+  const auto& start = model_->incidenceStart();
+  const auto& incidence = model_->incidence();
+  auto& s = *sparse_;
+  const bool first = s.triplets.empty();
+  s.triplets.clear();
+  for (int r = 0; r < m; ++r)
+    s.triplets.emplace_back(r, r, 0.0);
+  for (int i = 0; i < model_->numParticles(); ++i)
+    for (int a = start[i]; a < start[i + 1]; ++a)
+    {
+      const RowIncidence& ra = incidence[a];
+      const Vec3& ga = rows_[ra.row].gradient[ra.slot];
+      s.triplets.emplace_back(ra.row, ra.row, w[i] * ga.squaredNorm());
+      for (int b = start[i]; b < start[i + 1]; ++b)
+      {
+        const RowIncidence& rb = incidence[b];
+        if (rb.row > ra.row)  // lower triangle only
+          s.triplets.emplace_back(rb.row, ra.row, w[i] * ga.dot(rows_[rb.row].gradient[rb.slot]));
+      }
+    }
+  s.matrix.setFromTriplets(s.triplets.begin(), s.triplets.end());
+  if (first)
+    s.ldlt.analyzePattern(s.matrix);
+  const Eigen::VectorXd diagonal = s.matrix.diagonal();
+  const double max_diagonal = m > 0 ? diagonal.maxCoeff() : 0.0;
+  s.permuted_diagonal.resize(m);
+  for (int r = 0; r < m; ++r)
+    s.permuted_diagonal[s.ldlt.permutationP().indices()[r]] = diagonal[r];
+  for (int attempt = 0; attempt < 2; ++attempt)
+  {
+    s.ldlt.factorize(s.matrix);
+    double min_ratio = s.ldlt.info() == Eigen::Success ? 1.0 : 0.0;
+    if (s.ldlt.info() == Eigen::Success)
+    {
+      const Eigen::VectorXd& pivots = s.ldlt.vectorD();
+      for (int k = 0; k < m; ++k)
+      {
+        const double d = s.permuted_diagonal[k] + report.regularization;
+        min_ratio = std::min(min_ratio, d > 0.0 ? pivots[k] / d : 0.0);
+      }
+    }
+    const bool singular = !(min_ratio > SINGULAR_PIVOT_RATIO);
+    if (attempt == 0)
+      report.min_pivot_ratio = min_ratio;
+    if (!singular)
+      return report;
+    report.singular = true;
+    const double delta = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+    report.regularization = delta;
+    for (int r = 0; r < m; ++r)
+      s.matrix.coeffRef(r, r) = diagonal[r] + delta;
+  }
+  return report;
+}
+
+SolveReport ConstraintSolver::factorizeDense()
+{
+  SolveReport report;
+  report.method = SolveMethod::Dense;
+  Eigen::MatrixXd matrix = denseMatrix();
+  const int m = static_cast<int>(matrix.rows());
+  const double max_diagonal = m > 0 ? matrix.diagonal().maxCoeff() : 0.0;
+  for (int attempt = 0; attempt < 2; ++attempt)
+  {
+    dense_->ldlt.compute(matrix);
+    // with pivoting the order of D is not the row order: compare with the largest diagonal
+    const double min_pivot = m > 0 ? dense_->ldlt.vectorD().minCoeff() : 1.0;
+    const double min_ratio = max_diagonal > 0.0 ? min_pivot / max_diagonal : 0.0;
+    if (attempt == 0)
+      report.min_pivot_ratio = min_ratio;
+    if (dense_->ldlt.info() == Eigen::Success && min_ratio > SINGULAR_PIVOT_RATIO)
+      return report;
+    report.singular = true;
+    report.regularization = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+    matrix.diagonal().array() += report.regularization;
+  }
+  return report;
+}
+
+void ConstraintSolver::solveInPlace(Eigen::VectorXd& b) const
+{
+  switch (model_->solveMethod())
+  {
+    case SolveMethod::Tridiagonal:
+    {
+      const int m = static_cast<int>(b.size());
+      for (int k = 1; k < m; ++k)
+        b[k] -= lower_[k - 1] * b[k - 1];
+      for (int k = 0; k < m; ++k)
+        b[k] /= pivots_[k];
+      for (int k = m - 2; k >= 0; --k)
+        b[k] -= lower_[k] * b[k + 1];
+      break;
+    }
+    case SolveMethod::Sparse:
+      // a failed factorisation gives no force rather than NaN
+      if (sparse_->ldlt.info() == Eigen::Success)
+        b = sparse_->ldlt.solve(b);
+      else
+        b.setZero();
+      break;
+    case SolveMethod::Dense:
+      if (dense_->ldlt.info() == Eigen::Success)
+        b = dense_->ldlt.solve(b);
+      else
+        b.setZero();
+      break;
+    default:
+      break;
+  }
+}
+
+void ConstraintSolver::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const
+{
+  // y = J (W (J^T x)), particle by particle
+  const auto& w = model_->inverseMasses();
+  const auto& start = model_->incidenceStart();
+  const auto& incidence = model_->incidence();
+  y.setZero(model_->numRows());
+  for (int i = 0; i < model_->numParticles(); ++i)
+  {
+    Vec3 force = Vec3::Zero();
+    for (int a = start[i]; a < start[i + 1]; ++a)
+      force += rows_[incidence[a].row].gradient[incidence[a].slot] * x[incidence[a].row];
+    for (int a = start[i]; a < start[i + 1]; ++a)
+      y[incidence[a].row] += w[i] * rows_[incidence[a].row].gradient[incidence[a].slot].dot(force);
+  }
+}
+
+void ConstraintSolver::multiplyJacobian(const Points& x, Eigen::VectorXd& y) const
+{
+  y.resize(static_cast<int>(rows_.size()));
+  for (std::size_t r = 0; r < rows_.size(); ++r)
+  {
+    const ConstraintRow& row = rows_[r];
+    double sum = row.gradient[0].dot(x.col(row.particle[0]));
+    if (row.particle[1] >= 0)
+      sum += row.gradient[1].dot(x.col(row.particle[1]));
+    y[r] = sum;
+  }
+}
+
+void ConstraintSolver::multiplyJacobianInverseMass(const Points& x, Eigen::VectorXd& y) const
+{
+  const auto& w = model_->inverseMasses();
+  y.resize(static_cast<int>(rows_.size()));
+  for (std::size_t r = 0; r < rows_.size(); ++r)
+  {
+    const ConstraintRow& row = rows_[r];
+    double sum = w[row.particle[0]] * row.gradient[0].dot(x.col(row.particle[0]));
+    if (row.particle[1] >= 0)
+      sum += w[row.particle[1]] * row.gradient[1].dot(x.col(row.particle[1]));
+    y[r] = sum;
+  }
+}
+
+void ConstraintSolver::addJacobianTranspose(const Eigen::VectorXd& lambda, Points& out) const
+{
+  for (std::size_t r = 0; r < rows_.size(); ++r)
+  {
+    const ConstraintRow& row = rows_[r];
+    out.col(row.particle[0]) += row.gradient[0] * lambda[r];
+    if (row.particle[1] >= 0)
+      out.col(row.particle[1]) += row.gradient[1] * lambda[r];
+  }
+}
+
+void ConstraintSolver::addInverseMassJacobianTranspose(const Eigen::VectorXd& lambda, double scale,
+                                                       Points& out) const
+{
+  const auto& w = model_->inverseMasses();
+  for (std::size_t r = 0; r < rows_.size(); ++r)
+  {
+    const ConstraintRow& row = rows_[r];
+    const double s = scale * lambda[r];
+    out.col(row.particle[0]) += (w[row.particle[0]] * s) * row.gradient[0];
+    if (row.particle[1] >= 0)
+      out.col(row.particle[1]) += (w[row.particle[1]] * s) * row.gradient[1];
+  }
+}
+
+Eigen::MatrixXd ConstraintSolver::denseMatrix() const
+{
+  const auto& w = model_->inverseMasses();
+  const auto& start = model_->incidenceStart();
+  const auto& incidence = model_->incidence();
+  const int m = model_->numRows();
+  Eigen::MatrixXd matrix = Eigen::MatrixXd::Zero(m, m);
+  for (int i = 0; i < model_->numParticles(); ++i)
+    for (int a = start[i]; a < start[i + 1]; ++a)
+      for (int b = start[i]; b < start[i + 1]; ++b)
+      {
+        const RowIncidence& ra = incidence[a];
+        const RowIncidence& rb = incidence[b];
+        matrix(ra.row, rb.row) +=
+            w[i] * rows_[ra.row].gradient[ra.slot].dot(rows_[rb.row].gradient[rb.slot]);
+      }
+  return matrix;
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,54 @@
+// Shared helpers of the core tests: random states and finite differences.
+#pragma once
+
+#include "constrained_particles/core/model.hpp"
+
+#include <random>
+
+namespace constrained_particles
+{
+namespace testing
+{
+/// Deterministic random source for tests.
+class Random
+{
+public:
+  explicit Random(unsigned seed = 12345) : engine_(seed)
+  {
+  }
+  double uniform(double low, double high)
+  {
+    return std::uniform_real_distribution<double>(low, high)(engine_);
+  }
+  Vec3 vector(double scale)
+  {
+    return Vec3(uniform(-scale, scale), uniform(-scale, scale), uniform(-scale, scale));
+  }
+  Vec3 unitVector()
+  {
+    Vec3 v;
+    do
+      v = vector(1.0);
+    while (v.norm() < 0.1 || v.norm() > 1.0);
+    return v.normalized();
+  }
+  std::mt19937& engine()
+  {
+    return engine_;
+  }
+
+private:
+  std::mt19937 engine_;
+};
+
+/// Central difference step for functions of O(1) arguments.
+constexpr double FD_STEP = 1e-6;
+
+/// Relative error |a - b| / max(|b|, floor).
+inline double relativeError(double a, double b, double floor = 1.0)
+{
+  return std::abs(a - b) / std::max(std::abs(b), floor);
+}
+
+}  // namespace testing
+}  // namespace constrained_particles

@@ -1,0 +1,198 @@
+// Bad input to the core is refused with an error naming the field, and changes nothing.
+#include "constrained_particles/core/scenarios.hpp"
+#include "constrained_particles/core/simulator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+using namespace constrained_particles;
+
+namespace
+{
+constexpr double NaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double INF = std::numeric_limits<double>::infinity();
+
+// runs fn, expects InvalidInput whose field is `field` and whose message mentions `mention`
+template <typename Fn>
+void expectRefused(Fn fn, const std::string& field, const std::string& mention = "")
+{
+  try
+  {
+    fn();
+    ADD_FAILURE() << "accepted; expected refusal naming " << field;
+  }
+  catch (const InvalidInput& e)
+  {
+    EXPECT_EQ(e.field(), field) << e.what();
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    if (!mention.empty())
+      EXPECT_NE(std::string(e.what()).find(mention), std::string::npos) << e.what();
+  }
+}
+
+Scene validChain()
+{
+  Scene scene;
+  scene.masses = { 1.0, 1.0, 1.0 };
+  scene.constraints = { LinkConstraint{ 0, 1, 1.0 }, LinkConstraint{ 1, 2, 1.0 } };
+  scene.forces = { GravityForce{} };
+  return scene;
+}
+
+}  // namespace
+
+TEST(Validation, SceneFieldsAreNamed)
+{
+  Scene s = validChain();
+  s.masses.clear();
+  expectRefused([&] { Model::compile(s); }, "masses", "at least 1");
+  for (double bad : { 0.0, -1.0, NaN, INF })
+  {
+    s = validChain();
+    s.masses[1] = bad;
+    expectRefused([&] { Model::compile(s); }, "masses[1]", "> 0");
+  }
+  for (double bad : { 0.0, -2.0, NaN, INF })
+  {
+    s = validChain();
+    std::get<LinkConstraint>(s.constraints[1]).length = bad;
+    expectRefused([&] { Model::compile(s); }, "constraints[1].length", "> 0");
+  }
+  s = validChain();
+  std::get<LinkConstraint>(s.constraints[0]).second = 7;
+  expectRefused([&] { Model::compile(s); }, "constraints[0].second", "[0, 2]");
+  s = validChain();
+  std::get<LinkConstraint>(s.constraints[0]).second = 0;
+  expectRefused([&] { Model::compile(s); }, "constraints[0].second", "differ");
+  s = validChain();
+  s.constraints.push_back(SurfaceConstraint{ 0, 0 });
+  expectRefused([&] { Model::compile(s); }, "constraints[2].surface");
+  s = validChain();
+  s.forces = { GravityForce{ Vec3(0, NaN, 0) } };
+  expectRefused([&] { Model::compile(s); }, "forces[0].gravity.y");
+  s = validChain();
+  s.forces = { LinearDampingForce{ -1.0 } };
+  expectRefused([&] { Model::compile(s); }, "forces[0].damping", ">= 0");
+  s = validChain();
+  s.forces = { ExternalForce{ 3, Vec3(0, 0, 1) } };
+  expectRefused([&] { Model::compile(s); }, "forces[0].particle");
+  s = validChain();
+  s.constraints.push_back(PinConstraint{ 0, Vec3(INF, 0, 0) });
+  expectRefused([&] { Model::compile(s); }, "constraints[2].anchor.x");
+  s = validChain();
+  s.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  s.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  expectRefused([&] { Model::compile(s); }, "constraints[3].particle", "already pinned");
+}
+
+TEST(Validation, SurfacesAreChecked)
+{
+  expectRefused([] { makeSurface("cone", {}); }, "surface.type", "bowl");
+  expectRefused([] { makeSurface("bowl", { NaN }); }, "surface.coefficients[0] (curvature_x)");
+  expectRefused(
+      [] {
+        makeSurface("bowl", { 1.0, -1.0 });
+      },
+      "surface.coefficients[1] (curvature_y)", "[0, 1e+06]");
+  expectRefused([] { makeSurface("gaussian", { 1.0, 0.0 }); }, "surface.coefficients[1] (width)");
+  expectRefused([] { makeSurface("plane", { 1, 2, 3, 4 }); }, "surface.coefficients", "at most 3");
+}
+
+TEST(Validation, ScenarioParametersAreChecked)
+{
+  expectRefused([] { buildScenario("pendulum", ScenarioParameters{}); }, "scenario",
+                "surface_chain");
+  ScenarioParameters p;
+  p.chain.num_particles = 0;
+  expectRefused([&] { buildScenario("chain", p); }, "chain.num_particles", "[1, 1000000]");
+  p = ScenarioParameters{};
+  p.chain.link_length = -0.5;
+  expectRefused([&] { buildScenario("chain", p); }, "chain.link_length");
+  p = ScenarioParameters{};
+  p.chain.particle_mass = 0.0;
+  expectRefused([&] { buildScenario("surface_chain", p); }, "chain.particle_mass");
+  p = ScenarioParameters{};
+  p.gravity.z() = NaN;
+  expectRefused([&] { buildScenario("bead", p); }, "gravity.z");
+  p = ScenarioParameters{};
+  p.damping = -0.1;
+  expectRefused([&] { buildScenario("bead", p); }, "damping");
+}
+
+TEST(Validation, StepSettingsAreChecked)
+{
+  StepSettings s;
+  for (double bad : { 0.0, -1e-3, NaN, INF, 2.0 })
+  {
+    s = StepSettings{};
+    s.dt = bad;
+    expectRefused([&] { validateStepSettings(s); }, "dt", "(0, 1] [s]");
+  }
+  s = StepSettings{};
+  s.baumgarte_frequency = NaN;
+  expectRefused([&] { validateStepSettings(s); }, "baumgarte_frequency");
+  s = StepSettings{};
+  s.baumgarte_damping_ratio = -1;
+  expectRefused([&] { validateStepSettings(s); }, "baumgarte_damping_ratio");
+  expectRefused([] { parseIntegrator("leapfrog"); }, "integrator", "rk4");
+  expectRefused([] { parseStabilization("magic"); }, "stabilization", "projection");
+}
+
+TEST(Validation, RefusedChangesLeaveSimulatorUntouched)
+{
+  const Scenario scenario = buildScenario("chain", ScenarioParameters{});
+  Simulator simulator(scenario.scene, scenario.initial_state, StepSettings{});
+  simulator.step(25);
+  const State before = simulator.state();
+  const StepSettings settings_before = simulator.stepSettings();
+  const int particles_before = simulator.model().numParticles();
+  auto unchanged = [&]
+  {
+    EXPECT_EQ(simulator.state().positions, before.positions);
+    EXPECT_EQ(simulator.state().velocities, before.velocities);
+    EXPECT_EQ(simulator.state().time, before.time);
+    EXPECT_EQ(simulator.state().steps, before.steps);
+    EXPECT_EQ(simulator.model().numParticles(), particles_before);
+    EXPECT_EQ(simulator.stepSettings().dt, settings_before.dt);
+  };
+
+  State bad = before;
+  bad.positions(2, 3) = NaN;
+  expectRefused([&] { simulator.setState(bad); }, "state.positions[3].z");
+  unchanged();
+  bad = before;
+  bad.velocities.conservativeResize(3, 2);
+  expectRefused([&] { simulator.setState(bad); }, "state.velocities", "one per particle");
+  unchanged();
+
+  Scene bad_scene = scenario.scene;
+  bad_scene.masses[0] = -1;
+  expectRefused([&] { simulator.setScene(bad_scene, scenario.initial_state); }, "masses[0]");
+  unchanged();
+  State wrong_size = scenario.initial_state;
+  wrong_size.positions.conservativeResize(3, 1);
+  expectRefused([&] { simulator.setScene(scenario.scene, wrong_size); }, "initial_state.positions");
+  unchanged();
+
+  StepSettings bad_settings = simulator.stepSettings();
+  bad_settings.dt = -1;
+  expectRefused([&] { simulator.setStepSettings(bad_settings); }, "dt");
+  unchanged();
+}
+
+TEST(Validation, TeleportIsProjectedOntoConstraints)
+{
+  const Scenario scenario = buildScenario("chain", ScenarioParameters{});
+  Simulator simulator(scenario.scene, scenario.initial_state, StepSettings{});
+  State moved = simulator.state();
+  moved.positions.col(2) += Vec3(0.05, -0.02, 0.03);
+  moved.velocities.col(0) = Vec3(1, 0, 0);  // pinned: must come back to rest
+  const ProjectionReport report = simulator.setState(moved);
+  EXPECT_TRUE(report.converged);
+  EXPECT_GT(report.max_displacement, 0.0);
+  EXPECT_LE(report.max_displacement, 0.1);
+  const Diagnostics d = simulator.diagnostics();
+  EXPECT_LE(d.max_position_error, 1e-10);
+  EXPECT_LE(d.max_velocity_error, 1e-10);
+}
