@@ -6,8 +6,16 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/install_deps.sh"
 
 WS="$ROOT/build/ws"
-mkdir -p "$WS/src"
-ln -sfn "$ROOT" "$WS/src/constrained_particles"
+PKG="$WS/src/constrained_particles"
+# link each top-level entry but build/: a link to the root would let rosrun's and rostest's
+# searches of the package loop through build/ws/src
+[[ -L "$PKG" ]] && rm "$PKG"
+mkdir -p "$PKG"
+for entry in "$ROOT"/* "$ROOT"/.clang-format; do
+  [[ "$(basename "$entry")" == build ]] && continue
+  ln -sfn "$entry" "$PKG/$(basename "$entry")"
+done
+find "$PKG" -maxdepth 1 -xtype l -delete  # entries since removed
 # the system python has catkin_pkg; a pyenv python3 first in PATH does not
 cd "$WS"
 catkin_make -DPYTHON_EXECUTABLE=/usr/bin/python3 -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" "$@"

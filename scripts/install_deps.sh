@@ -11,7 +11,7 @@ PACKAGES=(
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   librostest-dev python3-rostest rosbash python3-rospy python3-roslaunch
   python3-geometry-msgs python3-visualization-msgs python3-tf2-msgs
-  python3-std-srvs python3-catkin-pkg
+  python3-std-srvs python3-catkin-pkg python3-tf2-ros python3-dynamic-reconfigure
 )
 # Optional extras (rviz, Xvfb) are requested with WITH_RVIZ=1.
 if [[ "${WITH_RVIZ:-0}" == 1 ]]; then

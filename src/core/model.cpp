@@ -169,22 +169,23 @@ bool isTridiagonal(const Model& model)
 void Model::validateState(const State& state, const std::string& field) const
 {
   const int n = numParticles();
+  const std::string prefix = field.empty() ? "" : field + ".";
   if (state.positions.cols() != n)
-    throw InvalidInput(field + ".positions", "has " + std::to_string(state.positions.cols()) +
+    throw InvalidInput(prefix + "positions", "has " + std::to_string(state.positions.cols()) +
                                                  " entries, must have one per particle (" +
                                                  std::to_string(n) + ")");
   if (state.velocities.cols() != n)
-    throw InvalidInput(field + ".velocities", "has " + std::to_string(state.velocities.cols()) +
+    throw InvalidInput(prefix + "velocities", "has " + std::to_string(state.velocities.cols()) +
                                                   " entries, must have one per particle (" +
                                                   std::to_string(n) + ")");
   for (int i = 0; i < n; ++i)
   {
-    requireFinite(field + ".positions[" + std::to_string(i) + "]", Vec3(state.positions.col(i)),
+    requireFinite(prefix + "positions[" + std::to_string(i) + "]", Vec3(state.positions.col(i)),
                   "[m]");
-    requireFinite(field + ".velocities[" + std::to_string(i) + "]", Vec3(state.velocities.col(i)),
+    requireFinite(prefix + "velocities[" + std::to_string(i) + "]", Vec3(state.velocities.col(i)),
                   "[m/s]");
   }
-  requireFinite(field + ".time", state.time, "[s]");
+  requireFinite(prefix + "time", state.time, "[s]");
 }
 
 }  // namespace constrained_particles

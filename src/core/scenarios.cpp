@@ -13,14 +13,6 @@ constexpr double BEAD_START_SPEED = 0.8;  // along +y [m/s]
 constexpr double HANG_ANGLE = M_PI / 6;   // surface_chain links from vertical [rad]
 constexpr double FREE_CHAIN_SPIN = 1.0;   // free chain's rate about z [rad/s]
 
-void addCommonForces(const ScenarioParameters& parameters, Scene& scene)
-{
-  if (!parameters.gravity.isZero(0.0))
-    scene.forces.push_back(GravityForce{ parameters.gravity });
-  if (parameters.damping > 0.0)
-    scene.forces.push_back(LinearDampingForce{ parameters.damping });
-}
-
 // bead on the surface at BEAD_START_XY, velocity along +y in the tangent plane
 void placeBead(const Surface& surface, Vec3& position, Vec3& velocity)
 {
@@ -30,6 +22,16 @@ void placeBead(const Surface& surface, Vec3& position, Vec3& velocity)
 }
 
 }  // namespace
+
+std::vector<Force> scenarioForces(const ScenarioParameters& parameters)
+{
+  std::vector<Force> forces;
+  if (!parameters.gravity.isZero(0.0))
+    forces.push_back(GravityForce{ parameters.gravity });
+  if (parameters.damping > 0.0)
+    forces.push_back(LinearDampingForce{ parameters.damping });
+  return forces;
+}
 
 std::vector<std::string> scenarioNames()
 {
@@ -132,7 +134,7 @@ Scenario buildScenario(const std::string& name, const ScenarioParameters& parame
       valid += (valid.empty() ? "" : ", ") + known;
     throw InvalidInput("scenario", "= '" + name + "' is unknown; valid: " + valid);
   }
-  addCommonForces(parameters, scene);
+  scene.forces = scenarioForces(parameters);
   return scenario;
 }
 

@@ -56,7 +56,7 @@ void Simulator::reset()
 
 ProjectionReport Simulator::setState(const State& state)
 {
-  model_->validateState(state);
+  model_->validateState(state, "");
   State projected = state;
   ProjectionReport report = dynamics_->projectPositions(
       projected.positions, settings_.projection_tolerance, settings_.projection_max_iterations);
@@ -91,6 +91,16 @@ void Simulator::setStepSettings(const StepSettings& settings)
 {
   validateStepSettings(settings);
   settings_ = settings;
+}
+
+void Simulator::setForces(const std::vector<Force>& forces)
+{
+  Scene scene = model_->scene();
+  scene.forces = forces;
+  auto model = std::make_unique<Model>(Model::compile(scene, model_->solveMethod()));
+  auto dynamics = std::make_unique<Dynamics>(*model);
+  model_ = std::move(model);
+  dynamics_ = std::move(dynamics);
 }
 
 void Simulator::constraintForces(Points& forces, Eigen::VectorXd& multipliers)

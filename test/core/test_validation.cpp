@@ -159,11 +159,11 @@ TEST(Validation, RefusedChangesLeaveSimulatorUntouched)
 
   State bad = before;
   bad.positions(2, 3) = NaN;
-  expectRefused([&] { simulator.setState(bad); }, "state.positions[3].z");
+  expectRefused([&] { simulator.setState(bad); }, "positions[3].z");
   unchanged();
   bad = before;
   bad.velocities.conservativeResize(3, 2);
-  expectRefused([&] { simulator.setState(bad); }, "state.velocities", "one per particle");
+  expectRefused([&] { simulator.setState(bad); }, "velocities", "one per particle");
   unchanged();
 
   Scene bad_scene = scenario.scene;

@@ -53,6 +53,10 @@ std::vector<std::string> scenarioNames();
 /// @throws InvalidInput naming the first bad field (e.g. "chain.link_length") and its range
 void validateScenarioParameters(const ScenarioParameters& parameters);
 
+/// The applied forces the parameters call for: gravity unless it is zero, damping unless it
+/// is zero.
+std::vector<Force> scenarioForces(const ScenarioParameters& parameters);
+
 /// Builds a scenario by name. @throws InvalidInput for an unknown name or bad parameters
 Scenario buildScenario(const std::string& name, const ScenarioParameters& parameters);
 

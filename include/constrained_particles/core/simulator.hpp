@@ -38,6 +38,10 @@ public:
   /// @throws InvalidInput naming the bad setting; settings untouched
   void setStepSettings(const StepSettings& settings);
 
+  /// Replaces the scene's applied forces, keeping the state (e.g. gravity changed at run time).
+  /// @throws InvalidInput naming the bad force; nothing changes
+  void setForces(const std::vector<Force>& forces);
+
   const Model& model() const
   {
     return *model_;

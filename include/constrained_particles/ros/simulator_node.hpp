@@ -1,0 +1,111 @@
+/// @file simulator_node.hpp
+/// @brief The ROS interface of the simulator: tf frames, ~state, markers, services and
+/// dynamic_reconfigure around a core Simulator.
+#pragma once
+
+#include "constrained_particles/SimulatorConfig.h"
+#include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/ros/markers.hpp"
+#include "constrained_particles/ros/parameters.hpp"
+
+#include <constrained_particles/Reset.h>
+#include <constrained_particles/SetChain.h>
+#include <constrained_particles/SetState.h>
+#include <constrained_particles/SetSurface.h>
+#include <constrained_particles/Step.h>
+#include <dynamic_reconfigure/server.h>
+#include <ros/ros.h>
+#include <std_srvs/Empty.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <boost/thread/recursive_mutex.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+namespace constrained_particles
+{
+/// Steps the simulation in its own thread at a fixed dt paced against wall time by
+/// real_time_factor, and publishes at publish_rate from the ROS callback queue. One mutex
+/// serialises stepping, services, reconfiguration and the snapshot taken for publishing.
+class SimulatorNode
+{
+public:
+  /// Reads the private parameters and starts stepping.
+  /// @throws InvalidInput naming a bad parameter
+  explicit SimulatorNode(const ros::NodeHandle& private_nh);
+  ~SimulatorNode();
+
+  SimulatorNode(const SimulatorNode&) = delete;
+  SimulatorNode& operator=(const SimulatorNode&) = delete;
+
+  /// Publishes tf, ~state and the subscribed marker topics once.
+  void publish();
+
+private:
+  using Clock = std::chrono::steady_clock;
+
+  /// A copy of what publishing needs, taken under the lock.
+  struct Snapshot
+  {
+    std::string scenario;
+    State state;
+    Points constraint_forces;
+    Eigen::VectorXd multipliers;
+    Diagnostics diagnostics;
+    double step_time = 0;
+    bool scene_changed = false;
+    std::shared_ptr<const Model> model;  ///< only when scene markers are wanted
+  };
+
+  void physicsLoop();
+  /// Restarts wall-time pacing from the current sim time. Caller holds mutex_.
+  void reanchorLocked();
+  /// Rebuilds the current scenario from parameters_ and resets. Caller holds mutex_.
+  void rebuildLocked(const std::string& scenario);
+  /// Steps `count` times, timing them and checking the result is finite. Caller holds mutex_.
+  void stepLocked(int count);
+
+  bool resetCallback(Reset::Request& request, Reset::Response& response);
+  bool setSurfaceCallback(SetSurface::Request& request, SetSurface::Response& response);
+  bool setChainCallback(SetChain::Request& request, SetChain::Response& response);
+  bool setStateCallback(SetState::Request& request, SetState::Response& response);
+  bool pauseCallback(std_srvs::Empty::Request& request, std_srvs::Empty::Response& response);
+  bool unpauseCallback(std_srvs::Empty::Request& request, std_srvs::Empty::Response& response);
+  bool stepCallback(Step::Request& request, Step::Response& response);
+  void reconfigureCallback(SimulatorConfig& config, uint32_t level);
+  void statusCallback(const ros::WallTimerEvent& event);
+
+  ros::NodeHandle nh_;
+  NodeParameters parameters_;
+
+  std::mutex mutex_;  // guards everything from here to the publishers
+  std::unique_ptr<Simulator> simulator_;
+  std::shared_ptr<const Model> published_model_;  // copy of the model for scene markers
+  std::string scenario_;
+  bool paused_ = false;
+  bool faulted_ = false;       // state became non-finite: stepping stopped until ~reset
+  bool scene_changed_ = true;  // scene markers need their mesh rebuilt
+  double step_time_ = 0.0;     // wall time of the last physics step [s]
+  Clock::time_point anchor_wall_;
+  double anchor_sim_time_ = 0.0;
+  std::condition_variable wake_physics_;
+  std::atomic<bool> running_{ true };
+  std::thread physics_thread_;
+
+  int published_arrows_ = 0;  // publishing thread only
+  SurfaceMeshCache mesh_cache_;
+
+  ros::Publisher state_publisher_, force_marker_publisher_, scene_marker_publisher_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  std::vector<ros::ServiceServer> services_;
+  ros::WallTimer publish_timer_, status_timer_;
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<SimulatorConfig>> reconfigure_server_;
+};
+
+}  // namespace constrained_particles

@@ -1,0 +1,158 @@
+#include "constrained_particles/ros/parameters.hpp"
+
+#include <cmath>
+
+namespace constrained_particles
+{
+namespace
+{
+// reads `name` if set; a value of the wrong type is refused rather than ignored
+template <typename T>
+void readOptional(const ros::NodeHandle& nh, const std::string& name, const std::string& type,
+                  T& value)
+{
+  if (!nh.hasParam(name))
+    return;
+  if (!nh.getParam(name, value))
+    throw InvalidInput("~" + name, "has the wrong type, must be " + type);
+}
+
+void readDouble(const ros::NodeHandle& nh, const std::string& name, double& value)
+{
+  if (!nh.hasParam(name))
+    return;
+  // accept integers written without a decimal point
+  int as_int = 0;
+  if (nh.getParam(name, value))
+    return;
+  if (nh.getParam(name, as_int))
+  {
+    value = as_int;
+    return;
+  }
+  throw InvalidInput("~" + name, "has the wrong type, must be a number");
+}
+
+void requireRange(const std::string& field, double value, double low, bool low_open, double high,
+                  const std::string& unit)
+{
+  const bool below = low_open ? !(value > low) : !(value >= low);
+  if (!std::isfinite(value) || below || value > high)
+  {
+    throw InvalidInput(field, "= " + formatValue(value) + ", must be in " + (low_open ? "(" : "[") +
+                                  formatValue(low) + ", " + formatValue(high) + "] " + unit);
+  }
+}
+
+// the core names fields without "~"; parameters are private, so say so
+template <typename Fn>
+void asParameter(Fn fn)
+{
+  try
+  {
+    fn();
+  }
+  catch (const InvalidInput& e)
+  {
+    std::string message = e.what();
+    throw InvalidInput("~" + e.field(), message.substr(e.field().size() + 1));
+  }
+}
+
+}  // namespace
+
+void validateChain(const ChainParameters& chain, int max_particles, const std::string& prefix)
+{
+  if (chain.num_particles < 1 || chain.num_particles > max_particles)
+  {
+    throw InvalidInput(prefix + "num_particles", "= " + std::to_string(chain.num_particles) +
+                                                     ", must be in [1, " +
+                                                     std::to_string(max_particles) + "]");
+  }
+  requireRange(prefix + "link_length", chain.link_length, 0.0, true, 1e3, "[m]");
+  requireRange(prefix + "particle_mass", chain.particle_mass, 0.0, true, 1e6, "[kg]");
+}
+
+NodeParameters readParameters(const ros::NodeHandle& nh)
+{
+  NodeParameters p;
+  readOptional(nh, "scenario", "a string", p.scenario);
+  readDouble(nh, "dt", p.step.dt);
+  readDouble(nh, "real_time_factor", p.real_time_factor);
+  readDouble(nh, "publish_rate", p.publish_rate);
+  readDouble(nh, "status_period", p.status_period);
+
+  std::string name = integratorName(p.step.integrator);
+  readOptional(nh, "integrator", "a string", name);
+  asParameter([&] { p.step.integrator = parseIntegrator(name); });
+  name = stabilizationName(p.step.stabilization);
+  readOptional(nh, "stabilization", "a string", name);
+  asParameter([&] { p.step.stabilization = parseStabilization(name); });
+  readDouble(nh, "baumgarte_frequency", p.step.baumgarte_frequency);
+  readDouble(nh, "baumgarte_damping_ratio", p.step.baumgarte_damping_ratio);
+  readDouble(nh, "projection_tolerance", p.step.projection_tolerance);
+  readOptional(nh, "projection_max_iterations", "an integer", p.step.projection_max_iterations);
+
+  ScenarioParameters& s = p.scenario_parameters;
+  if (nh.hasParam("gravity"))
+  {
+    std::vector<double> gravity;
+    if (!nh.getParam("gravity", gravity) || gravity.size() != 3)
+      throw InvalidInput("~gravity", "must be a list of 3 numbers [m/s^2]");
+    s.gravity = Vec3(gravity[0], gravity[1], gravity[2]);
+  }
+  readDouble(nh, "damping", s.damping);
+  readDouble(nh, "bead_mass", s.bead_mass);
+  readOptional(nh, "chain/num_particles", "an integer", s.chain.num_particles);
+  readDouble(nh, "chain/link_length", s.chain.link_length);
+  readDouble(nh, "chain/particle_mass", s.chain.particle_mass);
+  readOptional(nh, "chain/pin_first", "a boolean", s.chain.pin_first);
+
+  std::string surface_type = surfaceTypeName(s.surface.type);
+  std::vector<double> coefficients;
+  bool coefficients_set = nh.hasParam("surface/coefficients");
+  readOptional(nh, "surface/type", "a string", surface_type);
+  if (coefficients_set && !nh.getParam("surface/coefficients", coefficients))
+    throw InvalidInput("~surface/coefficients", "must be a list of numbers");
+  asParameter(
+      [&]
+      {
+        s.surface = makeSurface(parseSurfaceType(surface_type, "surface/type"), coefficients,
+                                "surface/coefficients");
+      });
+
+  readOptional(nh, "max_particles", "an integer", p.max_particles);
+  readOptional(nh, "fixed_frame", "a string", p.fixed_frame);
+  readOptional(nh, "frame_prefix", "a string", p.frame_prefix);
+  readDouble(nh, "force_scale", p.force_scale);
+  validateNodeParameters(p);
+  return p;
+}
+
+void validateNodeParameters(const NodeParameters& p)
+{
+  bool known = false;
+  for (const auto& name : scenarioNames())
+    known = known || name == p.scenario;
+  if (!known)
+    throw InvalidInput("~scenario",
+                       "= '" + p.scenario + "' is unknown; valid: bead, chain, surface_chain");
+  requireRange("~dt", p.step.dt, 0.0, true, MAX_NODE_DT, "[s]");
+  asParameter([&] { validateStepSettings(p.step); });
+  requireRange("~real_time_factor", p.real_time_factor, 0.0, true, 100.0, "[1]");
+  requireRange("~publish_rate", p.publish_rate, 0.1, false, 1000.0, "[Hz]");
+  requireRange("~status_period", p.status_period, 0.0, false, 3600.0, "[s]");
+  requireRange("~max_particles", p.max_particles, 1.0, false, MAX_PARTICLES, "[1]");
+  requireRange("~force_scale", p.force_scale, 0.0, true, 1e3, "[m/N]");
+  requireRange("~damping", p.scenario_parameters.damping, 0.0, false, 1e3, "[N s/m]");
+  validateChain(p.scenario_parameters.chain, p.max_particles, "~chain/");
+  asParameter([&] { validateScenarioParameters(p.scenario_parameters); });
+  if (p.fixed_frame.empty() || p.fixed_frame.front() == '/')
+    throw InvalidInput("~fixed_frame", "= '" + p.fixed_frame +
+                                           "', must be a non-empty frame id without a leading '/'");
+  if (p.frame_prefix.empty() || p.frame_prefix.front() == '/')
+    throw InvalidInput("~frame_prefix",
+                       "= '" + p.frame_prefix + "', must be non-empty without a leading '/'");
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,444 @@
+#include "constrained_particles/ros/simulator_node.hpp"
+
+#include "constrained_particles/SimState.h"
+#include "constrained_particles/ros/conversions.hpp"
+
+#include <geometry_msgs/TransformStamped.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace constrained_particles
+{
+namespace
+{
+// longest stretch of wall time one batch of steps may cover; more means we are behind
+constexpr double MAX_BATCH_WALL = 0.02;  // [s]
+constexpr auto MAX_WAIT = std::chrono::milliseconds(100);
+constexpr std::uint32_t MAX_STEPS_PER_CALL = 1000000;
+
+double seconds(std::chrono::steady_clock::duration d)
+{
+  return std::chrono::duration<double>(d).count();
+}
+
+SimulatorConfig configFrom(const NodeParameters& p)
+{
+  SimulatorConfig c;
+  c.dt = p.step.dt;
+  c.real_time_factor = p.real_time_factor;
+  c.publish_rate = p.publish_rate;
+  c.integrator = integratorName(p.step.integrator);
+  c.stabilization = stabilizationName(p.step.stabilization);
+  c.baumgarte_frequency = p.step.baumgarte_frequency;
+  c.baumgarte_damping_ratio = p.step.baumgarte_damping_ratio;
+  c.gravity_x = p.scenario_parameters.gravity.x();
+  c.gravity_y = p.scenario_parameters.gravity.y();
+  c.gravity_z = p.scenario_parameters.gravity.z();
+  c.damping = p.scenario_parameters.damping;
+  return c;
+}
+
+template <typename Response>
+bool refuse(Response& response, const std::string& message)
+{
+  response.success = false;
+  response.message = message;
+  ROS_WARN("refused: %s", message.c_str());
+  return true;
+}
+
+}  // namespace
+
+SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
+  : nh_(private_nh), parameters_(readParameters(nh_))
+{
+  const Scenario scenario = buildScenario(parameters_.scenario, parameters_.scenario_parameters);
+  simulator_ =
+      std::make_unique<Simulator>(scenario.scene, scenario.initial_state, parameters_.step);
+  scenario_ = parameters_.scenario;
+  published_model_ = std::make_shared<const Model>(simulator_->model());
+
+  state_publisher_ = nh_.advertise<SimState>("state", 10);
+  force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 1);
+  scene_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("scene", 1, true);
+
+  services_.push_back(nh_.advertiseService("reset", &SimulatorNode::resetCallback, this));
+  services_.push_back(
+      nh_.advertiseService("set_surface", &SimulatorNode::setSurfaceCallback, this));
+  services_.push_back(nh_.advertiseService("set_chain", &SimulatorNode::setChainCallback, this));
+  services_.push_back(nh_.advertiseService("set_state", &SimulatorNode::setStateCallback, this));
+  services_.push_back(nh_.advertiseService("pause", &SimulatorNode::pauseCallback, this));
+  services_.push_back(nh_.advertiseService("unpause", &SimulatorNode::unpauseCallback, this));
+  services_.push_back(nh_.advertiseService("step", &SimulatorNode::stepCallback, this));
+
+  reconfigure_server_ =
+      std::make_unique<dynamic_reconfigure::Server<SimulatorConfig>>(reconfigure_mutex_, nh_);
+  SimulatorConfig config = configFrom(parameters_);
+  reconfigure_server_->updateConfig(config);
+  reconfigure_server_->setCallback([this](SimulatorConfig& c, uint32_t level)
+                                   { reconfigureCallback(c, level); });
+
+  publish_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / parameters_.publish_rate),
+                                       [this](const ros::WallTimerEvent&) { publish(); });
+  if (parameters_.status_period > 0.0)
+    status_timer_ = nh_.createWallTimer(ros::WallDuration(parameters_.status_period),
+                                        &SimulatorNode::statusCallback, this);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    reanchorLocked();
+  }
+  physics_thread_ = std::thread(&SimulatorNode::physicsLoop, this);
+  ROS_INFO("simulator: scenario '%s', %d particles, %s + %s, dt = %g s, solve %s",
+           scenario_.c_str(), simulator_->model().numParticles(),
+           integratorName(parameters_.step.integrator),
+           stabilizationName(parameters_.step.stabilization), parameters_.step.dt,
+           solveMethodName(simulator_->model().solveMethod()));
+}
+
+SimulatorNode::~SimulatorNode()
+{
+  running_ = false;
+  wake_physics_.notify_all();
+  if (physics_thread_.joinable())
+    physics_thread_.join();
+}
+
+void SimulatorNode::reanchorLocked()
+{
+  anchor_wall_ = Clock::now();
+  anchor_sim_time_ = simulator_->state().time;
+  wake_physics_.notify_all();
+}
+
+void SimulatorNode::stepLocked(int count)
+{
+  const auto start = Clock::now();
+  simulator_->step(count);
+  step_time_ = seconds(Clock::now() - start) / count;
+  if (!isFinite(simulator_->state()))
+  {
+    faulted_ = true;
+    ROS_ERROR(
+        "simulator: the state became non-finite at t = %.6f s (step %llu); stepping "
+        "stopped, nothing more is published until ~reset",
+        simulator_->state().time, static_cast<unsigned long long>(simulator_->state().steps));
+  }
+}
+
+void SimulatorNode::physicsLoop()
+{
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (running_)
+  {
+    if (paused_ || faulted_)
+    {
+      wake_physics_.wait_for(lock, MAX_WAIT);
+      continue;
+    }
+    const double dt = simulator_->stepSettings().dt;
+    const double rtf = parameters_.real_time_factor;
+    const double target = anchor_sim_time_ + rtf * seconds(Clock::now() - anchor_wall_);
+    const long due = static_cast<long>(std::floor((target - simulator_->state().time) / dt + 1e-9));
+    if (due > 0)
+    {
+      const long max_batch = std::max(1L, static_cast<long>(std::ceil(MAX_BATCH_WALL * rtf / dt)));
+      stepLocked(static_cast<int>(std::min(due, max_batch)));
+      // behind wall time: slow sim time down instead of building a backlog
+      if (due > max_batch)
+        reanchorLocked();
+    }
+    const double until_next = (simulator_->state().time + dt - anchor_sim_time_) / rtf;
+    const auto wake = anchor_wall_ + std::chrono::duration_cast<Clock::duration>(
+                                         std::chrono::duration<double>(until_next));
+    wake_physics_.wait_until(lock, std::min(wake, Clock::now() + MAX_WAIT));
+  }
+}
+
+void SimulatorNode::publish()
+{
+  const bool want_state = state_publisher_.getNumSubscribers() > 0;
+  const bool want_forces = force_marker_publisher_.getNumSubscribers() > 0;
+  const bool want_scene = scene_marker_publisher_.getNumSubscribers() > 0;
+
+  Snapshot snap;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (faulted_)
+      return;
+    snap.scenario = scenario_;
+    snap.state = simulator_->state();
+    if (want_state || want_forces)
+      simulator_->constraintForces(snap.constraint_forces, snap.multipliers);
+    if (want_state)
+      snap.diagnostics = simulator_->diagnostics();
+    snap.step_time = step_time_;
+    if (want_scene)
+    {
+      snap.model = published_model_;
+      snap.scene_changed = scene_changed_;
+      scene_changed_ = false;
+    }
+  }
+  // nothing non-finite leaves the node
+  if (!isFinite(snap.state) || (want_state && !snap.diagnostics.finite()) ||
+      ((want_state || want_forces) &&
+       (!snap.constraint_forces.allFinite() || !snap.multipliers.allFinite())))
+  {
+    ROS_ERROR_THROTTLE(5.0, "simulator: non-finite values at t = %.6f s; not published",
+                       snap.state.time);
+    return;
+  }
+
+  std_msgs::Header header;
+  header.stamp = ros::Time::now();
+  header.frame_id = parameters_.fixed_frame;
+  const int n = static_cast<int>(snap.state.positions.cols());
+
+  std::vector<geometry_msgs::TransformStamped> transforms(n);
+  for (int i = 0; i < n; ++i)
+  {
+    geometry_msgs::TransformStamped& t = transforms[i];
+    t.header = header;
+    t.child_frame_id = parameters_.frame_prefix + std::to_string(i);
+    t.transform.translation.x = snap.state.positions(0, i);
+    t.transform.translation.y = snap.state.positions(1, i);
+    t.transform.translation.z = snap.state.positions(2, i);
+    t.transform.rotation.w = 1.0;
+  }
+  tf_broadcaster_.sendTransform(transforms);
+
+  if (want_state)
+  {
+    SimState msg;
+    msg.header = header;
+    msg.scenario = snap.scenario;
+    msg.sim_time = snap.state.time;
+    msg.steps = snap.state.steps;
+    msg.positions = toPointMsgs(snap.state.positions);
+    msg.velocities = toVectorMsgs(snap.state.velocities);
+    msg.constraint_forces = toVectorMsgs(snap.constraint_forces);
+    msg.multipliers.assign(snap.multipliers.data(),
+                           snap.multipliers.data() + snap.multipliers.size());
+    msg.max_position_error = snap.diagnostics.max_position_error;
+    msg.max_velocity_error = snap.diagnostics.max_velocity_error;
+    msg.kinetic_energy = snap.diagnostics.kinetic_energy;
+    msg.potential_energy = snap.diagnostics.potential_energy;
+    msg.step_time = snap.step_time;
+    state_publisher_.publish(msg);
+  }
+  if (want_forces)
+  {
+    force_marker_publisher_.publish(
+        constraintForceMarkers(header, snap.state.positions, snap.constraint_forces,
+                               parameters_.force_scale, published_arrows_));
+    published_arrows_ = n;
+  }
+  if (want_scene)
+    scene_marker_publisher_.publish(
+        sceneMarkers(header, *snap.model, snap.state.positions, mesh_cache_, snap.scene_changed));
+}
+
+void SimulatorNode::rebuildLocked(const std::string& scenario)
+{
+  const Scenario built = buildScenario(scenario, parameters_.scenario_parameters);
+  simulator_->setScene(built.scene, built.initial_state);
+  scenario_ = scenario;
+  faulted_ = false;
+  published_model_ = std::make_shared<const Model>(simulator_->model());
+  scene_changed_ = true;
+  reanchorLocked();
+}
+
+bool SimulatorNode::resetCallback(Reset::Request& request, Reset::Response& response)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::string scenario = request.scenario.empty() ? scenario_ : request.scenario;
+  try
+  {
+    rebuildLocked(scenario);
+  }
+  catch (const InvalidInput& e)
+  {
+    return refuse(response, e.what());
+  }
+  response.success = true;
+  response.message = "reset to scenario '" + scenario + "' (" +
+                     std::to_string(simulator_->model().numParticles()) + " particles)";
+  return true;
+}
+
+bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface::Response& response)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  const ScenarioParameters saved = parameters_.scenario_parameters;
+  try
+  {
+    parameters_.scenario_parameters.surface =
+        makeSurface(parseSurfaceType(request.type, "type"), request.coefficients, "coefficients");
+    rebuildLocked(scenario_);
+  }
+  catch (const InvalidInput& e)
+  {
+    parameters_.scenario_parameters = saved;
+    return refuse(response, e.what());
+  }
+  response.success = true;
+  response.message = "surface set to '" + request.type + "'; scenario '" + scenario_ + "' reset";
+  return true;
+}
+
+bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Response& response)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  ChainParameters chain;
+  // a uint32 above INT_MAX must not wrap to a valid count
+  chain.num_particles =
+      static_cast<int>(std::min<std::uint32_t>(request.num_particles, MAX_PARTICLES + 1u));
+  chain.link_length = request.link_length;
+  chain.particle_mass = request.particle_mass;
+  chain.pin_first = request.pin_first;
+  const ScenarioParameters saved = parameters_.scenario_parameters;
+  try
+  {
+    validateChain(chain, parameters_.max_particles, "");
+    parameters_.scenario_parameters.chain = chain;
+    rebuildLocked(scenario_);
+  }
+  catch (const InvalidInput& e)
+  {
+    parameters_.scenario_parameters = saved;
+    return refuse(response, e.what());
+  }
+  response.success = true;
+  response.message = "chain set to " + std::to_string(chain.num_particles) +
+                     " particles, l = " + formatValue(chain.link_length) +
+                     " m, m = " + formatValue(chain.particle_mass) + " kg; scenario '" + scenario_ +
+                     "' reset";
+  return true;
+}
+
+bool SimulatorNode::setStateCallback(SetState::Request& request, SetState::Response& response)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::size_t n = static_cast<std::size_t>(simulator_->model().numParticles());
+  if (request.positions.size() != n)
+    return refuse(response, "positions has " + std::to_string(request.positions.size()) +
+                                " entries, must have one per particle (" + std::to_string(n) + ")");
+  if (!request.velocities.empty() && request.velocities.size() != n)
+    return refuse(response, "velocities has " + std::to_string(request.velocities.size()) +
+                                " entries, must be empty (at rest) or one per particle (" +
+                                std::to_string(n) + ")");
+  State state = simulator_->state();
+  state.positions = fromMsgs(request.positions);
+  state.velocities =
+      request.velocities.empty() ? Points(Points::Zero(3, n)) : fromMsgs(request.velocities);
+  try
+  {
+    const ProjectionReport report = simulator_->setState(state);
+    response.max_displacement = report.max_displacement;
+    response.message =
+        "state set; projection moved particles by up to " + formatValue(report.max_displacement) +
+        " m and changed velocities by up to " + formatValue(report.max_velocity_change) + " m/s";
+  }
+  catch (const InvalidInput& e)
+  {
+    return refuse(response, e.what());
+  }
+  faulted_ = false;
+  reanchorLocked();
+  response.success = true;
+  return true;
+}
+
+bool SimulatorNode::pauseCallback(std_srvs::Empty::Request&, std_srvs::Empty::Response&)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  paused_ = true;
+  return true;
+}
+
+bool SimulatorNode::unpauseCallback(std_srvs::Empty::Request&, std_srvs::Empty::Response&)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  paused_ = false;
+  reanchorLocked();
+  return true;
+}
+
+bool SimulatorNode::stepCallback(Step::Request& request, Step::Response& response)
+{
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    response.sim_time = simulator_->state().time;
+    if (!paused_)
+      return refuse(response, "the simulation is running: call ~pause before ~step");
+    if (faulted_)
+      return refuse(response, "the state is non-finite: call ~reset first");
+    if (request.steps < 1 || request.steps > MAX_STEPS_PER_CALL)
+      return refuse(response, "steps = " + std::to_string(request.steps) + ", must be in [1, " +
+                                  std::to_string(MAX_STEPS_PER_CALL) + "]");
+    stepLocked(static_cast<int>(request.steps));
+    response.sim_time = simulator_->state().time;
+    response.success = !faulted_;
+    response.message = faulted_ ? "the state became non-finite; call ~reset"
+                                : "stepped " + std::to_string(request.steps) + " steps";
+  }
+  publish();
+  return true;
+}
+
+void SimulatorNode::reconfigureCallback(SimulatorConfig& config, uint32_t /*level*/)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  NodeParameters candidate = parameters_;
+  try
+  {
+    candidate.step.dt = config.dt;
+    candidate.step.integrator = parseIntegrator(config.integrator);
+    candidate.step.stabilization = parseStabilization(config.stabilization);
+    candidate.step.baumgarte_frequency = config.baumgarte_frequency;
+    candidate.step.baumgarte_damping_ratio = config.baumgarte_damping_ratio;
+    candidate.real_time_factor = config.real_time_factor;
+    candidate.publish_rate = config.publish_rate;
+    candidate.scenario_parameters.gravity =
+        Vec3(config.gravity_x, config.gravity_y, config.gravity_z);
+    candidate.scenario_parameters.damping = config.damping;
+    validateNodeParameters(candidate);
+    simulator_->setStepSettings(candidate.step);
+    simulator_->setForces(scenarioForces(candidate.scenario_parameters));
+  }
+  catch (const InvalidInput& e)
+  {
+    ROS_WARN("dynamic_reconfigure refused: %s; keeping the current settings", e.what());
+    simulator_->setStepSettings(parameters_.step);
+    config = configFrom(parameters_);
+    return;
+  }
+  if (candidate.publish_rate != parameters_.publish_rate)
+    publish_timer_.setPeriod(ros::WallDuration(1.0 / candidate.publish_rate));
+  parameters_ = candidate;
+  reanchorLocked();
+}
+
+void SimulatorNode::statusCallback(const ros::WallTimerEvent&)
+{
+  Diagnostics d;
+  double time = 0, step_time = 0;
+  bool paused = false, faulted = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    d = simulator_->diagnostics();
+    time = simulator_->state().time;
+    step_time = step_time_;
+    paused = paused_;
+    faulted = faulted_;
+  }
+  ROS_INFO("t = %8.3f s  energy = %.6f J  max error = %.2e m  step = %.1f us%s", time,
+           d.totalEnergy(), d.max_position_error, 1e6 * step_time,
+           faulted  ? "  [FAULT: non-finite, call ~reset]"
+           : paused ? "  [paused]"
+                    : "");
+}
+
+}  // namespace constrained_particles

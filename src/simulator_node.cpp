@@ -1,0 +1,18 @@
+// simulator_node: reads ~parameters, then steps and publishes until shutdown.
+#include "constrained_particles/ros/simulator_node.hpp"
+
+int main(int argc, char** argv)
+{
+  ros::init(argc, argv, "simulator");
+  try
+  {
+    constrained_particles::SimulatorNode node(ros::NodeHandle("~"));
+    ros::spin();
+  }
+  catch (const constrained_particles::InvalidInput& e)
+  {
+    ROS_FATAL("simulator_node: bad parameter: %s", e.what());
+    return 1;
+  }
+  return 0;
+}

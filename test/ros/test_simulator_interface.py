@@ -1,0 +1,308 @@
+#!/usr/bin/python3
+"""Drives a running simulator_node through tf, ~state, markers, services and reconfigure."""
+import math
+import unittest
+
+import dynamic_reconfigure.client
+import rospy
+import rostest
+import tf2_ros
+from constrained_particles.msg import SimState
+from constrained_particles.srv import Reset, SetChain, SetState, SetSurface, Step
+from geometry_msgs.msg import Point, Vector3
+from std_srvs.srv import Empty
+from visualization_msgs.msg import Marker, MarkerArray
+
+NODE = "/simulator"
+NAN = float("nan")
+INF = float("inf")
+
+
+def positions_of(state):
+    return [(p.x, p.y, p.z) for p in state.positions]
+
+
+def distance(a, b):
+    return math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b)))
+
+
+class SimulatorInterfaceTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("simulator_interface_test")
+        for name in ("reset", "set_surface", "set_chain", "set_state", "pause", "unpause", "step"):
+            rospy.wait_for_service(f"{NODE}/{name}", timeout=30.0)
+        cls.reset = rospy.ServiceProxy(f"{NODE}/reset", Reset)
+        cls.set_surface = rospy.ServiceProxy(f"{NODE}/set_surface", SetSurface)
+        cls.set_chain = rospy.ServiceProxy(f"{NODE}/set_chain", SetChain)
+        cls.set_state = rospy.ServiceProxy(f"{NODE}/set_state", SetState)
+        cls.pause = rospy.ServiceProxy(f"{NODE}/pause", Empty)
+        cls.unpause = rospy.ServiceProxy(f"{NODE}/unpause", Empty)
+        cls.step = rospy.ServiceProxy(f"{NODE}/step", Step)
+        cls.latest_state = None
+        cls.latest_forces = None
+        cls.deleted_arrows = set()
+        cls.latest_scene = None
+        rospy.Subscriber(f"{NODE}/state", SimState, cls._on_state, queue_size=1)
+        rospy.Subscriber(f"{NODE}/constraint_forces", MarkerArray, cls._on_forces, queue_size=1)
+        rospy.Subscriber(f"{NODE}/scene", MarkerArray, cls._on_scene, queue_size=1)
+        cls.tf_buffer = tf2_ros.Buffer()
+        cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
+
+    @classmethod
+    def _on_state(cls, msg):
+        cls.latest_state = msg
+
+    @classmethod
+    def _on_forces(cls, msg):
+        cls.latest_forces = msg
+        cls.deleted_arrows |= {m.id for m in msg.markers if m.action == Marker.DELETE}
+
+    @classmethod
+    def _on_scene(cls, msg):
+        cls.latest_scene = msg
+
+    def setUp(self):
+        # every test starts paused at a known scene: the default chain and surface
+        self.pause()
+        self.assertTrue(self.set_surface("bowl", [1.0, 1.0]).success)
+        self.assertTrue(self.set_chain(5, 0.5, 1.0, True).success)
+        self.assertTrue(self.reset("surface_chain").success)
+
+    def tearDown(self):
+        self.pause()
+
+    def fresh_state(self, timeout=5.0):
+        """The first state published after this call."""
+        type(self).latest_state = None
+        deadline = rospy.Time.now() + rospy.Duration(timeout)
+        while self.latest_state is None and rospy.Time.now() < deadline:
+            rospy.sleep(0.01)
+        self.assertIsNotNone(self.latest_state, "no ~state within timeout")
+        return self.latest_state
+
+    def assert_refused(self, response, field):
+        self.assertFalse(response.success, f"accepted, expected refusal naming {field}")
+        self.assertIn(field, response.message)
+
+    def assert_unchanged(self, before):
+        after = self.fresh_state()
+        self.assertEqual(after.scenario, before.scenario)
+        self.assertEqual(after.sim_time, before.sim_time)
+        self.assertEqual(after.steps, before.steps)
+        self.assertEqual(positions_of(after), positions_of(before))
+
+    def assert_finite(self, state):
+        for value in [c for p in positions_of(state) for c in p] + list(state.multipliers):
+            self.assertTrue(math.isfinite(value))
+
+    # --- ~state and tf ---
+
+    def test_state_is_published_and_advances(self):
+        self.unpause()
+        rospy.sleep(0.3)
+        first = self.fresh_state()
+        rospy.sleep(0.3)
+        second = self.fresh_state()
+        self.assertEqual(second.scenario, "surface_chain")
+        self.assertEqual(len(second.positions), 5)
+        self.assertEqual(len(second.velocities), 5)
+        self.assertEqual(len(second.constraint_forces), 5)
+        self.assertEqual(len(second.multipliers), 5)  # surface + 4 links
+        self.assertGreater(second.sim_time, first.sim_time)
+        self.assertGreater(second.steps, first.steps)
+        self.assertGreater(second.step_time, 0.0)
+        self.assertLess(second.max_position_error, 1e-8)
+        self.assertEqual(second.header.frame_id, "world")
+        self.assert_finite(second)
+
+    def test_tf_frames_match_state(self):
+        state = self.fresh_state()
+        for i, position in enumerate(positions_of(state)):
+            frame = f"particle_{i}"
+            self.assertTrue(
+                self.tf_buffer.can_transform("world", frame, state.header.stamp, rospy.Duration(5.0)),
+                f"{frame} does not resolve from world")
+            transform = self.tf_buffer.lookup_transform("world", frame, state.header.stamp)
+            t = transform.transform.translation
+            # tf2's Python buffer keeps stamps as doubles: equal to well under a microsecond
+            self.assertLess(abs((transform.header.stamp - state.header.stamp).to_sec()), 1e-6)
+            self.assertAlmostEqual(t.x, position[0], places=12)
+            self.assertAlmostEqual(t.y, position[1], places=12)
+            self.assertAlmostEqual(t.z, position[2], places=12)
+
+    # --- ~reset ---
+
+    def test_reset(self):
+        self.unpause()
+        rospy.sleep(0.3)
+        self.pause()
+        self.assertGreater(self.fresh_state().sim_time, 0.0)
+        response = self.reset("chain")
+        self.assertTrue(response.success, response.message)
+        state = self.fresh_state()
+        self.assertEqual(state.scenario, "chain")
+        self.assertEqual(state.sim_time, 0.0)
+        self.assertEqual(state.steps, 0)
+        self.assertEqual(positions_of(state)[0], (0.0, 0.0, 0.0))
+        # empty = current scenario
+        self.assertTrue(self.reset("").success)
+        self.assertEqual(self.fresh_state().scenario, "chain")
+        before = self.fresh_state()
+        for bad in ("pendulum", "CHAIN", "x" * 10000):
+            self.assert_refused(self.reset(bad), "scenario")
+            self.assert_unchanged(before)
+
+    # --- ~set_surface ---
+
+    def test_set_surface(self):
+        response = self.set_surface("waves", [0.3, 2.0, 1.0])
+        self.assertTrue(response.success, response.message)
+        state = self.fresh_state()
+        x, y, z = positions_of(state)[0]
+        self.assertAlmostEqual(z, 0.3 * math.sin(2.0 * x) * math.cos(1.0 * y), places=9)
+        before = state
+        for kind, coefficients, field in (
+                ("cone", [], "type"),
+                ("bowl", [NAN], "coefficients[0]"),
+                ("bowl", [1.0, INF], "coefficients[1]"),
+                ("bowl", [-1.0], "coefficients[0]"),
+                ("gaussian", [1.0, 0.0], "coefficients[1] (width)"),
+                ("plane", [1.0, 2.0, 3.0, 4.0], "coefficients")):
+            self.assert_refused(self.set_surface(kind, coefficients), field)
+            self.assert_unchanged(before)
+
+    # --- ~set_chain ---
+
+    def test_set_chain(self):
+        response = self.set_chain(7, 0.3, 2.0, True)
+        self.assertTrue(response.success, response.message)
+        state = self.fresh_state()
+        positions = positions_of(state)
+        self.assertEqual(len(positions), 7)
+        for a, b in zip(positions, positions[1:]):
+            self.assertAlmostEqual(distance(a, b), 0.3, places=9)
+        before = state
+        for request, field in (
+                ((0, 0.5, 1.0, True), "num_particles"),
+                ((5000, 0.5, 1.0, True), "num_particles"),
+                ((2**32 - 1, 0.5, 1.0, True), "num_particles"),
+                ((5, 0.0, 1.0, True), "link_length"),
+                ((5, -1.0, 1.0, True), "link_length"),
+                ((5, NAN, 1.0, True), "link_length"),
+                ((5, 0.5, 0.0, True), "particle_mass"),
+                ((5, 0.5, -3.0, True), "particle_mass"),
+                ((5, 0.5, INF, True), "particle_mass")):
+            self.assert_refused(self.set_chain(*request), field)
+            self.assert_unchanged(before)
+
+    # --- ~set_state ---
+
+    def test_set_state(self):
+        state = self.fresh_state()
+        moved = [Point(p.x + 0.01, p.y - 0.02, p.z + 0.015) for p in state.positions]
+        response = self.set_state(moved, [])
+        self.assertTrue(response.success, response.message)
+        self.assertGreater(response.max_displacement, 0.0)
+        self.assertLess(response.max_displacement, 0.1)
+        after = self.fresh_state()
+        self.assertLess(after.max_position_error, 1e-9)
+        self.assertEqual(after.sim_time, state.sim_time)
+        for v in after.velocities:
+            self.assertEqual((v.x, v.y, v.z), (0.0, 0.0, 0.0))
+        before = after
+        good = list(before.positions)
+        bad_nan = list(good)
+        bad_nan[2] = Point(NAN, 0.0, 0.0)
+        for positions, velocities, field in (
+                (good[:-1], [], "positions"),
+                (good + [Point()], [], "positions"),
+                (good, [Vector3()], "velocities"),
+                (bad_nan, [], "positions[2].x"),
+                (good, [Vector3(0.0, INF, 0.0)] * len(good), "velocities[0].y")):
+            self.assert_refused(self.set_state(positions, velocities), field)
+            self.assert_unchanged(before)
+
+    # --- ~pause, ~unpause, ~step ---
+
+    def test_pause_and_step_are_deterministic(self):
+        runs = []
+        for _ in range(2):
+            self.assertTrue(self.reset("").success)
+            response = self.step(250)
+            self.assertTrue(response.success, response.message)
+            self.assertAlmostEqual(response.sim_time, 0.25, places=12)
+            state = self.fresh_state()
+            self.assertEqual(state.steps, 250)
+            runs.append(state)
+        self.assertEqual(positions_of(runs[0]), positions_of(runs[1]))
+        self.assertEqual([(v.x, v.y, v.z) for v in runs[0].velocities],
+                         [(v.x, v.y, v.z) for v in runs[1].velocities])
+        # paused: time stands still
+        rospy.sleep(0.2)
+        self.assertEqual(self.fresh_state().steps, 250)
+        self.assert_refused(self.step(0), "steps")
+        self.assert_refused(self.step(10**7), "steps")
+        self.unpause()
+        self.assert_refused(self.step(10), "pause")
+
+    # --- markers ---
+
+    def test_constraint_force_markers_match_state(self):
+        type(self).latest_forces = None
+        state = self.fresh_state()
+        deadline = rospy.Time.now() + rospy.Duration(5.0)
+        while self.latest_forces is None and rospy.Time.now() < deadline:
+            rospy.sleep(0.01)
+        self.assertIsNotNone(self.latest_forces)
+        scale = rospy.get_param(f"{NODE}/force_scale")
+        arrows = [m for m in self.latest_forces.markers
+                  if m.ns == "constraint_forces" and m.action == Marker.ADD]
+        self.assertEqual(len(arrows), len(state.positions))
+        for marker in arrows:
+            self.assertEqual(marker.type, Marker.ARROW)
+            force = state.constraint_forces[marker.id]
+            start, end = marker.points
+            self.assertAlmostEqual(start.x, state.positions[marker.id].x, places=12)
+            for axis in ("x", "y", "z"):
+                drawn = (getattr(end, axis) - getattr(start, axis)) / scale
+                self.assertAlmostEqual(drawn, getattr(force, axis), places=6)
+        # fewer particles: the stale arrows are deleted
+        type(self).deleted_arrows = set()
+        self.assertTrue(self.set_chain(3, 0.5, 1.0, True).success)
+        deadline = rospy.Time.now() + rospy.Duration(5.0)
+        while rospy.Time.now() < deadline and self.deleted_arrows != {3, 4}:
+            rospy.sleep(0.01)
+        self.assertEqual(self.deleted_arrows, {3, 4})
+
+    def test_scene_markers(self):
+        type(self).latest_scene = None
+        deadline = rospy.Time.now() + rospy.Duration(5.0)
+        while self.latest_scene is None and rospy.Time.now() < deadline:
+            rospy.sleep(0.01)
+        self.assertIsNotNone(self.latest_scene)
+        by_ns = {m.ns: m for m in self.latest_scene.markers}
+        self.assertEqual(by_ns["particles"].type, Marker.SPHERE_LIST)
+        self.assertEqual(len(by_ns["particles"].points), 5)
+        self.assertEqual(by_ns["links"].type, Marker.LINE_LIST)
+        self.assertEqual(len(by_ns["links"].points), 8)
+        self.assertEqual(by_ns["surface"].type, Marker.TRIANGLE_LIST)
+        self.assertGreater(len(by_ns["surface"].points), 0)
+        self.assertEqual(len(by_ns["surface"].points) % 3, 0)
+
+    # --- dynamic_reconfigure ---
+
+    def test_reconfigure_dt_and_integrator(self):
+        client = dynamic_reconfigure.client.Client(NODE, timeout=10.0)
+        try:
+            config = client.update_configuration({"dt": 0.002, "integrator": "semi_implicit_euler"})
+            self.assertAlmostEqual(config["dt"], 0.002)
+            self.assertTrue(self.reset("").success)
+            response = self.step(100)
+            self.assertAlmostEqual(response.sim_time, 0.2, places=12)
+        finally:
+            client.update_configuration({"dt": 0.001, "integrator": "rk4"})
+
+
+if __name__ == "__main__":
+    rostest.rosrun("constrained_particles", "simulator_interface", SimulatorInterfaceTest)
