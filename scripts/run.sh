@@ -1,7 +1,20 @@
 #!/usr/bin/env bash
-# Builds the package and runs the simulator: a short headless run of every built-in scenario.
-# Usage: scripts/run.sh [simulated seconds per scenario, default 5]
+# Builds the package and launches the simulator: rviz when a display is available; headless,
+# the node prints a one-line status every second. Extra arguments go to roslaunch, e.g.
+#   scripts/run.sh scenario:=bead params:="{surface: {type: waves}}"
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-bash "$ROOT/scripts/build.sh" >/dev/null
-exec "$ROOT/build/ws/devel/lib/constrained_particles/constrained_particles_demo" "${1:-5}"
+if [[ -n "${DISPLAY:-}" ]]; then
+  WITH_RVIZ=1 bash "$ROOT/scripts/install_deps.sh"
+fi
+LOG="$(mktemp)"
+if ! bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1; then
+  cat "$LOG"
+  echo "build failed" >&2
+  exit 1
+fi
+rm -f "$LOG"
+set +u
+source "$ROOT/build/ws/devel/setup.bash"
+set -u
+exec roslaunch constrained_particles simulator.launch "$@"
