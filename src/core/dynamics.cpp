@@ -1,5 +1,7 @@
 #include "constrained_particles/core/dynamics.hpp"
 
+#include <boost/numeric/odeint.hpp>
+
 #include <algorithm>
 #include <cmath>
 
@@ -7,7 +9,9 @@ namespace constrained_particles
 {
 namespace
 {
-const char* const INTEGRATOR_NAMES[] = { "explicit_euler", "semi_implicit_euler", "rk4" };
+const char* const INTEGRATOR_NAMES[] = { "explicit_euler",  "semi_implicit_euler",
+                                         "midpoint",        "rk4",
+                                         "velocity_verlet", "dopri5" };
 const char* const STABILIZATION_NAMES[] = { "none", "baumgarte", "projection" };
 
 template <typename Enum, std::size_t N>
@@ -73,7 +77,10 @@ void validateStepSettings(const StepSettings& settings)
   {
     case Integrator::ExplicitEuler:
     case Integrator::SemiImplicitEuler:
+    case Integrator::Midpoint:
     case Integrator::RK4:
+    case Integrator::VelocityVerlet:
+    case Integrator::DormandPrince:
       break;
     default:
       throw InvalidInput("integrator", "is not a known integrator");
@@ -103,6 +110,19 @@ Dynamics::Dynamics(const Model& model) : solver_(model)
   applied_forces_.setZero(3, n);
   constraint_forces_.setZero(3, n);
   zero_velocities_.setZero(3, n);
+  for (Points& scratch : scratch_)
+    scratch.setZero(3, n);
+}
+
+const Points& Dynamics::computeAppliedForces(const Points& velocities)
+{
+  const Scene& scene = solver_.model().scene();
+  applied_forces_.setZero();
+  for (const Force& force : scene.forces)
+    std::visit([&](const auto& f)
+               { accumulateForce(f, scene.masses, velocities, applied_forces_); },
+               force);
+  return applied_forces_;
 }
 
 SolveReport Dynamics::computeAccelerations(const Points& positions, const Points& velocities,
@@ -166,77 +186,115 @@ SolveReport Dynamics::computeAccelerations(const Points& positions, const Points
   return report;
 }
 
-void Dynamics::applyPins(Points& positions, Points* velocities) const
+void Dynamics::applyPins(Points& positions) const
 {
   const Scene& scene = solver_.model().scene();
   for (int k : solver_.model().pins())
   {
     const PinConstraint& pin = std::get<PinConstraint>(scene.constraints[k]);
     positions.col(pin.particle) = pin.anchor;
-    if (velocities)
-      velocities->col(pin.particle).setZero();
   }
 }
+
+void Dynamics::pinVelocities(Points& velocities) const
+{
+  const Scene& scene = solver_.model().scene();
+  for (int k : solver_.model().pins())
+    velocities.col(std::get<PinConstraint>(scene.constraints[k]).particle).setZero();
+}
+
+namespace
+{
+// largest metric position error of the rows; NaN counts as infinitely large
+double maxPositionError(const std::vector<ConstraintRow>& rows)
+{
+  double max_error = 0.0;
+  for (const ConstraintRow& row : rows)
+    if (!(row.metric_error <= max_error))
+      max_error = std::isnan(row.metric_error) ? INFINITY : row.metric_error;
+  return max_error;
+}
+
+}  // namespace
 
 ProjectionReport Dynamics::projectPositions(Points& positions, double tolerance, int max_iterations)
 {
   ProjectionReport report;
-  const Points original = positions;
-  applyPins(positions, nullptr);
+  applyPins(positions);
   const int m = solver_.model().numRows();
-  report.converged = true;
-  if (m > 0)
+  for (int iteration = 0; m > 0; ++iteration)
   {
-    report.converged = false;
-    for (int iteration = 0;; ++iteration)
-    {
-      solver_.evaluate(positions, zero_velocities_);
-      const auto& rows = solver_.rows();
-      double max_error = 0.0;
-      for (int r = 0; r < m; ++r)
-      {
-        // NaN compares false: treat it as not converged
-        if (!(rows[r].metric_error <= max_error))
-          max_error = std::isnan(rows[r].metric_error) ? INFINITY : rows[r].metric_error;
-      }
-      report.max_position_error = max_error;
-      if (max_error <= tolerance)
-      {
-        report.converged = true;
-        break;
-      }
-      if (iteration >= max_iterations || !std::isfinite(max_error))
-        break;
-      // dp = -W J^T (J W J^T)^-1 C
-      report.singular |= solver_.factorize().singular;
-      for (int r = 0; r < m; ++r)
-        rhs_[r] = rows[r].value;
-      solver_.solveInPlace(rhs_);
-      solver_.addInverseMassJacobianTranspose(rhs_, -1.0, positions);
-      report.iterations = iteration + 1;
-    }
+    solver_.evaluate(positions, zero_velocities_);
+    const auto& rows = solver_.rows();
+    report.max_position_error = maxPositionError(rows);
+    report.converged = report.max_position_error <= tolerance;
+    if (report.converged || iteration >= max_iterations ||
+        !std::isfinite(report.max_position_error))
+      break;
+    // dp = -W J^T (J W J^T)^-1 C
+    report.singular |= solver_.factorize().singular;
+    for (int r = 0; r < m; ++r)
+      rhs_[r] = rows[r].value;
+    solver_.solveInPlace(rhs_);
+    solver_.addInverseMassJacobianTranspose(rhs_, -1.0, positions);
+    report.iterations = iteration + 1;
   }
-  report.max_displacement = (positions - original).colwise().norm().maxCoeff();
+  return report;
+}
+
+ProjectionReport Dynamics::shakePositions(const Points& reference, Points& positions,
+                                          double tolerance, int max_iterations)
+{
+  ProjectionReport report;
+  applyPins(positions);
+  const Model& model = solver_.model();
+  const int m = model.numRows();
+  if (m == 0)
+    return report;
+  // directions W J(reference)^T stay fixed; J W J^T at the reference approximates the Jacobian
+  solver_.evaluate(reference, zero_velocities_);
+  report.singular = solver_.factorize().singular;
+  for (int iteration = 0;; ++iteration)
+  {
+    evaluateRows(model, positions, zero_velocities_, trial_rows_);
+    report.max_position_error = maxPositionError(trial_rows_);
+    report.converged = report.max_position_error <= tolerance;
+    if (report.converged || iteration >= max_iterations ||
+        !std::isfinite(report.max_position_error))
+      break;
+    for (int r = 0; r < m; ++r)
+      rhs_[r] = trial_rows_[r].value;
+    solver_.solveInPlace(rhs_);
+    solver_.addInverseMassJacobianTranspose(rhs_, -1.0, positions);
+    report.iterations = iteration + 1;
+  }
+  if (!report.converged && std::isfinite(report.max_position_error))
+  {
+    const int shake_iterations = report.iterations;
+    report = projectPositions(positions, tolerance, max_iterations);
+    report.iterations += shake_iterations;
+  }
   return report;
 }
 
 double Dynamics::projectVelocities(const Points& positions, Points& velocities, bool* singular)
 {
-  const Points original = velocities;
-  Points pinned_positions = positions;
-  applyPins(pinned_positions, &velocities);
-  if (solver_.model().numRows() > 0)
-  {
-    // dv = -W J^T (J W J^T)^-1 J v
-    solver_.evaluate(positions, velocities);
-    const bool was_singular = solver_.factorize().singular;
-    if (singular)
-      *singular = was_singular;
-    solver_.multiplyJacobian(velocities, rhs_);
-    solver_.solveInPlace(rhs_);
-    solver_.addInverseMassJacobianTranspose(rhs_, -1.0, velocities);
-  }
-  return (velocities - original).colwise().norm().maxCoeff();
+  // the change is J^T-shaped: track its size through the multipliers, not a copy of v
+  pinVelocities(velocities);
+  if (solver_.model().numRows() == 0)
+    return 0.0;
+  // dv = -W J^T (J W J^T)^-1 J v
+  solver_.evaluate(positions, velocities);
+  const bool was_singular = solver_.factorize().singular;
+  if (singular)
+    *singular = was_singular;
+  solver_.multiplyJacobian(velocities, rhs_);
+  solver_.solveInPlace(rhs_);
+  Points& change = scratch_[NUM_SCRATCH - 1];
+  change.setZero();
+  solver_.addInverseMassJacobianTranspose(rhs_, -1.0, change);
+  velocities += change;
+  return change.colwise().norm().maxCoeff();
 }
 
 namespace
@@ -250,6 +308,8 @@ void mergeReport(SolveReport& into, const SolveReport& from)
   into.regularization = std::max(into.regularization, from.regularization);
 }
 
+using OdeState = std::vector<double>;
+
 }  // namespace
 
 StepReport step(const StepSettings& settings, State& state, Dynamics& dynamics)
@@ -262,15 +322,17 @@ StepReport step(const StepSettings& settings, State& state, Dynamics& dynamics)
   Points& p = state.positions;
   Points& v = state.velocities;
   const int n = static_cast<int>(p.cols());
+  const auto& w = dynamics.model().inverseMasses();
   auto accelerations = [&](const Points& pos, const Points& vel, Points& acc)
   { mergeReport(report.solve, dynamics.computeAccelerations(pos, vel, omega, zeta, acc)); };
 
+  bool project = settings.stabilization == Stabilization::Projection;
   switch (settings.integrator)
   {
     case Integrator::ExplicitEuler:
     case Integrator::SemiImplicitEuler:
     {
-      Points a(3, n);
+      Points& a = dynamics.scratch(0);
       accelerations(p, v, a);
       if (settings.integrator == Integrator::ExplicitEuler)
       {
@@ -285,23 +347,95 @@ StepReport step(const StepSettings& settings, State& state, Dynamics& dynamics)
       }
       break;
     }
+    case Integrator::Midpoint:
+    {
+      Points& a1 = dynamics.scratch(0);
+      Points& a2 = dynamics.scratch(1);
+      Points& p_mid = dynamics.scratch(2);
+      Points& v_mid = dynamics.scratch(3);
+      accelerations(p, v, a1);
+      p_mid = p + 0.5 * dt * v;
+      v_mid = v + 0.5 * dt * a1;
+      accelerations(p_mid, v_mid, a2);
+      p += dt * v_mid;
+      v += dt * a2;
+      break;
+    }
     case Integrator::RK4:
     {
-      Points a1(3, n), a2(3, n), a3(3, n), a4(3, n);
+      Points& a1 = dynamics.scratch(0);
+      Points& a2 = dynamics.scratch(1);
+      Points& a3 = dynamics.scratch(2);
+      Points& a4 = dynamics.scratch(3);
+      Points& v2 = dynamics.scratch(4);
+      Points& v3 = dynamics.scratch(5);
+      Points& trial = dynamics.scratch(6);
       accelerations(p, v, a1);
-      const Points v2 = v + 0.5 * dt * a1;
-      accelerations(p + 0.5 * dt * v, v2, a2);
-      const Points v3 = v + 0.5 * dt * a2;
-      accelerations(p + 0.5 * dt * v2, v3, a3);
-      const Points v4 = v + dt * a3;
-      accelerations(p + dt * v3, v4, a4);
+      v2 = v + 0.5 * dt * a1;
+      trial = p + 0.5 * dt * v;
+      accelerations(trial, v2, a2);
+      v3 = v + 0.5 * dt * a2;
+      trial = p + 0.5 * dt * v2;
+      accelerations(trial, v3, a3);
+      trial = p + dt * v3;
+      Points& v4 = dynamics.scratch(7);
+      v4 = v + dt * a3;
+      accelerations(trial, v4, a4);
       p += (dt / 6.0) * (v + 2.0 * v2 + 2.0 * v3 + v4);
       v += (dt / 6.0) * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
       break;
     }
+    case Integrator::VelocityVerlet:
+    {
+      // kick with applied forces, drift, SHAKE onto C = 0 (the constraint impulse), kick,
+      // RATTLE onto J v = 0
+      Points& p_old = dynamics.scratch(0);
+      p_old = p;
+      const Points& f_start = dynamics.computeAppliedForces(v);
+      for (int i = 0; i < n; ++i)
+        v.col(i) += (0.5 * dt * w[i]) * f_start.col(i);
+      p += dt * v;
+      report.projection = dynamics.shakePositions(p_old, p, settings.projection_tolerance,
+                                                  settings.projection_max_iterations);
+      v = (p - p_old) / dt;
+      const Points& f_end = dynamics.computeAppliedForces(v);
+      for (int i = 0; i < n; ++i)
+        v.col(i) += (0.5 * dt * w[i]) * f_end.col(i);
+      bool singular = false;
+      report.projection.max_velocity_change = dynamics.projectVelocities(p, v, &singular);
+      report.projection.singular |= singular;
+      project = false;
+      break;
+    }
+    case Integrator::DormandPrince:
+    {
+      namespace odeint = boost::numeric::odeint;
+      OdeState x(6 * n);
+      Eigen::Map<Points>(x.data(), 3, n) = p;
+      Eigen::Map<Points>(x.data() + 3 * n, 3, n) = v;
+      Points& pos = dynamics.scratch(0);
+      Points& vel = dynamics.scratch(1);
+      Points& acc = dynamics.scratch(2);
+      auto system = [&](const OdeState& y, OdeState& dydt, double)
+      {
+        pos = Eigen::Map<const Points>(y.data(), 3, n);
+        vel = Eigen::Map<const Points>(y.data() + 3 * n, 3, n);
+        accelerations(pos, vel, acc);
+        Eigen::Map<Points>(dydt.data(), 3, n) = vel;
+        Eigen::Map<Points>(dydt.data() + 3 * n, 3, n) = acc;
+      };
+      auto stepper =
+          odeint::make_controlled(settings.adaptive_tolerance, settings.adaptive_tolerance,
+                                  odeint::runge_kutta_dopri5<OdeState>());
+      report.internal_steps = static_cast<int>(
+          odeint::integrate_adaptive(stepper, system, x, state.time, state.time + dt, dt));
+      p = Eigen::Map<const Points>(x.data(), 3, n);
+      v = Eigen::Map<const Points>(x.data() + 3 * n, 3, n);
+      break;
+    }
   }
 
-  if (settings.stabilization == Stabilization::Projection)
+  if (project)
   {
     report.projection = dynamics.projectPositions(p, settings.projection_tolerance,
                                                   settings.projection_max_iterations);

@@ -92,6 +92,7 @@ NodeParameters readParameters(const ros::NodeHandle& nh)
   readDouble(nh, "baumgarte_damping_ratio", p.step.baumgarte_damping_ratio);
   readDouble(nh, "projection_tolerance", p.step.projection_tolerance);
   readOptional(nh, "projection_max_iterations", "an integer", p.step.projection_max_iterations);
+  readDouble(nh, "adaptive_tolerance", p.step.adaptive_tolerance);
 
   ScenarioParameters& s = p.scenario_parameters;
   if (nh.hasParam("gravity"))

@@ -32,6 +32,7 @@ SimulatorConfig configFrom(const NodeParameters& p)
   c.stabilization = stabilizationName(p.step.stabilization);
   c.baumgarte_frequency = p.step.baumgarte_frequency;
   c.baumgarte_damping_ratio = p.step.baumgarte_damping_ratio;
+  c.adaptive_tolerance = p.step.adaptive_tolerance;
   c.gravity_x = p.scenario_parameters.gravity.x();
   c.gravity_y = p.scenario_parameters.gravity.y();
   c.gravity_z = p.scenario_parameters.gravity.z();
@@ -399,6 +400,7 @@ void SimulatorNode::reconfigureCallback(SimulatorConfig& config, uint32_t /*leve
     candidate.step.stabilization = parseStabilization(config.stabilization);
     candidate.step.baumgarte_frequency = config.baumgarte_frequency;
     candidate.step.baumgarte_damping_ratio = config.baumgarte_damping_ratio;
+    candidate.step.adaptive_tolerance = config.adaptive_tolerance;
     candidate.real_time_factor = config.real_time_factor;
     candidate.publish_rate = config.publish_rate;
     candidate.scenario_parameters.gravity =

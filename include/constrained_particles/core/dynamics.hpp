@@ -9,6 +9,7 @@
 #include "constrained_particles/core/constraint_solver.hpp"
 #include "constrained_particles/core/model.hpp"
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -19,7 +20,13 @@ enum class Integrator
 {
   ExplicitEuler,      ///< p += dt v, v += dt a(p, v): first order, energy grows
   SemiImplicitEuler,  ///< v += dt a(p, v), p += dt v: first order, symplectic
+  Midpoint,           ///< explicit midpoint (RK2): second order
   RK4,                ///< classical Runge-Kutta, fourth order
+  VelocityVerlet,     ///< velocity Verlet with SHAKE/RATTLE projections: second order,
+                      ///< symplectic, constraints held to projection_tolerance every step;
+                      ///< ignores `stabilization`
+  DormandPrince,      ///< adaptive Dormand-Prince 5(4) (Boost.Odeint) within each dt, error
+                      ///< per internal step <= adaptive_tolerance
 };
 
 /// Constraint drift correction.
@@ -50,6 +57,7 @@ struct StepSettings
   double baumgarte_damping_ratio = 1.0;                     ///< zeta [1], in [0, 100]
   double projection_tolerance = 1e-10;  ///< max position error after projection [m], > 0
   int projection_max_iterations = 20;   ///< Newton iterations per projection, in [1, 1000]
+  double adaptive_tolerance = 1e-8;     ///< dopri5 absolute and relative tolerance, (0, 1]
 };
 
 /// @throws InvalidInput naming the first bad field and its valid range
@@ -107,24 +115,44 @@ public:
   /// @return largest velocity change [m/s]
   double projectVelocities(const Points& positions, Points& velocities, bool* singular = nullptr);
 
+  /// SHAKE: moves positions onto C = 0 along the fixed directions W J(reference)^T (the
+  /// constraint forces of a step that started at `reference`), falling back to
+  /// projectPositions() if that does not converge in max_iterations.
+  ProjectionReport shakePositions(const Points& reference, Points& positions, double tolerance,
+                                  int max_iterations);
+
+  /// Applied forces alone at velocities v [N] (no constraint solve).
+  const Points& computeAppliedForces(const Points& velocities);
+
   ConstraintSolver& solver()
   {
     return solver_;
   }
 
+  /// Scratch arrays of 3 x n for the integrators, so a step allocates nothing.
+  Points& scratch(int index)
+  {
+    return scratch_[index];
+  }
+  static constexpr int NUM_SCRATCH = 8;
+
 private:
-  void applyPins(Points& positions, Points* velocities) const;
+  void applyPins(Points& positions) const;
+  void pinVelocities(Points& velocities) const;
 
   ConstraintSolver solver_;
   Eigen::VectorXd rhs_, multipliers_;
   Points applied_forces_, constraint_forces_, zero_velocities_;
+  std::vector<ConstraintRow> trial_rows_;
+  std::array<Points, NUM_SCRATCH> scratch_;
 };
 
 /// Outcome of one step.
 struct StepReport
 {
   SolveReport solve;            ///< worst factorisation of the step (singular if any was)
-  ProjectionReport projection;  ///< when stabilization is Projection
+  ProjectionReport projection;  ///< when stabilization is Projection, or VelocityVerlet
+  int internal_steps = 1;       ///< DormandPrince: accepted internal steps within dt
 };
 
 /// Advances the state by settings.dt with the chosen integrator and stabilisation.

@@ -1,0 +1,149 @@
+// Integrators against a closed-form motion: ordering of accuracy at a fixed step, observed
+// convergence orders, and what the symplectic and adaptive methods promise.
+#include "constrained_particles/core/simulator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace constrained_particles;
+
+namespace
+{
+constexpr double G = 9.81;
+constexpr double CURVATURE = 1.5;  // bowl Z = k r^2 / 2 [1/m]
+constexpr double RADIUS = 0.4;     // [m]
+
+// A bead on a circular orbit in a bowl: speed sqrt(g k) r, angular rate sqrt(g k).
+struct Orbit
+{
+  Scene scene;
+  State start;
+  double omega = std::sqrt(G * CURVATURE);
+
+  Orbit()
+  {
+    scene.masses = { 1.0 };
+    scene.surfaces = { makeSurface("bowl", { CURVATURE, CURVATURE }) };
+    scene.forces = { GravityForce{} };
+    scene.constraints = { SurfaceConstraint{ 0, 0 } };
+    start.positions = Vec3(RADIUS, 0, 0.5 * CURVATURE * RADIUS * RADIUS);
+    start.velocities = Vec3(0, omega * RADIUS, 0);
+  }
+
+  Vec3 exact(double t) const
+  {
+    return Vec3(RADIUS * std::cos(omega * t), RADIUS * std::sin(omega * t),
+                0.5 * CURVATURE * RADIUS * RADIUS);
+  }
+};
+
+// position error at t = 1 s
+double orbitError(Integrator integrator, Stabilization stabilization, double dt,
+                  double tolerance = 1e-8)
+{
+  const Orbit orbit;
+  StepSettings settings;
+  settings.dt = dt;
+  settings.integrator = integrator;
+  settings.stabilization = stabilization;
+  settings.adaptive_tolerance = tolerance;
+  Simulator simulator(orbit.scene, orbit.start, settings);
+  const int steps = static_cast<int>(std::lround(1.0 / dt));
+  simulator.step(steps);
+  return (Vec3(simulator.state().positions.col(0)) - orbit.exact(simulator.state().time)).norm();
+}
+
+}  // namespace
+
+TEST(Integrators, AccuracyOrderingAtFixedStep)
+{
+  for (Stabilization stabilization :
+       { Stabilization::None, Stabilization::Baumgarte, Stabilization::Projection })
+  {
+    const double dt = 1e-2;
+    const double euler = orbitError(Integrator::ExplicitEuler, stabilization, dt);
+    const double midpoint = orbitError(Integrator::Midpoint, stabilization, dt);
+    const double rk4 = orbitError(Integrator::RK4, stabilization, dt);
+    const double dopri = orbitError(Integrator::DormandPrince, stabilization, dt, 1e-11);
+    const double verlet = orbitError(Integrator::VelocityVerlet, stabilization, dt);
+    const std::string name = stabilizationName(stabilization);
+    EXPECT_LT(rk4, midpoint) << name;
+    EXPECT_LT(midpoint, euler) << name;
+    EXPECT_LT(verlet, euler) << name;
+    EXPECT_LT(dopri, rk4) << name;
+  }
+}
+
+// err(dt) / err(dt/2) = 2^order in the asymptotic range
+TEST(Integrators, ObservedOrdersMatchTheory)
+{
+  struct Case
+  {
+    Integrator integrator;
+    double order;
+    double dt;
+  };
+  for (const Case& c :
+       { Case{ Integrator::ExplicitEuler, 1, 1e-3 }, Case{ Integrator::SemiImplicitEuler, 1, 1e-3 },
+         Case{ Integrator::Midpoint, 2, 4e-3 }, Case{ Integrator::RK4, 4, 2e-2 },
+         Case{ Integrator::VelocityVerlet, 2, 4e-3 } })
+  {
+    const double coarse = orbitError(c.integrator, Stabilization::None, c.dt);
+    const double fine = orbitError(c.integrator, Stabilization::None, c.dt / 2);
+    EXPECT_NEAR(std::log2(coarse / fine), c.order, 0.3) << integratorName(c.integrator);
+  }
+}
+
+// velocity Verlet (SHAKE/RATTLE) holds every constraint to tolerance after every step, and its
+// energy error does not grow: a 10-link pendulum, first and second half of a 20 s run
+TEST(Integrators, VelocityVerletHoldsConstraintsWithoutEnergyDrift)
+{
+  const int n = 11;
+  Scene scene;
+  scene.masses.assign(n, 0.2);
+  for (int i = 0; i + 1 < n; ++i)
+    scene.constraints.push_back(LinkConstraint{ i, i + 1, 0.1 });
+  scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  scene.forces = { GravityForce{} };
+  State start;
+  start.positions.resize(3, n);
+  start.velocities.setZero(3, n);
+  for (int i = 0; i < n; ++i)
+    start.positions.col(i) = Vec3(0.1 * i * std::sin(0.5), 0, -0.1 * i * std::cos(0.5));
+  StepSettings settings;
+  settings.dt = 1e-3;
+  settings.integrator = Integrator::VelocityVerlet;
+  settings.stabilization = Stabilization::None;  // ignored by velocity Verlet
+  Simulator simulator(scene, start, settings);
+  const double e0 = simulator.diagnostics().totalEnergy();
+  double first_half = 0, second_half = 0, worst_constraint = 0;
+  for (int k = 0; k < 20000; ++k)
+  {
+    simulator.step();
+    const Diagnostics d = simulator.diagnostics();
+    worst_constraint = std::max(worst_constraint, d.max_position_error);
+    (k < 10000 ? first_half : second_half) =
+        std::max(k < 10000 ? first_half : second_half, std::abs(d.totalEnergy() - e0));
+  }
+  EXPECT_LE(worst_constraint, settings.projection_tolerance);
+  EXPECT_LT(first_half, 1e-2 * std::abs(e0) + 1e-3);
+  EXPECT_LT(second_half, 2.0 * first_half);
+}
+
+TEST(Integrators, DormandPrinceTakesMoreStepsForTighterTolerance)
+{
+  const Orbit orbit;
+  auto internal_steps = [&](double tolerance)
+  {
+    StepSettings settings;
+    settings.dt = 0.1;
+    settings.integrator = Integrator::DormandPrince;
+    settings.stabilization = Stabilization::None;
+    settings.adaptive_tolerance = tolerance;
+    Simulator simulator(orbit.scene, orbit.start, settings);
+    return simulator.step().internal_steps;
+  };
+  EXPECT_GT(internal_steps(1e-12), internal_steps(1e-4));
+  EXPECT_LT(orbitError(Integrator::DormandPrince, Stabilization::None, 0.1, 1e-12), 1e-9);
+}
