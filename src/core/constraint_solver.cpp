@@ -18,9 +18,9 @@ void evaluateRows(const Model& model, const Points& positions, const Points& vel
   {
     const Constraint& c = scene.constraints[row_constraints[r]];
     if (const auto* link = std::get_if<LinkConstraint>(&c))
-      rows[r] = evaluateRow(*link, positions, velocities);
+      evaluateRow(*link, positions, velocities, rows[r]);
     else if (const auto* surface = std::get_if<SurfaceConstraint>(&c))
-      rows[r] = evaluateRow(*surface, scene.surfaces[surface->surface], positions, velocities);
+      evaluateRow(*surface, scene.surfaces[surface->surface], positions, velocities, rows[r]);
   }
 }
 
@@ -43,8 +43,25 @@ ConstraintSolver::ConstraintSolver(const Model& model) : model_(&model)
   rows_.resize(m);
   diagonal_.setZero(m);
   off_diagonal_.setZero(std::max(m - 1, 0));
-  pivots_.setZero(m);
+  inverse_pivots_.setZero(m);
   lower_.setZero(std::max(m - 1, 0));
+  if (model.solveMethod() == SolveMethod::Tridiagonal)
+  {
+    const auto& start = model.incidenceStart();
+    const auto& incidence = model.incidence();
+    for (int i = 0; i < model.numParticles(); ++i)
+      if (start[i + 1] - start[i] == 2)
+      {
+        RowIncidence a = incidence[start[i]], b = incidence[start[i] + 1];
+        if (a.row > b.row)
+          std::swap(a, b);
+        couplings_.push_back(Coupling{ i, a.row, a.slot, b.slot });
+      }
+    std::stable_sort(couplings_.begin(), couplings_.end(),
+                     [](const Coupling& x, const Coupling& y) { return x.upper < y.upper; });
+  }
+  values_.setZero(m);
+  jdot_v_.setZero(m);
   if (model.solveMethod() == SolveMethod::Sparse)
   {
     sparse_ = std::make_unique<SparseState>();
@@ -62,32 +79,51 @@ ConstraintSolver& ConstraintSolver::operator=(ConstraintSolver&&) noexcept = def
 
 void ConstraintSolver::evaluate(const Points& positions, const Points& velocities)
 {
-  evaluateRows(*model_, positions, velocities, rows_);
+  // one pass: each row is evaluated, summarised and (tridiagonal) assembled while in cache
+  const Scene& scene = model_->scene();
+  const auto& row_constraints = model_->rowConstraints();
+  const int m = static_cast<int>(row_constraints.size());
+  const bool tridiagonal = model_->solveMethod() == SolveMethod::Tridiagonal;
+  std::size_t next_coupling = 0;
+  double max_error = 0.0;
+  for (int r = 0; r < m; ++r)
+  {
+    ConstraintRow& row = rows_[r];
+    const Constraint& c = scene.constraints[row_constraints[r]];
+    if (const auto* link = std::get_if<LinkConstraint>(&c))
+      evaluateRow(*link, positions, velocities, row);
+    else if (const auto* surface = std::get_if<SurfaceConstraint>(&c))
+      evaluateRow(*surface, scene.surfaces[surface->surface], positions, velocities, row);
+    values_[r] = row.value;
+    jdot_v_[r] = row.jdot_v;
+    // NaN compares false: it makes the maximum infinite
+    if (!(row.metric_error <= max_error))
+      max_error = std::isnan(row.metric_error) ? INFINITY : row.metric_error;
+    if (tridiagonal)
+      assembleTridiagonalRow(r, next_coupling);
+  }
+  max_position_error_ = max_error;
 }
 
-void ConstraintSolver::assembleTridiagonal()
+void ConstraintSolver::assembleTridiagonalRow(int r, std::size_t& next_coupling)
 {
-  // diagonal: every touch of a free particle; off-diagonal: two rows meeting at one particle
+  // diagonal: the row's own touches; off-diagonal: the particle it shares with row r - 1
   const auto& w = model_->inverseMasses();
-  const auto& start = model_->incidenceStart();
-  const auto& incidence = model_->incidence();
-  diagonal_.setZero();
-  off_diagonal_.setZero();
-  for (int i = 0; i < model_->numParticles(); ++i)
+  const ConstraintRow& row = rows_[r];
+  double d = w[row.particle[0]] * row.gradient[0].squaredNorm();
+  if (row.particle[1] >= 0)
+    d += w[row.particle[1]] * row.gradient[1].squaredNorm();
+  diagonal_[r] = d;
+  if (r == 0)
+    return;
+  double off = 0.0;
+  for (; next_coupling < couplings_.size() && couplings_[next_coupling].upper == r - 1;
+       ++next_coupling)
   {
-    const int begin = start[i], end = start[i + 1];
-    for (int a = begin; a < end; ++a)
-    {
-      const RowIncidence& ra = incidence[a];
-      const Vec3& ga = rows_[ra.row].gradient[ra.slot];
-      diagonal_[ra.row] += w[i] * ga.squaredNorm();
-      for (int b = a + 1; b < end; ++b)
-      {
-        const RowIncidence& rb = incidence[b];
-        off_diagonal_[std::min(ra.row, rb.row)] += w[i] * ga.dot(rows_[rb.row].gradient[rb.slot]);
-      }
-    }
+    const Coupling& c = couplings_[next_coupling];
+    off += w[c.particle] * rows_[r - 1].gradient[c.upper_slot].dot(row.gradient[c.lower_slot]);
   }
+  off_diagonal_[r - 1] = off;
 }
 
 SolveReport ConstraintSolver::factorize()
@@ -107,7 +143,7 @@ SolveReport ConstraintSolver::factorize()
 
 SolveReport ConstraintSolver::factorizeTridiagonal()
 {
-  assembleTridiagonal();
+  // assembled by evaluate()
   const int m = static_cast<int>(diagonal_.size());
   SolveReport report;
   report.method = SolveMethod::Tridiagonal;
@@ -125,12 +161,14 @@ SolveReport ConstraintSolver::factorizeTridiagonal()
       double pivot = d;
       if (k > 0)
       {
-        lower_[k - 1] = off_diagonal_[k - 1] / pivots_[k - 1];
+        lower_[k - 1] = off_diagonal_[k - 1] * inverse_pivots_[k - 1];
         pivot -= lower_[k - 1] * off_diagonal_[k - 1];
       }
-      const double ratio = d > 0.0 ? pivot / d : 0.0;
-      min_ratio = std::min(min_ratio, ratio);
-      if (!(ratio > SINGULAR_PIVOT_RATIO))
+      if (!(d > 0.0))
+        min_ratio = 0.0;
+      else if (pivot < min_ratio * d)  // tracks min(pivot / d) without dividing every row
+        min_ratio = pivot / d;
+      if (!(pivot > SINGULAR_PIVOT_RATIO * d) || !(d > 0.0))
       {
         if (delta == 0.0)
         {
@@ -140,7 +178,7 @@ SolveReport ConstraintSolver::factorizeTridiagonal()
         // regularised: exact pivots are >= delta; only rounding can push one below
         pivot = std::max(pivot, delta);
       }
-      pivots_[k] = pivot;
+      inverse_pivots_[k] = 1.0 / pivot;
     }
     if (attempt == 0)
       report.min_pivot_ratio = min_ratio;
@@ -248,7 +286,7 @@ void ConstraintSolver::solveInPlace(Eigen::VectorXd& b) const
       for (int k = 1; k < m; ++k)
         b[k] -= lower_[k - 1] * b[k - 1];
       for (int k = 0; k < m; ++k)
-        b[k] /= pivots_[k];
+        b[k] *= inverse_pivots_[k];
       for (int k = m - 2; k >= 0; --k)
         b[k] -= lower_[k] * b[k + 1];
       break;

@@ -4,41 +4,54 @@
 
 namespace constrained_particles
 {
-ConstraintRow evaluateRow(const SurfaceConstraint& constraint, const Surface& surface,
-                          const Points& positions, const Points& velocities)
+void evaluateRow(const SurfaceConstraint& constraint, const Surface& surface,
+                 const Points& positions, const Points& velocities, ConstraintRow& row)
 {
   const int i = constraint.particle;
-  const Vec3 p = positions.col(i);
-  const Vec3 v = velocities.col(i);
-  const SurfaceSample s = evaluateSurface(surface, p.x(), p.y());
-  ConstraintRow row;
+  const double* p = positions.data() + 3 * i;
+  const double* v = velocities.data() + 3 * i;
+  const SurfaceSample s = evaluateSurface(surface, p[0], p[1]);
   row.particle = { { i, -1 } };
   row.gradient[0] = Vec3(s.zx, s.zy, -1.0);
   row.gradient[1].setZero();
-  row.value = s.z - p.z();
-  row.jdot_v = s.zxx * v.x() * v.x() + 2.0 * s.zxy * v.x() * v.y() + s.zyy * v.y() * v.y();
+  row.value = s.z - p[2];
+  row.jdot_v = s.zxx * v[0] * v[0] + 2.0 * s.zxy * v[0] * v[1] + s.zyy * v[1] * v[1];
   row.metric_error = std::abs(row.value);
-  row.metric_rate = std::abs(row.gradient[0].dot(v));
-  return row;
 }
 
-ConstraintRow evaluateRow(const LinkConstraint& constraint, const Points& positions,
-                          const Points& velocities)
+void evaluateRow(const LinkConstraint& constraint, const Points& positions,
+                 const Points& velocities, ConstraintRow& row)
 {
   const int i = constraint.first, j = constraint.second;
-  const Vec3 d = positions.col(i) - positions.col(j);
-  const Vec3 dv = velocities.col(i) - velocities.col(j);
-  const double distance = d.norm();
-  ConstraintRow row;
+  const double* pi = positions.data() + 3 * i;
+  const double* pj = positions.data() + 3 * j;
+  const double* vi = velocities.data() + 3 * i;
+  const double* vj = velocities.data() + 3 * j;
+  const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
+  const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
+  const double squared = dx * dx + dy * dy + dz * dz;
+  const double distance = std::sqrt(squared);
   row.particle = { { i, j } };
-  row.gradient[0] = d;
-  row.gradient[1] = -d;
-  row.value = 0.5 * (d.squaredNorm() - constraint.length * constraint.length);
-  row.jdot_v = dv.squaredNorm();
+  row.gradient[0] = Vec3(dx, dy, dz);
+  row.gradient[1] = Vec3(-dx, -dy, -dz);
+  row.value = 0.5 * (squared - constraint.length * constraint.length);
+  row.jdot_v = ux * ux + uy * uy + uz * uz;
   row.metric_error = std::abs(distance - constraint.length);
+}
+
+double metricRate(const SurfaceConstraint& constraint, const ConstraintRow& row,
+                  const Points& velocities)
+{
+  return std::abs(row.gradient[0].dot(velocities.col(constraint.particle)));
+}
+
+double metricRate(const LinkConstraint& constraint, const ConstraintRow& row,
+                  const Points& velocities)
+{
+  const Vec3 relative = velocities.col(constraint.first) - velocities.col(constraint.second);
+  const double distance = row.gradient[0].norm();
   // coincident particles have no defined direction: report the relative speed instead
-  row.metric_rate = distance > 0.0 ? std::abs(d.dot(dv)) / distance : dv.norm();
-  return row;
+  return distance > 0.0 ? std::abs(row.gradient[0].dot(relative)) / distance : relative.norm();
 }
 
 double constraintValue(const SurfaceConstraint& constraint, const Surface& surface,

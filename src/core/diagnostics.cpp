@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 namespace constrained_particles
 {
@@ -22,10 +23,18 @@ Diagnostics computeDiagnostics(const Model& model, const State& state)
   // std::max would drop a NaN: keep it visible
   auto worst = [](double current, double value)
   { return (std::isnan(value) || value > current) ? value : current; };
-  for (const ConstraintRow& row : rows)
+  for (std::size_t r = 0; r < rows.size(); ++r)
   {
-    d.max_position_error = worst(d.max_position_error, row.metric_error);
-    d.max_velocity_error = worst(d.max_velocity_error, row.metric_rate);
+    d.max_position_error = worst(d.max_position_error, rows[r].metric_error);
+    const Constraint& c = scene.constraints[model.rowConstraints()[r]];
+    std::visit(
+        [&](const auto& kind)
+        {
+          if constexpr (!std::is_same_v<std::decay_t<decltype(kind)>, PinConstraint>)
+            d.max_velocity_error =
+                worst(d.max_velocity_error, metricRate(kind, rows[r], state.velocities));
+        },
+        c);
   }
   for (int k : model.pins())
   {

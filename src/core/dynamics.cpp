@@ -149,21 +149,20 @@ SolveReport Dynamics::computeAccelerations(const Points& positions, const Points
     solver_.evaluate(positions, velocities);
     report = solver_.factorize();
     solver_.multiplyJacobianInverseMass(applied_forces_, rhs_);
-    const auto& rows = solver_.rows();
-    const double stiffness = baumgarte_omega * baumgarte_omega;
-    const double damping = 2.0 * baumgarte_zeta * baumgarte_omega;
-    for (int r = 0; r < m; ++r)
+    rhs_ = -(solver_.jdotV() + rhs_);
+    if (baumgarte_omega > 0.0)
     {
-      double b = -(rows[r].jdot_v + rhs_[r]);
-      if (baumgarte_omega > 0.0)
+      const auto& rows = solver_.rows();
+      const double stiffness = baumgarte_omega * baumgarte_omega;
+      const double damping = 2.0 * baumgarte_zeta * baumgarte_omega;
+      for (int r = 0; r < m; ++r)
       {
         const ConstraintRow& row = rows[r];
         double c_dot = row.gradient[0].dot(velocities.col(row.particle[0]));
         if (row.particle[1] >= 0)
           c_dot += row.gradient[1].dot(velocities.col(row.particle[1]));
-        b -= damping * c_dot + stiffness * row.value;
+        rhs_[r] -= damping * c_dot + stiffness * row.value;
       }
-      rhs_[r] = b;
     }
     solver_.solveInPlace(rhs_);
     multipliers_.head(m) = rhs_;
@@ -225,16 +224,14 @@ ProjectionReport Dynamics::projectPositions(Points& positions, double tolerance,
   for (int iteration = 0; m > 0; ++iteration)
   {
     solver_.evaluate(positions, zero_velocities_);
-    const auto& rows = solver_.rows();
-    report.max_position_error = maxPositionError(rows);
+    report.max_position_error = solver_.maxPositionError();
     report.converged = report.max_position_error <= tolerance;
     if (report.converged || iteration >= max_iterations ||
         !std::isfinite(report.max_position_error))
       break;
     // dp = -W J^T (J W J^T)^-1 C
     report.singular |= solver_.factorize().singular;
-    for (int r = 0; r < m; ++r)
-      rhs_[r] = rows[r].value;
+    rhs_ = solver_.values();
     solver_.solveInPlace(rhs_);
     solver_.addInverseMassJacobianTranspose(rhs_, -1.0, positions);
     report.iterations = iteration + 1;
@@ -277,19 +274,26 @@ ProjectionReport Dynamics::shakePositions(const Points& reference, Points& posit
   return report;
 }
 
-double Dynamics::projectVelocities(const Points& positions, Points& velocities, bool* singular)
+double Dynamics::projectVelocities(const Points& positions, Points& velocities, bool* singular,
+                                   bool rows_current, bool measure_change)
 {
   // the change is J^T-shaped: track its size through the multipliers, not a copy of v
   pinVelocities(velocities);
   if (solver_.model().numRows() == 0)
     return 0.0;
-  // dv = -W J^T (J W J^T)^-1 J v
-  solver_.evaluate(positions, velocities);
+  // dv = -W J^T (J W J^T)^-1 J v; only J is needed, not Jdot v
+  if (!rows_current)
+    solver_.evaluate(positions, velocities);
   const bool was_singular = solver_.factorize().singular;
   if (singular)
     *singular = was_singular;
   solver_.multiplyJacobian(velocities, rhs_);
   solver_.solveInPlace(rhs_);
+  if (!measure_change)
+  {
+    solver_.addInverseMassJacobianTranspose(rhs_, -1.0, velocities);
+    return 0.0;
+  }
   Points& change = scratch_[NUM_SCRATCH - 1];
   change.setZero();
   solver_.addInverseMassJacobianTranspose(rhs_, -1.0, change);
@@ -440,7 +444,8 @@ StepReport step(const StepSettings& settings, State& state, Dynamics& dynamics)
     report.projection = dynamics.projectPositions(p, settings.projection_tolerance,
                                                   settings.projection_max_iterations);
     bool singular = false;
-    report.projection.max_velocity_change = dynamics.projectVelocities(p, v, &singular);
+    report.projection.max_velocity_change =
+        dynamics.projectVelocities(p, v, &singular, true, false);
     report.projection.singular |= singular;
   }
   state.time += dt;

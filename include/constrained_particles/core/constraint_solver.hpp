@@ -56,6 +56,21 @@ public:
   {
     return rows_;
   }
+  /// C of every evaluated row, compact (the rows hold the same values).
+  const Eigen::VectorXd& values() const
+  {
+    return values_;
+  }
+  /// Jdot v of every evaluated row, compact.
+  const Eigen::VectorXd& jdotV() const
+  {
+    return jdot_v_;
+  }
+  /// Largest metric position error of the evaluated rows [m] (infinite if any is NaN).
+  double maxPositionError() const
+  {
+    return max_position_error_;
+  }
 
   /// Assembles J W J^T from the evaluated rows and factorises it.
   SolveReport factorize();
@@ -77,15 +92,24 @@ public:
   Eigen::MatrixXd denseMatrix() const;
 
 private:
-  void assembleTridiagonal();
+  /// Adds row r's entries of J W J^T (diagonal, and the coupling to row r - 1).
+  void assembleTridiagonalRow(int r, std::size_t& next_coupling);
   SolveReport factorizeTridiagonal();
   SolveReport factorizeSparse();
   SolveReport factorizeDense();
 
   const Model* model_;
   std::vector<ConstraintRow> rows_;
-  // tridiagonal: diagonal, super-diagonal, and LDL^T factors
-  Eigen::VectorXd diagonal_, off_diagonal_, pivots_, lower_;
+  Eigen::VectorXd values_, jdot_v_;
+  double max_position_error_ = 0.0;
+  // tridiagonal: diagonal, super-diagonal, and LDL^T factors (inverse pivots)
+  Eigen::VectorXd diagonal_, off_diagonal_, inverse_pivots_, lower_;
+  /// A free particle shared by rows `upper` and `upper + 1` (tridiagonal assembly).
+  struct Coupling
+  {
+    int particle, upper, upper_slot, lower_slot;
+  };
+  std::vector<Coupling> couplings_;
   struct SparseState;
   std::unique_ptr<SparseState> sparse_;
   struct DenseState;

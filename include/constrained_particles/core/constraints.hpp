@@ -51,16 +51,32 @@ struct ConstraintRow
   double value = 0;                           ///< C
   double jdot_v = 0;                          ///< Jdot v
   double metric_error = 0;                    ///< position error [m] (|Z - z|, ||d| - l|)
-  double metric_rate = 0;  ///< dC/dt converted to [m/s] (Cdot for a surface, d.dv/|d| for a link)
 };
 
-/// Evaluates a surface constraint's row at positions p and velocities v. Stateless.
-ConstraintRow evaluateRow(const SurfaceConstraint& constraint, const Surface& surface,
-                          const Points& positions, const Points& velocities);
+/// Evaluates a surface constraint's row at positions p and velocities v into `row`. Stateless.
+void evaluateRow(const SurfaceConstraint& constraint, const Surface& surface,
+                 const Points& positions, const Points& velocities, ConstraintRow& row);
 
-/// Evaluates a link constraint's row at positions p and velocities v. Stateless.
-ConstraintRow evaluateRow(const LinkConstraint& constraint, const Points& positions,
-                          const Points& velocities);
+/// Evaluates a link constraint's row at positions p and velocities v into `row`. Stateless.
+void evaluateRow(const LinkConstraint& constraint, const Points& positions,
+                 const Points& velocities, ConstraintRow& row);
+
+/// |dC/dt| of an evaluated row in metric units [m/s]: |Cdot| for a surface, the rate of change
+/// of the distance |d.dv|/|d| for a link (the relative speed if the particles coincide).
+double metricRate(const SurfaceConstraint& constraint, const ConstraintRow& row,
+                  const Points& velocities);
+/// @copydoc metricRate(const SurfaceConstraint&, const ConstraintRow&, const Points&)
+double metricRate(const LinkConstraint& constraint, const ConstraintRow& row,
+                  const Points& velocities);
+
+/// The row of any row-producing constraint, returned by value (tests, one-off uses).
+template <typename RowConstraint, typename... Context>
+ConstraintRow evaluateRow(const RowConstraint& constraint, const Context&... context)
+{
+  ConstraintRow row;
+  evaluateRow(constraint, context..., row);
+  return row;
+}
 
 /// Value of the scalar constraint C alone (no derivatives), for finite-difference checks.
 double constraintValue(const SurfaceConstraint& constraint, const Surface& surface,

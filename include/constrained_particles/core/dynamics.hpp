@@ -113,7 +113,11 @@ public:
   ProjectionReport projectPositions(Points& positions, double tolerance, int max_iterations);
   /// Removes the constraint-violating velocity: dv = -W J^T (J W J^T)^-1 J v; pins at rest.
   /// @return largest velocity change [m/s]
-  double projectVelocities(const Points& positions, Points& velocities, bool* singular = nullptr);
+  /// @param rows_current the solver's rows were last evaluated at these positions (as
+  /// projectPositions() leaves them): skip evaluating them again
+  /// @param measure_change compute the return value (else 0: saves a pass over the particles)
+  double projectVelocities(const Points& positions, Points& velocities, bool* singular = nullptr,
+                           bool rows_current = false, bool measure_change = true);
 
   /// SHAKE: moves positions onto C = 0 along the fixed directions W J(reference)^T (the
   /// constraint forces of a step that started at `reference`), falling back to

@@ -1,0 +1,491 @@
+// What accuracy costs in time. Three modes, each writing CSV into an output folder:
+//   work_precision  every scenario x integrator x stabilisation x dt: error against a reference,
+//                   constraint error, energy drift, CPU time per simulated second; plus the
+//                   observed convergence orders (orders.csv)
+//   scaling         time per step against n for the chain, O(n) solve and sparse/dense solves
+//   peers           this package's side of the peer comparison (bench_common.hpp's PeerChain)
+// Usage: constrained_particles_bench MODE [--out DIR] [--quick]
+#include "bench_common.hpp"
+#include "constrained_particles/core/scenarios.hpp"
+#include "constrained_particles/core/simulator.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <optional>
+
+using namespace constrained_particles;
+
+namespace
+{
+/// A run whose CPU time is estimated above this is skipped (noted on stderr) [s].
+constexpr double MAX_RUN_CPU = 20.0;
+/// Runs shorter than this are repeated and the median CPU time kept [s].
+constexpr double REPEAT_BELOW_CPU = 0.5;
+constexpr int REPEATS = 3;
+
+struct Workload
+{
+  std::string name;
+  Scene scene;
+  State start;
+  double duration = 1.0;                // simulated [s]
+  std::function<Points(double)> exact;  // closed form, where one exists
+};
+
+State makeState(const Points& positions, const Points& velocities)
+{
+  State s;
+  s.positions = positions;
+  s.velocities = velocities;
+  return s;
+}
+
+Workload beadBowl()
+{
+  // circular orbit in the bowl Z = k r^2 / 2: angular rate sqrt(g k)
+  const double k = 1.5, r = 0.4, omega = std::sqrt(9.81 * k), z = 0.5 * k * r * r;
+  Workload w;
+  w.name = "bead_bowl";
+  w.scene.masses = { 1.0 };
+  w.scene.surfaces = { makeSurface("bowl", { k, k }) };
+  w.scene.forces = { GravityForce{} };
+  w.scene.constraints = { SurfaceConstraint{ 0, 0 } };
+  w.start = makeState(Vec3(r, 0, z), Vec3(0, omega * r, 0));
+  w.exact = [=](double t) -> Points
+  { return Vec3(r * std::cos(omega * t), r * std::sin(omega * t), z); };
+  return w;
+}
+
+Workload fromScenario(const std::string& label, const std::string& scenario,
+                      const ScenarioParameters& parameters)
+{
+  const Scenario built = buildScenario(scenario, parameters);
+  Workload w;
+  w.name = label;
+  w.scene = built.scene;
+  w.start = built.initial_state;
+  return w;
+}
+
+Workload beadWaves()
+{
+  ScenarioParameters p;
+  p.surface = makeSurface("waves", { 0.2, 2.0, 1.0 });
+  return fromScenario("bead_waves", "bead", p);
+}
+
+Workload pendulum()
+{
+  Workload w;
+  w.name = "pendulum_2";
+  w.scene.masses = { 1.0, 1.0 };
+  w.scene.forces = { GravityForce{} };
+  w.scene.constraints = { LinkConstraint{ 0, 1, 1.0 }, PinConstraint{ 0, Vec3::Zero() } };
+  Points p(3, 2);
+  p << 0, std::sin(M_PI / 3), 0, 0, 0, -std::cos(M_PI / 3);
+  w.start = makeState(p, Points::Zero(3, 2));
+  return w;
+}
+
+// pinned chain of total length 1 m released horizontally
+Workload chain(int n)
+{
+  ScenarioParameters p;
+  p.chain.num_particles = n;
+  p.chain.link_length = 1.0 / (n - 1);
+  p.chain.particle_mass = 0.1;
+  return fromScenario("chain_" + std::to_string(n), "chain", p);
+}
+
+Workload surfaceChain()
+{
+  return fromScenario("surface_chain", "surface_chain", ScenarioParameters{});
+}
+
+struct RunResult
+{
+  double error = NAN;               // max |p_i(T) - p_ref_i(T)| [m]
+  double max_constraint_error = 0;  // over the run [m]
+  double energy_drift = 0;          // max |E(t) - E(0)| over the run [J]
+  double cpu_per_sim_second = 0;    // [s/s]
+  long steps = 0;
+  bool finite = true;
+  int runs = 0;
+  int internal_steps = 0;  // dopri5: accepted internal steps in the run
+  State final_state;
+};
+
+// Steps a workload to its duration; only stepping is timed, diagnostics are sampled around it.
+RunResult runOnce(const Workload& w, const StepSettings& settings)
+{
+  RunResult result;
+  Simulator simulator(w.scene, w.start, settings);
+  const long steps = std::lround(w.duration / settings.dt);
+  const long sample_every = std::max(1L, steps / 400);
+  const double e0 = simulator.diagnostics().totalEnergy();
+  double cpu = 0;
+  for (long k = 0; k < steps; k += sample_every)
+  {
+    const int batch = static_cast<int>(std::min(sample_every, steps - k));
+    const double start = bench::threadCpuSeconds();
+    for (int b = 0; b < batch; ++b)
+      result.internal_steps += simulator.step().internal_steps;
+    cpu += bench::threadCpuSeconds() - start;
+    result.steps += batch;
+    const Diagnostics d = simulator.diagnostics();
+    if (!d.finite() || !isFinite(simulator.state()))
+    {
+      result.finite = false;
+      break;
+    }
+    result.max_constraint_error = std::max(result.max_constraint_error, d.max_position_error);
+    result.energy_drift = std::max(result.energy_drift, std::abs(d.totalEnergy() - e0));
+  }
+  result.cpu_per_sim_second = cpu / (result.steps * settings.dt);
+  result.final_state = simulator.state();
+  result.runs = 1;
+  return result;
+}
+
+RunResult run(const Workload& w, const StepSettings& settings)
+{
+  RunResult first = runOnce(w, settings);
+  if (first.finite && first.cpu_per_sim_second * w.duration < REPEAT_BELOW_CPU)
+  {
+    std::vector<double> cpu{ first.cpu_per_sim_second };
+    for (int r = 1; r < REPEATS; ++r)
+      cpu.push_back(runOnce(w, settings).cpu_per_sim_second);
+    first.cpu_per_sim_second = bench::median(cpu);
+    first.runs = REPEATS;
+  }
+  return first;
+}
+
+double maxDistance(const Points& a, const Points& b)
+{
+  return (a - b).colwise().norm().maxCoeff();
+}
+
+// the most accurate method at a tight tolerance; its convergence is checked against a looser one
+Points reference(const Workload& w, double& uncertainty)
+{
+  if (w.exact)
+  {
+    uncertainty = 0.0;
+    return w.exact(w.duration);
+  }
+  auto converged = [&](double tolerance)
+  {
+    StepSettings s;
+    s.dt = 1e-3;
+    s.integrator = Integrator::DormandPrince;
+    s.stabilization = Stabilization::Projection;
+    s.projection_tolerance = 1e-13;
+    s.adaptive_tolerance = tolerance;
+    return runOnce(w, s).final_state.positions;
+  };
+  const Points tight = converged(1e-13);
+  uncertainty = maxDistance(tight, converged(1e-12));
+  return tight;
+}
+
+const std::vector<Integrator> FIXED_STEP = { Integrator::ExplicitEuler,
+                                             Integrator::SemiImplicitEuler, Integrator::Midpoint,
+                                             Integrator::RK4, Integrator::VelocityVerlet };
+const std::vector<Stabilization> STABILIZATIONS = { Stabilization::None, Stabilization::Baumgarte,
+                                                    Stabilization::Projection };
+
+double theoreticalOrder(Integrator integrator)
+{
+  switch (integrator)
+  {
+    case Integrator::ExplicitEuler:
+    case Integrator::SemiImplicitEuler:
+      return 1;
+    case Integrator::Midpoint:
+    case Integrator::VelocityVerlet:
+      return 2;
+    case Integrator::RK4:
+      return 4;
+    case Integrator::DormandPrince:
+      return 5;
+  }
+  return 0;
+}
+
+// slope of log(error) against log(dt), over the points between round-off and saturation
+std::optional<double> observedOrder(const std::vector<std::pair<double, double>>& dt_error,
+                                    double low, double high)
+{
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  int count = 0;
+  for (const auto& [dt, error] : dt_error)
+    if (std::isfinite(error) && error > low && error < high)
+    {
+      const double x = std::log(dt), y = std::log(error);
+      sx += x, sy += y, sxx += x * x, sxy += x * y;
+      ++count;
+    }
+  if (count < 2)
+    return std::nullopt;
+  return (count * sxy - sx * sy) / (count * sxx - sx * sx);
+}
+
+int workPrecision(const std::string& out, bool quick)
+{
+  std::vector<double> dts = { 1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6 };
+  std::vector<double> tolerances = {
+    1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12
+  };
+  std::vector<Workload> workloads = { beadBowl(), beadWaves(), pendulum(),
+                                      chain(10),  chain(100),  surfaceChain() };
+  if (quick)
+  {
+    dts = { 1e-2, 1e-3, 1e-4 };
+    tolerances = { 1e-4, 1e-8 };
+    workloads.resize(3);
+  }
+  std::ofstream csv(out + "/work_precision.csv");
+  csv << "scenario,integrator,stabilization,dt,tolerance,error_m,reference_uncertainty_m,"
+         "max_constraint_error_m,energy_drift_J,cpu_s_per_sim_s,steps,internal_steps,finite,runs\n";
+  std::ofstream orders(out + "/orders.csv");
+  orders << "scenario,integrator,stabilization,theoretical_order,observed_order\n";
+
+  for (const Workload& w : workloads)
+  {
+    double uncertainty = 0;
+    std::cerr << "[" << w.name << "] reference..." << std::flush;
+    const Points ref = reference(w, uncertainty);
+    std::cerr << " converged to " << uncertainty << " m\n";
+    auto record = [&](Integrator integrator, Stabilization stabilization, double dt,
+                      double tolerance, const RunResult& r)
+    {
+      const double error = r.finite ? maxDistance(r.final_state.positions, ref) : NAN;
+      char line[512];
+      std::snprintf(line, sizeof(line), "%s,%s,%s,%g,%g,%.6e,%.3e,%.6e,%.6e,%.6e,%ld,%d,%d,%d\n",
+                    w.name.c_str(), integratorName(integrator), stabilizationName(stabilization),
+                    dt, tolerance, error, uncertainty, r.max_constraint_error, r.energy_drift,
+                    r.cpu_per_sim_second, r.steps, r.internal_steps, r.finite ? 1 : 0, r.runs);
+      csv << line;
+      csv.flush();
+      return error;
+    };
+
+    for (Integrator integrator : FIXED_STEP)
+      for (Stabilization stabilization : STABILIZATIONS)
+      {
+        // velocity Verlet projects by itself: one sweep stands for all stabilisations
+        if (integrator == Integrator::VelocityVerlet && stabilization != Stabilization::None)
+          continue;
+        std::cerr << "[" << w.name << "] " << integratorName(integrator) << " + "
+                  << stabilizationName(stabilization) << ":";
+        std::vector<std::pair<double, double>> dt_error;
+        double last_cpu = 0, last_dt = 0;
+        for (double dt : dts)
+        {
+          if (last_cpu > 0 && last_cpu * last_dt / dt > MAX_RUN_CPU)
+          {
+            std::cerr << " (dt " << dt << " skipped: > " << MAX_RUN_CPU << " s)";
+            break;
+          }
+          StepSettings s;
+          s.dt = dt;
+          s.integrator = integrator;
+          s.stabilization = stabilization;
+          const RunResult r = run(w, s);
+          dt_error.emplace_back(dt, record(integrator, stabilization, dt, 0, r));
+          last_cpu = r.cpu_per_sim_second * w.duration;
+          last_dt = dt;
+          std::cerr << " " << dt << std::flush;
+        }
+        std::cerr << "\n";
+        // round-off floor: well above the reference's own uncertainty and 1e-12 m
+        const auto order = observedOrder(dt_error, std::max(1e-12, 100 * uncertainty), 1e-2);
+        orders << w.name << "," << integratorName(integrator) << ","
+               << (integrator == Integrator::VelocityVerlet ? "rattle"
+                                                            : stabilizationName(stabilization))
+               << "," << theoreticalOrder(integrator) << ","
+               << (order ? std::to_string(*order) : std::string("nan")) << "\n";
+      }
+
+    for (Stabilization stabilization : STABILIZATIONS)
+    {
+      std::cerr << "[" << w.name << "] dopri5 + " << stabilizationName(stabilization) << ":";
+      for (double tolerance : tolerances)
+      {
+        StepSettings s;
+        s.dt = 1e-2;
+        s.integrator = Integrator::DormandPrince;
+        s.stabilization = stabilization;
+        s.adaptive_tolerance = tolerance;
+        record(Integrator::DormandPrince, stabilization, s.dt, tolerance, run(w, s));
+        std::cerr << " " << tolerance << std::flush;
+      }
+      std::cerr << "\n";
+    }
+  }
+  return 0;
+}
+
+// steady-state CPU time of one step of a horizontally released pinned chain
+double secondsPerStep(int n, SolveMethod method, Integrator integrator, double budget)
+{
+  ScenarioParameters p;
+  p.chain.num_particles = n;
+  p.chain.link_length = 1.0 / std::max(1, n - 1);
+  p.chain.particle_mass = 0.1;
+  const Scenario scenario = buildScenario("chain", p);
+  StepSettings s;
+  s.dt = 1e-4;
+  s.integrator = integrator;
+  s.stabilization = Stabilization::Projection;
+  Simulator simulator(scenario.scene, scenario.initial_state, s, method);
+  simulator.step(2);  // warm caches and workspaces
+  std::vector<double> per_step;
+  for (int r = 0; r < REPEATS; ++r)
+  {
+    long steps = 0;
+    const double start = bench::threadCpuSeconds();
+    double elapsed = 0;
+    do
+    {
+      simulator.step();
+      ++steps;
+      elapsed = bench::threadCpuSeconds() - start;
+    } while (elapsed < budget / REPEATS);
+    per_step.push_back(elapsed / steps);
+  }
+  return bench::median(per_step);
+}
+
+int scaling(const std::string& out, bool quick)
+{
+  std::vector<int> sizes = { 10, 30, 100, 300, 1000, 3000, 10000, 30000, 100000 };
+  if (quick)
+    sizes = { 10, 100, 1000, 10000 };
+  std::ofstream csv(out + "/scaling.csv");
+  csv << "n,solve,integrator,seconds_per_step,particle_steps_per_second\n";
+  const std::vector<std::pair<SolveMethod, int>> methods = { { SolveMethod::Tridiagonal, 1000000 },
+                                                             { SolveMethod::Sparse, 1000000 },
+                                                             { SolveMethod::Dense, 1000 } };
+  for (Integrator integrator : { Integrator::SemiImplicitEuler, Integrator::RK4 })
+    for (const auto& [method, max_n] : methods)
+    {
+      if (integrator == Integrator::RK4 && method != SolveMethod::Tridiagonal)
+        continue;
+      for (int n : sizes)
+      {
+        if (n > max_n)
+          continue;
+        const double seconds = secondsPerStep(n, method, integrator, quick ? 0.3 : 1.5);
+        csv << n << "," << solveMethodName(method) << "," << integratorName(integrator) << ","
+            << seconds << "," << n / seconds << "\n";
+        csv.flush();
+        std::cerr << "[scaling] " << integratorName(integrator) << " " << solveMethodName(method)
+                  << " n = " << n << ": " << seconds * 1e6 << " us/step, " << n / seconds / 1e6
+                  << " M particle-steps/s\n";
+      }
+    }
+  return 0;
+}
+
+// our side of the peer comparison: exact constraints, O(n) solve
+int peers(const std::string& out, bool quick)
+{
+  std::ofstream csv(out + "/peers_constrained_particles.csv");
+  csv << bench::peerCsvHeader() << "\n";
+  for (int n : bench::peerChainSizes())
+    for (Integrator integrator :
+         { Integrator::SemiImplicitEuler, Integrator::VelocityVerlet, Integrator::RK4 })
+    {
+      bench::PeerChain chain;
+      chain.n = n;
+      if (quick)
+        chain.duration = 1.0;
+      ScenarioParameters p;
+      p.chain.num_particles = n;
+      p.chain.link_length = chain.link_length;
+      p.chain.particle_mass = chain.particle_mass;
+      p.gravity = Vec3(0, 0, chain.gravity);
+      const Scenario scenario = buildScenario("chain", p);
+      StepSettings s;
+      s.dt = chain.dt;
+      s.integrator = integrator;
+      s.stabilization = Stabilization::Projection;
+      Simulator simulator(scenario.scene, scenario.initial_state, s);
+      const long steps = std::lround(chain.duration / chain.dt);
+      const double e0 = simulator.diagnostics().totalEnergy();
+      bench::PeerResult r;
+      r.engine = "constrained_particles";
+      r.method = std::string(integratorName(integrator)) +
+                 (integrator == Integrator::VelocityVerlet ? "" : "+projection");
+      r.n = n;
+      r.dt = chain.dt;
+      double cpu = 0, error_sum = 0;
+      long samples = 0;
+      for (long k = 0; k < steps; k += 10)
+      {
+        const double start = bench::threadCpuSeconds();
+        simulator.step(10);
+        cpu += bench::threadCpuSeconds() - start;
+        r.steps_run += 10;
+        const Diagnostics d = simulator.diagnostics();
+        if (!d.finite())
+        {
+          r.finite = false;
+          break;
+        }
+        r.link_error_max = std::max(r.link_error_max, d.max_position_error);
+        error_sum += d.max_position_error;
+        ++samples;
+        r.energy_drift = std::max(r.energy_drift, std::abs(d.totalEnergy() - e0));
+      }
+      r.time_per_step = cpu / r.steps_run;
+      r.link_error_mean = samples ? error_sum / samples : NAN;
+      r.note = "max over links sampled every 10 steps";
+      csv << r.csv() << "\n";
+      csv.flush();
+      std::cerr << "[peers] " << r.engine << " " << r.method << " n = " << n << ": "
+                << r.time_per_step * 1e6 << " us/step, link error max " << r.link_error_max
+                << " m\n";
+    }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  if (argc < 2)
+  {
+    std::cerr << "usage: " << argv[0] << " work_precision|scaling|peers [--out DIR] [--quick]\n";
+    return 2;
+  }
+  const std::string mode = argv[1];
+  std::string out = ".";
+  bool quick = false;
+  for (int i = 2; i < argc; ++i)
+  {
+    const std::string arg = argv[i];
+    if (arg == "--out" && i + 1 < argc)
+      out = argv[++i];
+    else if (arg == "--quick")
+      quick = true;
+    else
+    {
+      std::cerr << "unknown argument " << arg << "\n";
+      return 2;
+    }
+  }
+  if (mode == "work_precision")
+    return workPrecision(out, quick);
+  if (mode == "scaling")
+    return scaling(out, quick);
+  if (mode == "peers")
+    return peers(out, quick);
+  std::cerr << "unknown mode " << mode << "\n";
+  return 2;
+}
