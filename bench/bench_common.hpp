@@ -2,6 +2,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -72,5 +73,62 @@ struct PeerResult
     return line;
   }
 };
+
+/// A run projected to take more CPU than this is cut short and says so in its note [s].
+constexpr double MAX_PEER_RUN_CPU = 120.0;
+
+/// Steps a peer chain for its duration, timing only `step()`; every 10 steps (and when cut
+/// short) samples `link_error()` (max over links and pin [m], NaN if the state is not finite)
+/// and `energy()` [J].
+template <typename StepFn, typename LinkErrorFn, typename EnergyFn>
+void runPeerChain(const PeerChain& chain, PeerResult& r, StepFn step, LinkErrorFn link_error,
+                  EnergyFn energy)
+{
+  r.n = chain.n;
+  r.dt = chain.dt;
+  const long steps = std::lround(chain.duration / chain.dt);
+  const double e0 = energy();
+  double cpu = 0, error_sum = 0;
+  long samples = 0;
+  for (long k = 1; k <= steps; ++k)
+  {
+    const double start = threadCpuSeconds();
+    step();
+    cpu += threadCpuSeconds() - start;
+    r.steps_run = k;
+    const bool cut = k >= 3 && k < steps && cpu / k * steps > MAX_PEER_RUN_CPU;
+    if (k % 10 != 0 && k != steps && !cut)
+      continue;
+    const double error = link_error();
+    if (!std::isfinite(error))
+    {
+      r.finite = false;
+      break;
+    }
+    r.link_error_max = std::max(r.link_error_max, error);
+    error_sum += error;
+    ++samples;
+    r.energy_drift = std::max(r.energy_drift, std::abs(energy() - e0));
+    if (cut)
+    {
+      r.note = "cut short after " + std::to_string(k) + " of " + std::to_string(steps) +
+               " steps (projected over " + std::to_string(static_cast<int>(MAX_PEER_RUN_CPU)) +
+               " s CPU)";
+      break;
+    }
+  }
+  r.time_per_step = cpu / std::max(1L, r.steps_run);
+  r.link_error_mean = samples ? error_sum / samples : NAN;
+  if (r.note.empty())
+    r.note = "errors sampled every 10 steps";
+}
+
+/// Prints one result line to stderr (progress).
+inline void reportPeer(const PeerResult& r)
+{
+  std::fprintf(stderr, "[peers] %s %s n = %d: %.1f us/step, link error max %.3g m%s\n",
+               r.engine.c_str(), r.method.c_str(), r.n, r.time_per_step * 1e6, r.link_error_max,
+               r.finite ? "" : " (non-finite)");
+}
 
 }  // namespace bench

@@ -175,20 +175,22 @@ Points reference(const Workload& w, double& uncertainty)
   if (w.exact)
   {
     uncertainty = 0.0;
-    return w.exact(w.duration);
+    return w.exact(w.duration);  // runs end within round-off of w.duration
   }
-  auto converged = [&](double tolerance)
+  // the check takes a different step sequence (half the output step): identical sequences
+  // would agree whatever their error
+  auto converged = [&](double dt, double tolerance)
   {
     StepSettings s;
-    s.dt = 1e-3;
+    s.dt = dt;
     s.integrator = Integrator::DormandPrince;
     s.stabilization = Stabilization::Projection;
     s.projection_tolerance = 1e-13;
     s.adaptive_tolerance = tolerance;
     return runOnce(w, s).final_state.positions;
   };
-  const Points tight = converged(1e-13);
-  uncertainty = maxDistance(tight, converged(1e-12));
+  const Points tight = converged(1e-3, 1e-13);
+  uncertainty = maxDistance(tight, converged(5e-4, 1e-12));
   return tight;
 }
 
@@ -236,7 +238,8 @@ std::optional<double> observedOrder(const std::vector<std::pair<double, double>>
 
 int workPrecision(const std::string& out, bool quick)
 {
-  std::vector<double> dts = { 1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6 };
+  // every dt divides the 1 s span exactly, so every run ends at the reference's time
+  std::vector<double> dts = { 1e-1, 2e-2, 1e-2, 2e-3, 1e-3, 2e-4, 1e-4, 2e-5, 1e-5, 2e-6, 1e-6 };
   std::vector<double> tolerances = {
     1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12
   };
@@ -303,7 +306,14 @@ int workPrecision(const std::string& out, bool quick)
         }
         std::cerr << "\n";
         // round-off floor: well above the reference's own uncertainty and 1e-12 m
-        const auto order = observedOrder(dt_error, std::max(1e-12, 100 * uncertainty), 1e-2);
+        // between the pre-asymptotic range and round-off: 100x above the smallest error of the
+        // sweep (where round-off takes over), the reference's own error, and 1e-11 m
+        double floor = INFINITY;
+        for (const auto& point : dt_error)
+          if (std::isfinite(point.second))
+            floor = std::min(floor, point.second);
+        const auto order =
+            observedOrder(dt_error, std::max({ 1e-11, 100 * uncertainty, 100 * floor }), 1e-3);
         orders << w.name << "," << integratorName(integrator) << ","
                << (integrator == Integrator::VelocityVerlet ? "rattle"
                                                             : stabilizationName(stabilization))
@@ -330,12 +340,17 @@ int workPrecision(const std::string& out, bool quick)
   return 0;
 }
 
-// steady-state CPU time of one step of a horizontally released pinned chain
-double secondsPerStep(int n, SolveMethod method, Integrator integrator, double budget)
+/// Links of the scaling chain [m]: fixed, so that every n sees the same motion per link.
+constexpr double SCALING_LINK_LENGTH = 0.01;
+
+// CPU time of one step of a horizontally released pinned chain, from its first steps;
+// `newton_iterations` gets the position projection's iterations in the last step
+double secondsPerStep(int n, SolveMethod method, Integrator integrator, double budget,
+                      int& newton_iterations)
 {
   ScenarioParameters p;
   p.chain.num_particles = n;
-  p.chain.link_length = 1.0 / std::max(1, n - 1);
+  p.chain.link_length = SCALING_LINK_LENGTH;
   p.chain.particle_mass = 0.1;
   const Scenario scenario = buildScenario("chain", p);
   StepSettings s;
@@ -358,6 +373,7 @@ double secondsPerStep(int n, SolveMethod method, Integrator integrator, double b
     } while (elapsed < budget / REPEATS);
     per_step.push_back(elapsed / steps);
   }
+  newton_iterations = simulator.lastStepReport().projection.iterations;
   return bench::median(per_step);
 }
 
@@ -367,7 +383,7 @@ int scaling(const std::string& out, bool quick)
   if (quick)
     sizes = { 10, 100, 1000, 10000 };
   std::ofstream csv(out + "/scaling.csv");
-  csv << "n,solve,integrator,seconds_per_step,particle_steps_per_second\n";
+  csv << "n,solve,integrator,seconds_per_step,particle_steps_per_second,newton_iterations\n";
   const std::vector<std::pair<SolveMethod, int>> methods = { { SolveMethod::Tridiagonal, 1000000 },
                                                              { SolveMethod::Sparse, 1000000 },
                                                              { SolveMethod::Dense, 1000 } };
@@ -380,9 +396,10 @@ int scaling(const std::string& out, bool quick)
       {
         if (n > max_n)
           continue;
-        const double seconds = secondsPerStep(n, method, integrator, quick ? 0.3 : 1.5);
+        int iterations = 0;
+        const double seconds = secondsPerStep(n, method, integrator, quick ? 0.3 : 1.5, iterations);
         csv << n << "," << solveMethodName(method) << "," << integratorName(integrator) << ","
-            << seconds << "," << n / seconds << "\n";
+            << seconds << "," << n / seconds << "," << iterations << "\n";
         csv.flush();
         std::cerr << "[scaling] " << integratorName(integrator) << " " << solveMethodName(method)
                   << " n = " << n << ": " << seconds * 1e6 << " us/step, " << n / seconds / 1e6
@@ -397,9 +414,15 @@ int peers(const std::string& out, bool quick)
 {
   std::ofstream csv(out + "/peers_constrained_particles.csv");
   csv << bench::peerCsvHeader() << "\n";
+  // the last variant holds links to round-off, for comparison with reduced coordinates
+  const std::vector<std::pair<Integrator, double>> variants = {
+    { Integrator::SemiImplicitEuler, 1e-10 },
+    { Integrator::VelocityVerlet, 1e-10 },
+    { Integrator::RK4, 1e-10 },
+    { Integrator::RK4, 1e-13 },
+  };
   for (int n : bench::peerChainSizes())
-    for (Integrator integrator :
-         { Integrator::SemiImplicitEuler, Integrator::VelocityVerlet, Integrator::RK4 })
+    for (const auto& [integrator, tolerance] : variants)
     {
       bench::PeerChain chain;
       chain.n = n;
@@ -415,42 +438,24 @@ int peers(const std::string& out, bool quick)
       s.dt = chain.dt;
       s.integrator = integrator;
       s.stabilization = Stabilization::Projection;
+      s.projection_tolerance = tolerance;
       Simulator simulator(scenario.scene, scenario.initial_state, s);
-      const long steps = std::lround(chain.duration / chain.dt);
-      const double e0 = simulator.diagnostics().totalEnergy();
       bench::PeerResult r;
       r.engine = "constrained_particles";
       r.method = std::string(integratorName(integrator)) +
-                 (integrator == Integrator::VelocityVerlet ? "" : "+projection");
-      r.n = n;
-      r.dt = chain.dt;
-      double cpu = 0, error_sum = 0;
-      long samples = 0;
-      for (long k = 0; k < steps; k += 10)
-      {
-        const double start = bench::threadCpuSeconds();
-        simulator.step(10);
-        cpu += bench::threadCpuSeconds() - start;
-        r.steps_run += 10;
-        const Diagnostics d = simulator.diagnostics();
-        if (!d.finite())
-        {
-          r.finite = false;
-          break;
-        }
-        r.link_error_max = std::max(r.link_error_max, d.max_position_error);
-        error_sum += d.max_position_error;
-        ++samples;
-        r.energy_drift = std::max(r.energy_drift, std::abs(d.totalEnergy() - e0));
-      }
-      r.time_per_step = cpu / r.steps_run;
-      r.link_error_mean = samples ? error_sum / samples : NAN;
-      r.note = "max over links sampled every 10 steps";
+                 (integrator == Integrator::VelocityVerlet ? "" : "+projection") +
+                 (tolerance < 1e-10 ? "_tol_1e-13" : "");
+      bench::runPeerChain(
+          chain, r, [&] { simulator.step(); },
+          [&]
+          {
+            const Diagnostics d = simulator.diagnostics();
+            return d.finite() ? d.max_position_error : NAN;
+          },
+          [&] { return simulator.diagnostics().totalEnergy(); });
       csv << r.csv() << "\n";
       csv.flush();
-      std::cerr << "[peers] " << r.engine << " " << r.method << " n = " << n << ": "
-                << r.time_per_step * 1e6 << " us/step, link error max " << r.link_error_max
-                << " m\n";
+      bench::reportPeer(r);
     }
   return 0;
 }

@@ -13,9 +13,12 @@ PACKAGES=(
   python3-geometry-msgs python3-visualization-msgs python3-tf2-msgs
   python3-std-srvs python3-catkin-pkg python3-tf2-ros python3-dynamic-reconfigure
 )
-# Optional extras (rviz, Xvfb) are requested with WITH_RVIZ=1.
+# Optional extras: rviz and Xvfb (WITH_RVIZ=1); the benchmark's peers and plots (WITH_BENCH=1).
 if [[ "${WITH_RVIZ:-0}" == 1 ]]; then
   PACKAGES+=(rviz xvfb x11-apps imagemagick)
+fi
+if [[ "${WITH_BENCH:-0}" == 1 ]]; then
+  PACKAGES+=(libode-dev libmujoco-dev python3-matplotlib)
 fi
 
 missing=()

@@ -55,7 +55,7 @@ ConstraintSolver::ConstraintSolver(const Model& model) : model_(&model)
         RowIncidence a = incidence[start[i]], b = incidence[start[i] + 1];
         if (a.row > b.row)
           std::swap(a, b);
-        couplings_.push_back(Coupling{ i, a.row, a.slot, b.slot });
+        couplings_.push_back(Coupling{ i, a.row, (a.slot == b.slot) ? 1.0 : -1.0 });
       }
     std::stable_sort(couplings_.begin(), couplings_.end(),
                      [](const Coupling& x, const Coupling& y) { return x.upper < y.upper; });
@@ -110,9 +110,10 @@ void ConstraintSolver::assembleTridiagonalRow(int r, std::size_t& next_coupling)
   // diagonal: the row's own touches; off-diagonal: the particle it shares with row r - 1
   const auto& w = model_->inverseMasses();
   const ConstraintRow& row = rows_[r];
-  double d = w[row.particle[0]] * row.gradient[0].squaredNorm();
+  double d = w[row.particle[0]];
   if (row.particle[1] >= 0)
-    d += w[row.particle[1]] * row.gradient[1].squaredNorm();
+    d += w[row.particle[1]];
+  d *= row.gradient.squaredNorm();
   diagonal_[r] = d;
   if (r == 0)
     return;
@@ -121,7 +122,7 @@ void ConstraintSolver::assembleTridiagonalRow(int r, std::size_t& next_coupling)
        ++next_coupling)
   {
     const Coupling& c = couplings_[next_coupling];
-    off += w[c.particle] * rows_[r - 1].gradient[c.upper_slot].dot(row.gradient[c.lower_slot]);
+    off += c.sign * w[c.particle] * rows_[r - 1].gradient.dot(row.gradient);
   }
   off_diagonal_[r - 1] = off;
 }
@@ -208,13 +209,13 @@ SolveReport ConstraintSolver::factorizeSparse()
     for (int a = start[i]; a < start[i + 1]; ++a)
     {
       const RowIncidence& ra = incidence[a];
-      const Vec3& ga = rows_[ra.row].gradient[ra.slot];
+      const Vec3 ga = rows_[ra.row].gradientOf(ra.slot);
       s.triplets.emplace_back(ra.row, ra.row, w[i] * ga.squaredNorm());
       for (int b = start[i]; b < start[i + 1]; ++b)
       {
         const RowIncidence& rb = incidence[b];
         if (rb.row > ra.row)  // lower triangle only
-          s.triplets.emplace_back(rb.row, ra.row, w[i] * ga.dot(rows_[rb.row].gradient[rb.slot]));
+          s.triplets.emplace_back(rb.row, ra.row, w[i] * ga.dot(rows_[rb.row].gradientOf(rb.slot)));
       }
     }
   s.matrix.setFromTriplets(s.triplets.begin(), s.triplets.end());
@@ -320,9 +321,10 @@ void ConstraintSolver::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) co
   {
     Vec3 force = Vec3::Zero();
     for (int a = start[i]; a < start[i + 1]; ++a)
-      force += rows_[incidence[a].row].gradient[incidence[a].slot] * x[incidence[a].row];
+      force += rows_[incidence[a].row].gradientOf(incidence[a].slot) * x[incidence[a].row];
     for (int a = start[i]; a < start[i + 1]; ++a)
-      y[incidence[a].row] += w[i] * rows_[incidence[a].row].gradient[incidence[a].slot].dot(force);
+      y[incidence[a].row] +=
+          w[i] * rows_[incidence[a].row].gradientOf(incidence[a].slot).dot(force);
   }
 }
 
@@ -332,9 +334,10 @@ void ConstraintSolver::multiplyJacobian(const Points& x, Eigen::VectorXd& y) con
   for (std::size_t r = 0; r < rows_.size(); ++r)
   {
     const ConstraintRow& row = rows_[r];
-    double sum = row.gradient[0].dot(x.col(row.particle[0]));
+    Vec3 relative = x.col(row.particle[0]);
     if (row.particle[1] >= 0)
-      sum += row.gradient[1].dot(x.col(row.particle[1]));
+      relative -= x.col(row.particle[1]);
+    const double sum = row.gradient.dot(relative);
     y[r] = sum;
   }
 }
@@ -346,9 +349,10 @@ void ConstraintSolver::multiplyJacobianInverseMass(const Points& x, Eigen::Vecto
   for (std::size_t r = 0; r < rows_.size(); ++r)
   {
     const ConstraintRow& row = rows_[r];
-    double sum = w[row.particle[0]] * row.gradient[0].dot(x.col(row.particle[0]));
+    Vec3 weighted = w[row.particle[0]] * x.col(row.particle[0]);
     if (row.particle[1] >= 0)
-      sum += w[row.particle[1]] * row.gradient[1].dot(x.col(row.particle[1]));
+      weighted -= w[row.particle[1]] * x.col(row.particle[1]);
+    const double sum = row.gradient.dot(weighted);
     y[r] = sum;
   }
 }
@@ -358,9 +362,10 @@ void ConstraintSolver::addJacobianTranspose(const Eigen::VectorXd& lambda, Point
   for (std::size_t r = 0; r < rows_.size(); ++r)
   {
     const ConstraintRow& row = rows_[r];
-    out.col(row.particle[0]) += row.gradient[0] * lambda[r];
+    const Vec3 force = row.gradient * lambda[r];
+    out.col(row.particle[0]) += force;
     if (row.particle[1] >= 0)
-      out.col(row.particle[1]) += row.gradient[1] * lambda[r];
+      out.col(row.particle[1]) -= force;
   }
 }
 
@@ -372,9 +377,9 @@ void ConstraintSolver::addInverseMassJacobianTranspose(const Eigen::VectorXd& la
   {
     const ConstraintRow& row = rows_[r];
     const double s = scale * lambda[r];
-    out.col(row.particle[0]) += (w[row.particle[0]] * s) * row.gradient[0];
+    out.col(row.particle[0]) += (w[row.particle[0]] * s) * row.gradient;
     if (row.particle[1] >= 0)
-      out.col(row.particle[1]) += (w[row.particle[1]] * s) * row.gradient[1];
+      out.col(row.particle[1]) -= (w[row.particle[1]] * s) * row.gradient;
   }
 }
 
@@ -392,7 +397,7 @@ Eigen::MatrixXd ConstraintSolver::denseMatrix() const
         const RowIncidence& ra = incidence[a];
         const RowIncidence& rb = incidence[b];
         matrix(ra.row, rb.row) +=
-            w[i] * rows_[ra.row].gradient[ra.slot].dot(rows_[rb.row].gradient[rb.slot]);
+            w[i] * rows_[ra.row].gradientOf(ra.slot).dot(rows_[rb.row].gradientOf(rb.slot));
       }
   return matrix;
 }

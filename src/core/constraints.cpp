@@ -12,8 +12,7 @@ void evaluateRow(const SurfaceConstraint& constraint, const Surface& surface,
   const double* v = velocities.data() + 3 * i;
   const SurfaceSample s = evaluateSurface(surface, p[0], p[1]);
   row.particle = { { i, -1 } };
-  row.gradient[0] = Vec3(s.zx, s.zy, -1.0);
-  row.gradient[1].setZero();
+  row.gradient = Vec3(s.zx, s.zy, -1.0);
   row.value = s.z - p[2];
   row.jdot_v = s.zxx * v[0] * v[0] + 2.0 * s.zxy * v[0] * v[1] + s.zyy * v[1] * v[1];
   row.metric_error = std::abs(row.value);
@@ -32,8 +31,7 @@ void evaluateRow(const LinkConstraint& constraint, const Points& positions,
   const double squared = dx * dx + dy * dy + dz * dz;
   const double distance = std::sqrt(squared);
   row.particle = { { i, j } };
-  row.gradient[0] = Vec3(dx, dy, dz);
-  row.gradient[1] = Vec3(-dx, -dy, -dz);
+  row.gradient = Vec3(dx, dy, dz);
   row.value = 0.5 * (squared - constraint.length * constraint.length);
   row.jdot_v = ux * ux + uy * uy + uz * uz;
   row.metric_error = std::abs(distance - constraint.length);
@@ -42,16 +40,16 @@ void evaluateRow(const LinkConstraint& constraint, const Points& positions,
 double metricRate(const SurfaceConstraint& constraint, const ConstraintRow& row,
                   const Points& velocities)
 {
-  return std::abs(row.gradient[0].dot(velocities.col(constraint.particle)));
+  return std::abs(row.gradient.dot(velocities.col(constraint.particle)));
 }
 
 double metricRate(const LinkConstraint& constraint, const ConstraintRow& row,
                   const Points& velocities)
 {
   const Vec3 relative = velocities.col(constraint.first) - velocities.col(constraint.second);
-  const double distance = row.gradient[0].norm();
+  const double distance = row.gradient.norm();
   // coincident particles have no defined direction: report the relative speed instead
-  return distance > 0.0 ? std::abs(row.gradient[0].dot(relative)) / distance : relative.norm();
+  return distance > 0.0 ? std::abs(row.gradient.dot(relative)) / distance : relative.norm();
 }
 
 double constraintValue(const SurfaceConstraint& constraint, const Surface& surface,

@@ -158,9 +158,10 @@ SolveReport Dynamics::computeAccelerations(const Points& positions, const Points
       for (int r = 0; r < m; ++r)
       {
         const ConstraintRow& row = rows[r];
-        double c_dot = row.gradient[0].dot(velocities.col(row.particle[0]));
+        Vec3 relative = velocities.col(row.particle[0]);
         if (row.particle[1] >= 0)
-          c_dot += row.gradient[1].dot(velocities.col(row.particle[1]));
+          relative -= velocities.col(row.particle[1]);
+        const double c_dot = row.gradient.dot(relative);
         rhs_[r] -= damping * c_dot + stiffness * row.value;
       }
     }
@@ -240,7 +241,7 @@ ProjectionReport Dynamics::projectPositions(Points& positions, double tolerance,
 }
 
 ProjectionReport Dynamics::shakePositions(const Points& reference, Points& positions,
-                                          double tolerance, int max_iterations)
+                                          double tolerance, int max_iterations, Points* corrections)
 {
   ProjectionReport report;
   applyPins(positions);
@@ -263,13 +264,20 @@ ProjectionReport Dynamics::shakePositions(const Points& reference, Points& posit
       rhs_[r] = trial_rows_[r].value;
     solver_.solveInPlace(rhs_);
     solver_.addInverseMassJacobianTranspose(rhs_, -1.0, positions);
+    if (corrections)
+      solver_.addInverseMassJacobianTranspose(rhs_, -1.0, *corrections);
     report.iterations = iteration + 1;
   }
   if (!report.converged && std::isfinite(report.max_position_error))
   {
     const int shake_iterations = report.iterations;
+    Points& before = scratch_[NUM_SCRATCH - 1];
+    if (corrections)
+      before = positions;
     report = projectPositions(positions, tolerance, max_iterations);
     report.iterations += shake_iterations;
+    if (corrections)
+      *corrections += positions - before;
   }
   return report;
 }
@@ -399,9 +407,13 @@ StepReport step(const StepSettings& settings, State& state, Dynamics& dynamics)
       for (int i = 0; i < n; ++i)
         v.col(i) += (0.5 * dt * w[i]) * f_start.col(i);
       p += dt * v;
+      // v_n+1/2 = (p_n+1 - p_n) / dt, formed as v + correction / dt: subtracting positions
+      // would turn their round-off into a velocity error that grows like 1 / dt
+      Points& correction = dynamics.scratch(1);
+      correction.setZero();
       report.projection = dynamics.shakePositions(p_old, p, settings.projection_tolerance,
-                                                  settings.projection_max_iterations);
-      v = (p - p_old) / dt;
+                                                  settings.projection_max_iterations, &correction);
+      v += correction / dt;
       const Points& f_end = dynamics.computeAppliedForces(v);
       for (int i = 0; i < n; ++i)
         v.col(i) += (0.5 * dt * w[i]) * f_end.col(i);

@@ -35,9 +35,9 @@ double numericalJdotV(const Points& positions, const Points& velocities, RowFn r
   {
     const Points p = positions + t * velocities;
     const ConstraintRow row = row_at(p);
-    double sum = row.gradient[0].dot(velocities.col(row.particle[0]));
+    double sum = row.gradientOf(0).dot(velocities.col(row.particle[0]));
     if (row.particle[1] >= 0)
-      sum += row.gradient[1].dot(velocities.col(row.particle[1]));
+      sum += row.gradientOf(1).dot(velocities.col(row.particle[1]));
     return sum;
   };
   return (jv(FD_STEP) - jv(-FD_STEP)) / (2 * FD_STEP);
@@ -46,9 +46,9 @@ double numericalJdotV(const Points& positions, const Points& velocities, RowFn r
 void expectRowMatches(const ConstraintRow& row, const Points& numerical_jacobian, double tolerance)
 {
   Points analytic = Points::Zero(3, numerical_jacobian.cols());
-  analytic.col(row.particle[0]) += row.gradient[0];
+  analytic.col(row.particle[0]) += row.gradientOf(0);
   if (row.particle[1] >= 0)
-    analytic.col(row.particle[1]) += row.gradient[1];
+    analytic.col(row.particle[1]) += row.gradientOf(1);
   EXPECT_LE((analytic - numerical_jacobian).cwiseAbs().maxCoeff(), tolerance)
       << "analytic\n"
       << analytic << "\nnumerical\n"

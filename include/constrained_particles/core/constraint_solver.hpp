@@ -107,7 +107,8 @@ private:
   /// A free particle shared by rows `upper` and `upper + 1` (tridiagonal assembly).
   struct Coupling
   {
-    int particle, upper, upper_slot, lower_slot;
+    int particle, upper;
+    double sign;  ///< product of the two rows' block signs at the particle (+1 or -1)
   };
   std::vector<Coupling> couplings_;
   struct SparseState;

@@ -47,10 +47,18 @@ using Constraint = std::variant<SurfaceConstraint, LinkConstraint, PinConstraint
 struct ConstraintRow
 {
   std::array<int, 2> particle{ { -1, -1 } };  ///< particles touched; -1 = unused slot
-  std::array<Vec3, 2> gradient;               ///< dC/dp for each touched particle
-  double value = 0;                           ///< C
-  double jdot_v = 0;                          ///< Jdot v
-  double metric_error = 0;                    ///< position error [m] (|Z - z|, ||d| - l|)
+  /// dC/dp of the first particle. Every two-particle constraint here depends on p_i - p_j, so
+  /// the second particle's block is -gradient: storing one block halves the row's traffic.
+  Vec3 gradient = Vec3::Zero();
+  double value = 0;   ///< C
+  double jdot_v = 0;  ///< Jdot v
+  double metric_error = 0;
+
+  /// dC/dp of the particle in `slot` (0 or 1).
+  Vec3 gradientOf(int slot) const
+  {
+    return slot == 0 ? gradient : Vec3(-gradient);
+  }  ///< position error [m] (|Z - z|, ||d| - l|)
 };
 
 /// Evaluates a surface constraint's row at positions p and velocities v into `row`. Stateless.

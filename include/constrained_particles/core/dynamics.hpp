@@ -122,8 +122,10 @@ public:
   /// SHAKE: moves positions onto C = 0 along the fixed directions W J(reference)^T (the
   /// constraint forces of a step that started at `reference`), falling back to
   /// projectPositions() if that does not converge in max_iterations.
+  /// @param corrections if given, the displacement SHAKE applies is added to it, summed from the
+  /// small corrections themselves (no cancellation against the positions)
   ProjectionReport shakePositions(const Points& reference, Points& positions, double tolerance,
-                                  int max_iterations);
+                                  int max_iterations, Points* corrections = nullptr);
 
   /// Applied forces alone at velocities v [N] (no constraint solve).
   const Points& computeAppliedForces(const Points& velocities);

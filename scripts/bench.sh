@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# What accuracy costs: runs every benchmark and draws the diagrams into docs/bench/
+# (CSV, PNG and summary.md). Installs the peers (ODE 0.16, MuJoCo 2.2.2) and matplotlib from
+# Debian's packages. Takes about 15 minutes on 2 cores; progress goes to stderr.
+# Usage: scripts/bench.sh [--quick]   (--quick: a small sweep for a smoke test, into build/bench)
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+QUICK=()
+OUT="$ROOT/docs/bench"
+if [[ "${1:-}" == "--quick" ]]; then
+  QUICK=(--quick)
+  OUT="$ROOT/build/bench"
+fi
+WITH_BENCH=1 bash "$ROOT/scripts/install_deps.sh"
+LOG="$(mktemp)"
+bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1 || { cat "$LOG"; exit 1; }
+rm -f "$LOG"
+BIN="$ROOT/build/ws/devel/lib/constrained_particles"
+mkdir -p "$OUT"
+
+"$BIN/constrained_particles_bench" work_precision --out "$OUT" "${QUICK[@]}"
+"$BIN/constrained_particles_bench" scaling --out "$OUT" "${QUICK[@]}"
+# peers, side by side in the same run
+"$BIN/constrained_particles_bench" peers --out "$OUT" "${QUICK[@]}"
+for peer in bench_peer_ode bench_peer_mujoco; do
+  if [[ -x "$BIN/$peer" ]]; then
+    "$BIN/$peer" --out "$OUT" "${QUICK[@]}"
+  else
+    echo "$peer not built (its library is missing): skipped" >&2
+  fi
+done
+/usr/bin/python3 "$ROOT/scripts/bench_report.py" "$OUT"
+echo "wrote $OUT" >&2
