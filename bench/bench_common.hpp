@@ -123,6 +123,43 @@ void runPeerChain(const PeerChain& chain, PeerResult& r, StepFn step, LinkErrorF
     r.note = "errors sampled every 10 steps";
 }
 
+/// A peer program's command line: `[--out DIR] [--quick]`.
+struct PeerArguments
+{
+  std::string out = ".";
+  bool quick = false;  ///< 1 s runs instead of the full duration
+
+  PeerArguments(int argc, char** argv)
+  {
+    for (int i = 1; i < argc; ++i)
+    {
+      const std::string arg = argv[i];
+      if (arg == "--out" && i + 1 < argc)
+        out = argv[++i];
+      else if (arg == "--quick")
+        quick = true;
+    }
+  }
+
+  /// The chain for size n, shortened in quick mode.
+  PeerChain chain(int n) const
+  {
+    PeerChain c;
+    c.n = n;
+    if (quick)
+      c.duration = 1.0;
+    return c;
+  }
+
+  /// Opens `<out>/<file>` with the CSV header written.
+  std::ofstream openCsv(const std::string& file) const
+  {
+    std::ofstream csv(out + "/" + file);
+    csv << peerCsvHeader() << "\n";
+    return csv;
+  }
+};
+
 /// Prints one result line to stderr (progress).
 inline void reportPeer(const PeerResult& r)
 {

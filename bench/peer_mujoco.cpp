@@ -9,7 +9,6 @@
 
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <sstream>
@@ -104,26 +103,13 @@ bench::PeerResult run(const bench::PeerChain& chain, const std::string& folder)
 
 int main(int argc, char** argv)
 {
-  std::string out = ".";
-  bool quick = false;
-  for (int i = 1; i < argc; ++i)
-  {
-    if (!std::strcmp(argv[i], "--out") && i + 1 < argc)
-      out = argv[++i];
-    else if (!std::strcmp(argv[i], "--quick"))
-      quick = true;
-  }
+  const bench::PeerArguments arguments(argc, argv);
   char folder_template[] = "/tmp/peer_mujoco_XXXXXX";
   const std::string folder = mkdtemp(folder_template);
-  std::ofstream csv(out + "/peers_mujoco.csv");
-  csv << bench::peerCsvHeader() << "\n";
+  std::ofstream csv = arguments.openCsv("peers_mujoco.csv");
   for (int n : bench::peerChainSizes())
   {
-    bench::PeerChain chain;
-    chain.n = n;
-    if (quick)
-      chain.duration = 1.0;
-    const bench::PeerResult r = run(chain, folder);
+    const bench::PeerResult r = run(arguments.chain(n), folder);
     csv << r.csv() << "\n";
     csv.flush();
     bench::reportPeer(r);

@@ -8,7 +8,6 @@
 #include <ode/ode.h>
 
 #include <cmath>
-#include <cstring>
 #include <fstream>
 #include <iostream>
 
@@ -87,26 +86,13 @@ bench::PeerResult run(const bench::PeerChain& chain, bool quickstep)
 
 int main(int argc, char** argv)
 {
-  std::string out = ".";
-  bool quick = false;
-  for (int i = 1; i < argc; ++i)
-  {
-    if (!std::strcmp(argv[i], "--out") && i + 1 < argc)
-      out = argv[++i];
-    else if (!std::strcmp(argv[i], "--quick"))
-      quick = true;
-  }
+  const bench::PeerArguments arguments(argc, argv);
   dInitODE2(0);
-  std::ofstream csv(out + "/peers_ode.csv");
-  csv << bench::peerCsvHeader() << "\n";
+  std::ofstream csv = arguments.openCsv("peers_ode.csv");
   for (int n : bench::peerChainSizes())
     for (bool quickstep : { true, false })
     {
-      bench::PeerChain chain;
-      chain.n = n;
-      if (quick)
-        chain.duration = 1.0;
-      const bench::PeerResult r = run(chain, quickstep);
+      const bench::PeerResult r = run(arguments.chain(n), quickstep);
       csv << r.csv() << "\n";
       csv.flush();
       bench::reportPeer(r);
