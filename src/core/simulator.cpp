@@ -78,6 +78,12 @@ ProjectionReport Simulator::setState(const State& state)
   return report;
 }
 
+void Simulator::restoreState(const State& state)
+{
+  model_->validateState(state);
+  state_ = state;
+}
+
 void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
 {
   Compiled compiled = compile(scene, initial_state, settings_, method);

@@ -126,6 +126,7 @@ NodeParameters readParameters(const ros::NodeHandle& nh)
   readOptional(nh, "fixed_frame", "a string", p.fixed_frame);
   readOptional(nh, "frame_prefix", "a string", p.frame_prefix);
   readDouble(nh, "force_scale", p.force_scale);
+  readDouble(nh, "max_constraint_error", p.max_constraint_error);
   validateNodeParameters(p);
   return p;
 }
@@ -145,6 +146,7 @@ void validateNodeParameters(const NodeParameters& p)
   requireRange("~status_period", p.status_period, 0.0, false, 3600.0, "[s]");
   requireRange("~max_particles", p.max_particles, 1.0, false, MAX_PARTICLES, "[1]");
   requireRange("~force_scale", p.force_scale, 0.0, true, 1e3, "[m/N]");
+  requireRange("~max_constraint_error", p.max_constraint_error, 0.0, true, 1e3, "[m]");
   requireRange("~damping", p.scenario_parameters.damping, 0.0, false, 1e3, "[N s/m]");
   validateChain(p.scenario_parameters.chain, p.max_particles, "~chain/");
   asParameter([&] { validateScenarioParameters(p.scenario_parameters); });

@@ -3,6 +3,7 @@
 #include "constrained_particles/SimState.h"
 #include "constrained_particles/ros/conversions.hpp"
 
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/TransformStamped.h>
 
 #include <algorithm>
@@ -63,6 +64,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   state_publisher_ = nh_.advertise<SimState>("state", 10);
   force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 1);
   scene_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("scene", 1, true);
+  diagnostics_publisher_ =
+      ros::NodeHandle().advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 1);
 
   services_.push_back(nh_.advertiseService("reset", &SimulatorNode::resetCallback, this));
   services_.push_back(
@@ -82,6 +85,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
 
   publish_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / parameters_.publish_rate),
                                        [this](const ros::WallTimerEvent&) { publish(); });
+  diagnostics_timer_ =
+      nh_.createWallTimer(ros::WallDuration(1.0), &SimulatorNode::diagnosticsCallback, this);
   if (parameters_.status_period > 0.0)
     status_timer_ = nh_.createWallTimer(ros::WallDuration(parameters_.status_period),
                                         &SimulatorNode::statusCallback, this);
@@ -114,17 +119,31 @@ void SimulatorNode::reanchorLocked()
 
 void SimulatorNode::stepLocked(int count)
 {
+  last_good_state_ = simulator_->state();
   const auto start = Clock::now();
   simulator_->step(count);
   step_time_ = seconds(Clock::now() - start) / count;
-  if (!isFinite(simulator_->state()))
+  const State& state = simulator_->state();
+  if (!isFinite(state))
   {
-    faulted_ = true;
-    ROS_ERROR(
-        "simulator: the state became non-finite at t = %.6f s (step %llu); stepping "
-        "stopped, nothing more is published until ~reset",
-        simulator_->state().time, static_cast<unsigned long long>(simulator_->state().steps));
+    faultLocked("the state became non-finite between t = " + formatValue(last_good_state_.time) +
+                " s and t = " + formatValue(state.time) + " s");
+    return;
   }
+  const double error = simulator_->diagnostics().max_position_error;
+  if (!(error <= parameters_.max_constraint_error))
+    faultLocked("the constraint error reached " + formatValue(error) +
+                " m at t = " + formatValue(state.time) + " s, over ~max_constraint_error = " +
+                formatValue(parameters_.max_constraint_error) + " m");
+}
+
+void SimulatorNode::faultLocked(const std::string& reason)
+{
+  faulted_ = true;
+  fault_reason_ = reason + "; stepping stopped at the last good state (t = " +
+                  formatValue(last_good_state_.time) + " s); call ~reset";
+  simulator_->restoreState(last_good_state_);
+  ROS_ERROR("simulator: %s", fault_reason_.c_str());
 }
 
 void SimulatorNode::physicsLoop()
@@ -165,9 +184,11 @@ void SimulatorNode::publish()
   Snapshot snap;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (faulted_)
-      return;
     snap.scenario = scenario_;
+    snap.status = faulted_  ? SimState::STATUS_FAULT
+                  : paused_ ? SimState::STATUS_PAUSED
+                            : SimState::STATUS_RUNNING;
+    snap.status_message = faulted_ ? fault_reason_ : paused_ ? "paused" : "";
     snap.state = simulator_->state();
     if (want_state || want_forces)
       simulator_->constraintForces(snap.constraint_forces, snap.multipliers);
@@ -226,6 +247,8 @@ void SimulatorNode::publish()
     msg.kinetic_energy = snap.diagnostics.kinetic_energy;
     msg.potential_energy = snap.diagnostics.potential_energy;
     msg.step_time = snap.step_time;
+    msg.status = snap.status;
+    msg.status_message = snap.status_message;
     state_publisher_.publish(msg);
   }
   if (want_forces)
@@ -246,6 +269,7 @@ void SimulatorNode::rebuildLocked(const std::string& scenario)
   simulator_->setScene(built.scene, built.initial_state);
   scenario_ = scenario;
   faulted_ = false;
+  fault_reason_.clear();
   published_model_ = std::make_shared<const Model>(simulator_->model());
   scene_changed_ = true;
   reanchorLocked();
@@ -347,6 +371,7 @@ bool SimulatorNode::setStateCallback(SetState::Request& request, SetState::Respo
     return refuse(response, e.what());
   }
   faulted_ = false;
+  fault_reason_.clear();
   reanchorLocked();
   response.success = true;
   return true;
@@ -375,15 +400,15 @@ bool SimulatorNode::stepCallback(Step::Request& request, Step::Response& respons
     if (!paused_)
       return refuse(response, "the simulation is running: call ~pause before ~step");
     if (faulted_)
-      return refuse(response, "the state is non-finite: call ~reset first");
+      return refuse(response, "stepping is stopped (" + fault_reason_ + ")");
     if (request.steps < 1 || request.steps > MAX_STEPS_PER_CALL)
       return refuse(response, "steps = " + std::to_string(request.steps) + ", must be in [1, " +
                                   std::to_string(MAX_STEPS_PER_CALL) + "]");
     stepLocked(static_cast<int>(request.steps));
     response.sim_time = simulator_->state().time;
     response.success = !faulted_;
-    response.message = faulted_ ? "the state became non-finite; call ~reset"
-                                : "stepped " + std::to_string(request.steps) + " steps";
+    response.message =
+        faulted_ ? fault_reason_ : "stepped " + std::to_string(request.steps) + " steps";
   }
   publish();
   return true;
@@ -421,6 +446,40 @@ void SimulatorNode::reconfigureCallback(SimulatorConfig& config, uint32_t /*leve
     publish_timer_.setPeriod(ros::WallDuration(1.0 / candidate.publish_rate));
   parameters_ = candidate;
   reanchorLocked();
+}
+
+void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
+{
+  diagnostic_msgs::DiagnosticStatus status;
+  status.name = ros::this_node::getName() + ": physics";
+  status.hardware_id = "constrained_particles";
+  auto add = [&status](const std::string& key, const std::string& value)
+  {
+    diagnostic_msgs::KeyValue kv;
+    kv.key = key;
+    kv.value = value;
+    status.values.push_back(kv);
+  };
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const Diagnostics d = simulator_->diagnostics();
+    status.level =
+        faulted_ ? diagnostic_msgs::DiagnosticStatus::ERROR : diagnostic_msgs::DiagnosticStatus::OK;
+    status.message = faulted_ ? fault_reason_ : paused_ ? "paused" : "running";
+    add("scenario", scenario_);
+    add("particles", std::to_string(simulator_->model().numParticles()));
+    add("sim_time [s]", formatValue(simulator_->state().time));
+    add("steps", std::to_string(simulator_->state().steps));
+    add("max_position_error [m]", formatValue(d.max_position_error));
+    add("max_constraint_error [m]", formatValue(parameters_.max_constraint_error));
+    add("step_time [s]", formatValue(step_time_));
+    add("integrator", integratorName(parameters_.step.integrator));
+    add("stabilization", stabilizationName(parameters_.step.stabilization));
+  }
+  diagnostic_msgs::DiagnosticArray array;
+  array.header.stamp = ros::Time::now();
+  array.status.push_back(status);
+  diagnostics_publisher_.publish(array);
 }
 
 void SimulatorNode::statusCallback(const ros::WallTimerEvent&)

@@ -38,6 +38,10 @@ public:
   /// @throws InvalidInput naming the bad setting; settings untouched
   void setStepSettings(const StepSettings& settings);
 
+  /// Puts back a state taken earlier from state() (no projection: it was valid then).
+  /// @throws InvalidInput if it does not fit this model or is not finite; state untouched
+  void restoreState(const State& state);
+
   /// Replaces the scene's applied forces, keeping the state (e.g. gravity changed at run time).
   /// @throws InvalidInput naming the bad force; nothing changes
   void setForces(const std::vector<Force>& forces);

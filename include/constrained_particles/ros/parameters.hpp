@@ -24,6 +24,7 @@ struct NodeParameters
   std::string fixed_frame = "world";       ///< parent of every particle frame
   std::string frame_prefix = "particle_";  ///< child frame = prefix + index
   double force_scale = 0.05;               ///< arrow length per newton [m/N], (0, 1e3]
+  double max_constraint_error = 0.1;       ///< fault beyond this constraint error [m], (0, 1e3]
 };
 
 /// Largest dt the node accepts [s].

@@ -58,6 +58,8 @@ private:
     Eigen::VectorXd multipliers;
     Diagnostics diagnostics;
     double step_time = 0;
+    std::uint8_t status = 0;
+    std::string status_message;
     bool scene_changed = false;
     std::shared_ptr<const Model> model;  ///< only when scene markers are wanted
   };
@@ -79,6 +81,10 @@ private:
   bool stepCallback(Step::Request& request, Step::Response& response);
   void reconfigureCallback(SimulatorConfig& config, uint32_t level);
   void statusCallback(const ros::WallTimerEvent& event);
+  /// Publishes the node's health on /diagnostics.
+  void diagnosticsCallback(const ros::WallTimerEvent& event);
+  /// Stops stepping, puts back the last good state and logs why. Caller holds mutex_.
+  void faultLocked(const std::string& reason);
 
   ros::NodeHandle nh_;
   NodeParameters parameters_;
@@ -88,7 +94,9 @@ private:
   std::shared_ptr<const Model> published_model_;  // copy of the model for scene markers
   std::string scenario_;
   bool paused_ = false;
-  bool faulted_ = false;       // state became non-finite: stepping stopped until ~reset
+  bool faulted_ = false;  // stepping stopped until ~reset (fault_reason_ says why)
+  std::string fault_reason_;
+  State last_good_state_;      // before the last batch of steps
   bool scene_changed_ = true;  // scene markers need their mesh rebuilt
   double step_time_ = 0.0;     // wall time of the last physics step [s]
   Clock::time_point anchor_wall_;
@@ -100,10 +108,11 @@ private:
   int published_arrows_ = 0;  // publishing thread only
   SurfaceMeshCache mesh_cache_;
 
-  ros::Publisher state_publisher_, force_marker_publisher_, scene_marker_publisher_;
+  ros::Publisher state_publisher_, force_marker_publisher_, scene_marker_publisher_,
+      diagnostics_publisher_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::vector<ros::ServiceServer> services_;
-  ros::WallTimer publish_timer_, status_timer_;
+  ros::WallTimer publish_timer_, status_timer_, diagnostics_timer_;
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<SimulatorConfig>> reconfigure_server_;
 };
