@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# Builds the package in build/ws (a catkin workspace whose src/ links to this checkout).
+# Builds the package in build/ws (a catkin workspace whose src/ links to this checkout), or in
+# $CP_WORKSPACE if set.
 # Usage: scripts/build.sh [extra catkin_make arguments...]
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/install_deps.sh"
 
-WS="$ROOT/build/ws"
+WS="${CP_WORKSPACE:-$ROOT/build/ws}"
 PKG="$WS/src/constrained_particles"
 # link each top-level entry but build/: a link to the root would let rosrun's and rostest's
 # searches of the package loop through build/ws/src
