@@ -55,12 +55,7 @@ Model Model::compile(const Scene& scene, SolveMethod method)
   for (int i = 0; i < n; ++i)
     requirePositive("masses[" + std::to_string(i) + "]", scene.masses[i], "[kg]");
   for (std::size_t k = 0; k < scene.surfaces.size(); ++k)
-  {
-    const Surface& s = scene.surfaces[k];
-    std::vector<double> coefficients(s.coefficients.begin(), s.coefficients.end());
-    coefficients.resize(surfaceCoefficientSpecs(s.type).size());
-    makeSurface(s.type, coefficients, "surfaces[" + std::to_string(k) + "].coefficients");
-  }
+    validateSurface(scene.surfaces[k], "surfaces[" + std::to_string(k) + "]");
   for (std::size_t k = 0; k < scene.forces.size(); ++k)
     validateForce(scene.forces[k], n, "forces[" + std::to_string(k) + "]");
 

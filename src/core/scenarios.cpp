@@ -40,10 +40,7 @@ std::vector<std::string> scenarioNames()
 
 void validateScenarioParameters(const ScenarioParameters& parameters)
 {
-  const auto& specs = surfaceCoefficientSpecs(parameters.surface.type);
-  std::vector<double> coefficients(parameters.surface.coefficients.begin(),
-                                   parameters.surface.coefficients.begin() + specs.size());
-  makeSurface(parameters.surface.type, coefficients);
+  validateSurface(parameters.surface, "surface");
   const ChainParameters& chain = parameters.chain;
   if (chain.num_particles < 1 || chain.num_particles > MAX_PARTICLES)
   {

@@ -1,5 +1,6 @@
 #include "constrained_particles/core/surface.hpp"
 
+#include "constrained_particles/core/surface_expression.hpp"
 #include "constrained_particles/core/types.hpp"
 
 #include <cmath>
@@ -19,10 +20,13 @@ const char* const SURFACE_FORMULAS[] = {
   "Z = (curvature_x*x^2 - curvature_y*y^2)/2",
   "Z = amplitude*sin(wavenumber_x*x)*cos(wavenumber_y*y)",
   "Z = height*exp(-((x-center_x)^2 + (y-center_y)^2)/(2*width^2))",
+  "Z = a formula in x and y, e.g. 0.3*sin(2*x)*cos(y)",
 };
 
-const char* const SURFACE_NAMES[] = { "plane", "bowl", "saddle", "waves", "gaussian" };
-constexpr int NUM_SURFACE_TYPES = 5;
+const char* const SURFACE_NAMES[] = {
+  "plane", "bowl", "saddle", "waves", "gaussian", "expression"
+};
+constexpr int NUM_SURFACE_TYPES = 6;
 
 }  // namespace
 
@@ -77,6 +81,8 @@ SurfaceSample evaluateSurface(const Surface& surface, double x, double y)
       s.zyy = z * (dy * dy * inv_w2 - 1.0) * inv_w2;
       break;
     }
+    case SurfaceType::Expression:
+      return surface.expression->evaluate(x, y);
   }
   return s;
 }
@@ -124,6 +130,7 @@ const std::vector<CoefficientSpec>& surfaceCoefficientSpecs(SurfaceType type)
     { "wavenumber_x", "[rad/m]", 2.0, 0.0, false, 1e3 },
     { "wavenumber_y", "[rad/m]", 1.0, 0.0, false, 1e3 },
   };
+  static const std::vector<CoefficientSpec> NONE = {};
   static const std::vector<CoefficientSpec> GAUSSIAN = {
     { "height", "[m]", 0.5, -1e3, false, 1e3 },
     { "width", "[m]", 0.5, 1e-6, false, 1e6 },
@@ -142,6 +149,8 @@ const std::vector<CoefficientSpec>& surfaceCoefficientSpecs(SurfaceType type)
       return WAVES;
     case SurfaceType::Gaussian:
       return GAUSSIAN;
+    case SurfaceType::Expression:
+      return NONE;
   }
   throw InvalidInput("surface.type", "is not a known surface type");
 }
@@ -149,6 +158,10 @@ const std::vector<CoefficientSpec>& surfaceCoefficientSpecs(SurfaceType type)
 Surface makeSurface(SurfaceType type, const std::vector<double>& coefficients,
                     const std::string& field)
 {
+  if (type == SurfaceType::Expression)
+    throw InvalidInput(field,
+                       "cannot define surface 'expression': it takes a formula, not "
+                       "coefficients");
   const auto& specs = surfaceCoefficientSpecs(type);
   if (coefficients.size() > specs.size())
   {
@@ -180,6 +193,29 @@ Surface makeSurface(SurfaceType type, const std::vector<double>& coefficients,
 Surface makeSurface(const std::string& type_name, const std::vector<double>& coefficients)
 {
   return makeSurface(parseSurfaceType(type_name), coefficients);
+}
+
+Surface makeExpressionSurface(const std::string& formula, const std::string& field)
+{
+  Surface surface;
+  surface.type = SurfaceType::Expression;
+  surface.coefficients.fill(0.0);
+  surface.expression = SurfaceExpression::parse(formula, field);
+  return surface;
+}
+
+void validateSurface(const Surface& surface, const std::string& field)
+{
+  if (surface.type == SurfaceType::Expression)
+  {
+    if (!surface.expression)
+      throw InvalidInput(field + ".expression", "is missing for surface type 'expression'");
+    return;
+  }
+  const auto& specs = surfaceCoefficientSpecs(surface.type);
+  std::vector<double> coefficients(surface.coefficients.begin(),
+                                   surface.coefficients.begin() + specs.size());
+  makeSurface(surface.type, coefficients, field + ".coefficients");
 }
 
 std::string describeSurfaceTypes()

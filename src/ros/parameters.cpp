@@ -115,11 +115,15 @@ NodeParameters readParameters(const ros::NodeHandle& nh)
   readOptional(nh, "surface/type", "a string", surface_type);
   if (coefficients_set && !nh.getParam("surface/coefficients", coefficients))
     throw InvalidInput("~surface/coefficients", "must be a list of numbers");
+  std::string formula;
+  readOptional(nh, "surface/expression", "a string", formula);
   asParameter(
       [&]
       {
-        s.surface = makeSurface(parseSurfaceType(surface_type, "surface/type"), coefficients,
-                                "surface/coefficients");
+        const SurfaceType type = parseSurfaceType(surface_type, "surface/type");
+        s.surface = type == SurfaceType::Expression
+                        ? makeExpressionSurface(formula, "surface/expression")
+                        : makeSurface(type, coefficients, "surface/coefficients");
       });
 
   readOptional(nh, "max_particles", "an integer", p.max_particles);

@@ -299,8 +299,16 @@ bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface:
   const ScenarioParameters saved = parameters_.scenario_parameters;
   try
   {
-    parameters_.scenario_parameters.surface =
-        makeSurface(parseSurfaceType(request.type, "type"), request.coefficients, "coefficients");
+    const SurfaceType type = parseSurfaceType(request.type, "type");
+    if (type == SurfaceType::Expression)
+      parameters_.scenario_parameters.surface =
+          makeExpressionSurface(request.expression, "expression");
+    else if (!request.expression.empty())
+      throw InvalidInput("expression",
+                         "is only for type 'expression' (type is '" + request.type + "')");
+    else
+      parameters_.scenario_parameters.surface =
+          makeSurface(type, request.coefficients, "coefficients");
     rebuildLocked(scenario_);
   }
   catch (const InvalidInput& e)

@@ -65,7 +65,7 @@ class SimulatorInterfaceTest(unittest.TestCase):
     def setUp(self):
         # every test starts paused at a known scene: the default chain and surface
         self.pause()
-        self.assertTrue(self.set_surface("bowl", [1.0, 1.0]).success)
+        self.assertTrue(self.set_surface("bowl", [1.0, 1.0], "").success)
         self.assertTrue(self.set_chain(5, 0.5, 1.0, True).success)
         self.assertTrue(self.reset("surface_chain").success)
 
@@ -156,7 +156,7 @@ class SimulatorInterfaceTest(unittest.TestCase):
     # --- ~set_surface ---
 
     def test_set_surface(self):
-        response = self.set_surface("waves", [0.3, 2.0, 1.0])
+        response = self.set_surface("waves", [0.3, 2.0, 1.0], "")
         self.assertTrue(response.success, response.message)
         state = self.fresh_state()
         x, y, z = positions_of(state)[0]
@@ -169,8 +169,21 @@ class SimulatorInterfaceTest(unittest.TestCase):
                 ("bowl", [-1.0], "coefficients[0]"),
                 ("gaussian", [1.0, 0.0], "coefficients[1] (width)"),
                 ("plane", [1.0, 2.0, 3.0, 4.0], "coefficients")):
-            self.assert_refused(self.set_surface(kind, coefficients), field)
+            self.assert_refused(self.set_surface(kind, coefficients, ""), field)
             self.assert_unchanged(before)
+
+    def test_set_surface_expression(self):
+        response = self.set_surface("expression", [], "0.3*sin(2*x)*cos(y)")
+        self.assertTrue(response.success, response.message)
+        x, y, z = positions_of(self.fresh_state())[0]
+        self.assertAlmostEqual(z, 0.3 * math.sin(2.0 * x) * math.cos(y), places=9)
+        before = self.fresh_state()
+        refused = self.set_surface("expression", [], "0.3*sin(2*x")
+        self.assert_refused(refused, "expression")
+        self.assertIn("position 12", refused.message)
+        self.assert_unchanged(before)
+        self.assert_refused(self.set_surface("bowl", [1.0], "x*y"), "expression")
+        self.assert_unchanged(before)
 
     # --- ~set_chain ---
 

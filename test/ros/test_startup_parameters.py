@@ -32,6 +32,7 @@ class StartupParametersTest(unittest.TestCase):
             (("publish_rate", "-5"),),
             (("gravity", "[0, 0]"),),
             (("fixed_frame", "/world"),),
+            (("surface/expression", "sin(x"), ("surface/type", "expression")),
         ]
         for index, assignments in enumerate(cases):
             name = f"bad_simulator_{index}"

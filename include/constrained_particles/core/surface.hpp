@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -11,12 +12,15 @@ namespace constrained_particles
 /// Kinds of height field. Coefficients are listed in surfaceCoefficientSpecs().
 enum class SurfaceType
 {
-  Plane,     ///< Z = slope_x x + slope_y y + height
-  Bowl,      ///< Z = (curvature_x x^2 + curvature_y y^2) / 2   (paraboloid)
-  Saddle,    ///< Z = (curvature_x x^2 - curvature_y y^2) / 2
-  Waves,     ///< Z = amplitude sin(wavenumber_x x) cos(wavenumber_y y)
-  Gaussian,  ///< Z = height exp(-((x - center_x)^2 + (y - center_y)^2) / (2 width^2))
+  Plane,       ///< Z = slope_x x + slope_y y + height
+  Bowl,        ///< Z = (curvature_x x^2 + curvature_y y^2) / 2   (paraboloid)
+  Saddle,      ///< Z = (curvature_x x^2 - curvature_y y^2) / 2
+  Waves,       ///< Z = amplitude sin(wavenumber_x x) cos(wavenumber_y y)
+  Gaussian,    ///< Z = height exp(-((x - center_x)^2 + (y - center_y)^2) / (2 width^2))
+  Expression,  ///< Z = a formula in x and y (surface_expression.hpp); no coefficients
 };
+
+class SurfaceExpression;
 
 /// Maximum number of coefficients of any surface type.
 constexpr int MAX_SURFACE_COEFFICIENTS = 4;
@@ -26,6 +30,7 @@ struct Surface
 {
   SurfaceType type = SurfaceType::Bowl;
   std::array<double, MAX_SURFACE_COEFFICIENTS> coefficients{ { 1.0, 1.0, 0.0, 0.0 } };
+  std::shared_ptr<const SurfaceExpression> expression;  ///< the formula, for Expression only
 };
 
 /// Z and its first and second partial derivatives at one (x, y).
@@ -73,6 +78,13 @@ Surface makeSurface(SurfaceType type, const std::vector<double>& coefficients,
 
 /// makeSurface() from a type name. @throws InvalidInput for an unknown name or bad coefficient.
 Surface makeSurface(const std::string& type_name, const std::vector<double>& coefficients);
+
+/// A surface Z = formula(x, y), e.g. "0.3*sin(2*x)*cos(y)".
+/// @throws InvalidInput naming `field` and the position of the first error in the formula
+Surface makeExpressionSurface(const std::string& formula, const std::string& field = "expression");
+
+/// Throws InvalidInput unless the surface is valid (coefficients in range, or a parsed formula).
+void validateSurface(const Surface& surface, const std::string& field);
 
 /// One line per type: its formula and coefficients with units and ranges (for help texts).
 std::string describeSurfaceTypes();
