@@ -6,20 +6,11 @@
 #include <gtest/gtest.h>
 
 using namespace constrained_particles;
+using constrained_particles::testing::beadScene;
 
 namespace
 {
 constexpr double G = 9.81;
-
-Scene beadScene(const Surface& surface, double mass)
-{
-  Scene scene;
-  scene.masses = { mass };
-  scene.surfaces = { surface };
-  scene.forces = { GravityForce{} };
-  scene.constraints = { SurfaceConstraint{ 0, 0 } };
-  return scene;
-}
 
 State stateOf(const Points& p, const Points& v)
 {

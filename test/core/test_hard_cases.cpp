@@ -2,6 +2,7 @@
 // Inf, bounded constraint error, bounded energy error where energy is conserved.
 #include "constrained_particles/core/scenarios.hpp"
 #include "constrained_particles/core/simulator.hpp"
+#include "test_helpers.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,6 +12,7 @@
 #include <set>
 
 using namespace constrained_particles;
+using constrained_particles::testing::beadScene;
 
 namespace
 {
@@ -195,11 +197,7 @@ TEST(HardCases, MassRatioOfOneMillion)
 TEST(HardCases, SteepSurface)
 {
   const double a = 1000.0;
-  Scene scene;
-  scene.masses = { 1.0 };
-  scene.surfaces = { makeSurface("plane", { a, 0.0, 0.0 }) };
-  scene.forces = { GravityForce{} };
-  scene.constraints = { SurfaceConstraint{ 0, 0 } };
+  const Scene scene = beadScene(makeSurface("plane", { a, 0.0, 0.0 }));
   Simulator simulator(scene, atRest(Vec3(0.0, 0.0, 0.0)), settings(Integrator::RK4, 1e-3));
   const RunSummary r = run(simulator, 1000);
   ASSERT_TRUE(r.finite);
@@ -215,11 +213,7 @@ TEST(HardCases, SteepSurface)
 TEST(HardCases, SharpBumpAtHighSpeed)
 {
   const Surface bump = makeSurface("gaussian", { 0.05, 0.02, 0.0, 0.0 });
-  Scene scene;
-  scene.masses = { 1.0 };
-  scene.surfaces = { bump };
-  scene.forces = { GravityForce{} };
-  scene.constraints = { SurfaceConstraint{ 0, 0 } };
+  const Scene scene = beadScene(bump);
   State start;
   start.positions = Vec3(-0.2, 0.0, evaluateSurface(bump, -0.2, 0.0).z);
   start.velocities = Vec3(5.0, 0.0, 0.0);
@@ -302,11 +296,7 @@ TEST(HardCases, MillionStepRuns)
   std::vector<Case> cases;
   {
     const double k = 1.5, r = 0.4;
-    Scene bowl;
-    bowl.masses = { 1.0 };
-    bowl.surfaces = { makeSurface("bowl", { k, k }) };
-    bowl.forces = { GravityForce{} };
-    bowl.constraints = { SurfaceConstraint{ 0, 0 } };
+    const Scene bowl = beadScene(makeSurface("bowl", { k, k }));
     State s;
     s.positions = Vec3(r, 0, 0.5 * k * r * r);
     s.velocities = Vec3(0, 0.5 * std::sqrt(G * k) * r, 0);  // an ellipse, not a circle
@@ -399,11 +389,7 @@ TEST(HardCases, DegenerateGeometryStaysFinite)
   EXPECT_TRUE(computeDiagnostics(model, atRest(p)).finite());
 
   // at the saddle point with zero velocity: an (unstable) equilibrium, held exactly
-  Scene saddle;
-  saddle.masses = { 1.0 };
-  saddle.surfaces = { makeSurface("saddle", { 1.0, 1.0 }) };
-  saddle.forces = { GravityForce{} };
-  saddle.constraints = { SurfaceConstraint{ 0, 0 } };
+  const Scene saddle = beadScene(makeSurface("saddle", { 1.0, 1.0 }));
   Simulator on_saddle(saddle, atRest(Vec3::Zero()), settings(Integrator::RK4, 1e-3));
   const RunSummary r = run(on_saddle, 1000);
   ASSERT_TRUE(r.finite);

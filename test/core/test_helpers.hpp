@@ -41,6 +41,17 @@ private:
   std::mt19937 engine_;
 };
 
+/// One particle of mass `mass` [kg] on `surface` under standard gravity.
+inline Scene beadScene(const Surface& surface, double mass = 1.0)
+{
+  Scene scene;
+  scene.masses = { mass };
+  scene.surfaces = { surface };
+  scene.forces = { GravityForce{} };
+  scene.constraints = { SurfaceConstraint{ 0, 0 } };
+  return scene;
+}
+
 /// Central difference step for functions of O(1) arguments.
 constexpr double FD_STEP = 1e-6;
 

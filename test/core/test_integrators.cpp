@@ -1,6 +1,7 @@
 // Integrators against a closed-form motion: ordering of accuracy at a fixed step, observed
 // convergence orders, and what the symplectic and adaptive methods promise.
 #include "constrained_particles/core/simulator.hpp"
+#include "test_helpers.hpp"
 
 #include <gtest/gtest.h>
 
@@ -23,10 +24,8 @@ struct Orbit
 
   Orbit()
   {
-    scene.masses = { 1.0 };
-    scene.surfaces = { makeSurface("bowl", { CURVATURE, CURVATURE }) };
-    scene.forces = { GravityForce{} };
-    scene.constraints = { SurfaceConstraint{ 0, 0 } };
+    scene =
+        constrained_particles::testing::beadScene(makeSurface("bowl", { CURVATURE, CURVATURE }));
     start.positions = Vec3(RADIUS, 0, 0.5 * CURVATURE * RADIUS * RADIUS);
     start.velocities = Vec3(0, omega * RADIUS, 0);
   }

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 using namespace constrained_particles;
+using constrained_particles::testing::beadScene;
 using constrained_particles::testing::Random;
 
 namespace
@@ -114,11 +115,7 @@ TEST(SurfaceExpression, BeadMovesAsOnTheBuiltInSurface)
 {
   auto run = [](const Surface& surface)
   {
-    Scene scene;
-    scene.masses = { 1.0 };
-    scene.surfaces = { surface };
-    scene.forces = { GravityForce{} };
-    scene.constraints = { SurfaceConstraint{ 0, 0 } };
+    const Scene scene = beadScene(surface);
     State start;
     start.positions = Vec3(0.5, 0.0, evaluateSurface(surface, 0.5, 0.0).z);
     start.velocities = Vec3(0.0, 0.8, 0.0);
