@@ -114,13 +114,13 @@ Dynamics::Dynamics(const Model& model) : solver_(model)
     scratch.setZero(3, n);
 }
 
-const Points& Dynamics::computeAppliedForces(const Points& velocities)
+const Points& Dynamics::computeAppliedForces(const Points& positions, const Points& velocities)
 {
   const Scene& scene = solver_.model().scene();
   applied_forces_.setZero();
   for (const Force& force : scene.forces)
     std::visit([&](const auto& f)
-               { accumulateForce(f, scene.masses, velocities, applied_forces_); },
+               { accumulateForce(f, scene.masses, positions, velocities, applied_forces_); },
                force);
   return applied_forces_;
 }
@@ -135,11 +135,7 @@ SolveReport Dynamics::computeAccelerations(const Points& positions, const Points
   const int m = model.numRows();
 
   // applied forces: only those the scene lists
-  applied_forces_.setZero();
-  for (const Force& force : scene.forces)
-    std::visit([&](const auto& f)
-               { accumulateForce(f, scene.masses, velocities, applied_forces_); },
-               force);
+  computeAppliedForces(positions, velocities);
 
   // (J W J^T) lambda = -(Jdot v + J W f) - (2 zeta omega Cdot + omega^2 C)
   SolveReport report;
@@ -403,7 +399,7 @@ StepReport step(const StepSettings& settings, State& state, Dynamics& dynamics)
       // RATTLE onto J v = 0
       Points& p_old = dynamics.scratch(0);
       p_old = p;
-      const Points& f_start = dynamics.computeAppliedForces(v);
+      const Points& f_start = dynamics.computeAppliedForces(p, v);
       for (int i = 0; i < n; ++i)
         v.col(i) += (0.5 * dt * w[i]) * f_start.col(i);
       p += dt * v;
@@ -414,7 +410,7 @@ StepReport step(const StepSettings& settings, State& state, Dynamics& dynamics)
       report.projection = dynamics.shakePositions(p_old, p, settings.projection_tolerance,
                                                   settings.projection_max_iterations, &correction);
       v += correction / dt;
-      const Points& f_end = dynamics.computeAppliedForces(v);
+      const Points& f_end = dynamics.computeAppliedForces(p, v);
       for (int i = 0; i < n; ++i)
         v.col(i) += (0.5 * dt * w[i]) * f_end.col(i);
       bool singular = false;

@@ -127,8 +127,8 @@ public:
   ProjectionReport shakePositions(const Points& reference, Points& positions, double tolerance,
                                   int max_iterations, Points* corrections = nullptr);
 
-  /// Applied forces alone at velocities v [N] (no constraint solve).
-  const Points& computeAppliedForces(const Points& velocities);
+  /// Applied forces alone at positions p and velocities v [N] (no constraint solve).
+  const Points& computeAppliedForces(const Points& positions, const Points& velocities);
 
   ConstraintSolver& solver()
   {
