@@ -7,20 +7,8 @@
 
 using namespace constrained_particles;
 using constrained_particles::testing::beadScene;
-
-namespace
-{
-constexpr double G = 9.81;
-
-State stateOf(const Points& p, const Points& v)
-{
-  State s;
-  s.positions = p;
-  s.velocities = v;
-  return s;
-}
-
-}  // namespace
+using constrained_particles::testing::G;
+using constrained_particles::testing::stateOf;
 
 // Plane z = a x from rest: xddot = -g a / (1 + a^2), |normal force| = m g / sqrt(1 + a^2).
 TEST(Analytic, BeadSlidesDownPlane)

@@ -8,21 +8,9 @@
 #include <cmath>
 
 using namespace constrained_particles;
+using constrained_particles::testing::G;
 using constrained_particles::testing::Random;
-
-namespace
-{
-constexpr double G = 9.81;
-
-State stateOf(const Points& p, const Points& v)
-{
-  State s;
-  s.positions = p;
-  s.velocities = v;
-  return s;
-}
-
-}  // namespace
+using constrained_particles::testing::stateOf;
 
 // f = -grad(k (|d| - L)^2 / 2), by central differences of the potential
 TEST(Forces, SpringForceIsMinusGradientOfItsPotential)

@@ -41,6 +41,18 @@ private:
   std::mt19937 engine_;
 };
 
+/// Standard gravity [m/s^2].
+constexpr double G = 9.81;
+
+/// A state at positions p [m] with velocities v [m/s].
+inline State stateOf(const Points& p, const Points& v)
+{
+  State s;
+  s.positions = p;
+  s.velocities = v;
+  return s;
+}
+
 /// One particle of mass `mass` [kg] on `surface` under standard gravity.
 inline Scene beadScene(const Surface& surface, double mass = 1.0)
 {
