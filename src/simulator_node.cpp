@@ -4,9 +4,11 @@
 int main(int argc, char** argv)
 {
   ros::init(argc, argv, "simulator");
+  // outlives the node: destroying the last handle shuts ROS (and its logging) down
+  ros::NodeHandle private_nh("~");
   try
   {
-    constrained_particles::SimulatorNode node(ros::NodeHandle("~"));
+    constrained_particles::SimulatorNode node(private_nh);
     ros::spin();
   }
   catch (const constrained_particles::InvalidInput& e)

@@ -73,12 +73,14 @@ class SimulatorInterfaceTest(unittest.TestCase):
         self.pause()
 
     def fresh_state(self, timeout=5.0):
-        """The first state published after this call."""
-        type(self).latest_state = None
-        deadline = rospy.Time.now() + rospy.Duration(timeout)
-        while self.latest_state is None and rospy.Time.now() < deadline:
+        """A state published after this call (not one already in flight)."""
+        start = rospy.Time.now()
+        deadline = start + rospy.Duration(timeout)
+        while rospy.Time.now() < deadline and not (
+                self.latest_state is not None and self.latest_state.header.stamp > start):
             rospy.sleep(0.01)
         self.assertIsNotNone(self.latest_state, "no ~state within timeout")
+        self.assertGreater(self.latest_state.header.stamp, start, "no new ~state within timeout")
         return self.latest_state
 
     def assert_refused(self, response, field):
@@ -262,12 +264,15 @@ class SimulatorInterfaceTest(unittest.TestCase):
     # --- markers ---
 
     def test_constraint_force_markers_match_state(self):
-        type(self).latest_forces = None
         state = self.fresh_state()
+        # markers of the same publish tick or later (paused: identical content)
         deadline = rospy.Time.now() + rospy.Duration(5.0)
-        while self.latest_forces is None and rospy.Time.now() < deadline:
+        while rospy.Time.now() < deadline and not (
+                self.latest_forces and self.latest_forces.markers
+                and self.latest_forces.markers[0].header.stamp >= state.header.stamp):
             rospy.sleep(0.01)
         self.assertIsNotNone(self.latest_forces)
+        self.assertGreaterEqual(self.latest_forces.markers[0].header.stamp, state.header.stamp)
         scale = rospy.get_param(f"{NODE}/force_scale")
         arrows = [m for m in self.latest_forces.markers
                   if m.ns == "constraint_forces" and m.action == Marker.ADD]
@@ -289,11 +294,15 @@ class SimulatorInterfaceTest(unittest.TestCase):
         self.assertEqual(self.deleted_arrows, {3, 4})
 
     def test_scene_markers(self):
-        type(self).latest_scene = None
-        deadline = rospy.Time.now() + rospy.Duration(5.0)
-        while self.latest_scene is None and rospy.Time.now() < deadline:
+        # a message published before setUp's reset may still be in flight: wait for a newer one
+        start = rospy.Time.now()
+        deadline = start + rospy.Duration(5.0)
+        while rospy.Time.now() < deadline and not (
+                self.latest_scene and self.latest_scene.markers
+                and self.latest_scene.markers[0].header.stamp >= start):
             rospy.sleep(0.01)
         self.assertIsNotNone(self.latest_scene)
+        self.assertGreaterEqual(self.latest_scene.markers[0].header.stamp, start)
         by_ns = {m.ns: m for m in self.latest_scene.markers}
         self.assertEqual(by_ns["particles"].type, Marker.SPHERE_LIST)
         self.assertEqual(len(by_ns["particles"].points), 5)
