@@ -8,20 +8,31 @@
 
 namespace constrained_particles
 {
+void evaluateModelRow(const Model& model, int r, const Points& positions, const Points& velocities,
+                      ConstraintRow& row)
+{
+  const Scene& scene = model.scene();
+  const Constraint& c = scene.constraints[model.rowConstraints()[r]];
+  if (const auto* link = std::get_if<LinkConstraint>(&c))
+    evaluateRow(*link, positions, velocities, row);
+  else if (const auto* surface = std::get_if<SurfaceConstraint>(&c))
+    evaluateRow(*surface, scene.surfaces[surface->surface], positions, velocities, row);
+}
+
+double maxPositionError(const std::vector<ConstraintRow>& rows)
+{
+  double max_error = 0.0;
+  for (const ConstraintRow& row : rows)
+    max_error = worseError(max_error, row.metric_error);
+  return max_error;
+}
+
 void evaluateRows(const Model& model, const Points& positions, const Points& velocities,
                   std::vector<ConstraintRow>& rows)
 {
-  const Scene& scene = model.scene();
-  const auto& row_constraints = model.rowConstraints();
-  rows.resize(row_constraints.size());
-  for (std::size_t r = 0; r < row_constraints.size(); ++r)
-  {
-    const Constraint& c = scene.constraints[row_constraints[r]];
-    if (const auto* link = std::get_if<LinkConstraint>(&c))
-      evaluateRow(*link, positions, velocities, rows[r]);
-    else if (const auto* surface = std::get_if<SurfaceConstraint>(&c))
-      evaluateRow(*surface, scene.surfaces[surface->surface], positions, velocities, rows[r]);
-  }
+  rows.resize(model.rowConstraints().size());
+  for (std::size_t r = 0; r < rows.size(); ++r)
+    evaluateModelRow(model, static_cast<int>(r), positions, velocities, rows[r]);
 }
 
 struct ConstraintSolver::SparseState
@@ -80,25 +91,17 @@ ConstraintSolver& ConstraintSolver::operator=(ConstraintSolver&&) noexcept = def
 void ConstraintSolver::evaluate(const Points& positions, const Points& velocities)
 {
   // one pass: each row is evaluated, summarised and (tridiagonal) assembled while in cache
-  const Scene& scene = model_->scene();
-  const auto& row_constraints = model_->rowConstraints();
-  const int m = static_cast<int>(row_constraints.size());
+  const int m = model_->numRows();
   const bool tridiagonal = model_->solveMethod() == SolveMethod::Tridiagonal;
   std::size_t next_coupling = 0;
   double max_error = 0.0;
   for (int r = 0; r < m; ++r)
   {
     ConstraintRow& row = rows_[r];
-    const Constraint& c = scene.constraints[row_constraints[r]];
-    if (const auto* link = std::get_if<LinkConstraint>(&c))
-      evaluateRow(*link, positions, velocities, row);
-    else if (const auto* surface = std::get_if<SurfaceConstraint>(&c))
-      evaluateRow(*surface, scene.surfaces[surface->surface], positions, velocities, row);
+    evaluateModelRow(*model_, r, positions, velocities, row);
     values_[r] = row.value;
     jdot_v_[r] = row.jdot_v;
-    // NaN compares false: it makes the maximum infinite
-    if (!(row.metric_error <= max_error))
-      max_error = std::isnan(row.metric_error) ? INFINITY : row.metric_error;
+    max_error = worseError(max_error, row.metric_error);
     if (tridiagonal)
       assembleTridiagonalRow(r, next_coupling);
   }

@@ -20,19 +20,16 @@ Diagnostics computeDiagnostics(const Model& model, const State& state)
   const Scene& scene = model.scene();
   std::vector<ConstraintRow> rows;
   evaluateRows(model, state.positions, state.velocities, rows);
-  // std::max would drop a NaN: keep it visible
-  auto worst = [](double current, double value)
-  { return (std::isnan(value) || value > current) ? value : current; };
   for (std::size_t r = 0; r < rows.size(); ++r)
   {
-    d.max_position_error = worst(d.max_position_error, rows[r].metric_error);
+    d.max_position_error = worseError(d.max_position_error, rows[r].metric_error);
     const Constraint& c = scene.constraints[model.rowConstraints()[r]];
     std::visit(
         [&](const auto& kind)
         {
           if constexpr (!std::is_same_v<std::decay_t<decltype(kind)>, PinConstraint>)
             d.max_velocity_error =
-                worst(d.max_velocity_error, metricRate(kind, rows[r], state.velocities));
+                worseError(d.max_velocity_error, metricRate(kind, rows[r], state.velocities));
         },
         c);
   }
@@ -40,8 +37,9 @@ Diagnostics computeDiagnostics(const Model& model, const State& state)
   {
     const PinConstraint& pin = std::get<PinConstraint>(scene.constraints[k]);
     d.max_position_error =
-        worst(d.max_position_error, (state.positions.col(pin.particle) - pin.anchor).norm());
-    d.max_velocity_error = worst(d.max_velocity_error, state.velocities.col(pin.particle).norm());
+        worseError(d.max_position_error, (state.positions.col(pin.particle) - pin.anchor).norm());
+    d.max_velocity_error =
+        worseError(d.max_velocity_error, state.velocities.col(pin.particle).norm());
   }
   for (int i = 0; i < model.numParticles(); ++i)
     d.kinetic_energy += 0.5 * scene.masses[i] * state.velocities.col(i).squaredNorm();

@@ -199,20 +199,6 @@ void Dynamics::pinVelocities(Points& velocities) const
     velocities.col(std::get<PinConstraint>(scene.constraints[k]).particle).setZero();
 }
 
-namespace
-{
-// largest metric position error of the rows; NaN counts as infinitely large
-double maxPositionError(const std::vector<ConstraintRow>& rows)
-{
-  double max_error = 0.0;
-  for (const ConstraintRow& row : rows)
-    if (!(row.metric_error <= max_error))
-      max_error = std::isnan(row.metric_error) ? INFINITY : row.metric_error;
-  return max_error;
-}
-
-}  // namespace
-
 ProjectionReport Dynamics::projectPositions(Points& positions, double tolerance, int max_iterations)
 {
   ProjectionReport report;

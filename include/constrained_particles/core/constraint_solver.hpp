@@ -17,6 +17,13 @@
 
 namespace constrained_particles
 {
+/// Evaluates the model's constraint row `r` at (p, v) into `row`. Stateless.
+void evaluateModelRow(const Model& model, int r, const Points& positions, const Points& velocities,
+                      ConstraintRow& row);
+
+/// Largest metric position error of the rows [m] (infinite if any is NaN).
+double maxPositionError(const std::vector<ConstraintRow>& rows);
+
 /// Evaluates every constraint row of the model at (p, v). Stateless; rows is resized.
 void evaluateRows(const Model& model, const Points& positions, const Points& velocities,
                   std::vector<ConstraintRow>& rows);

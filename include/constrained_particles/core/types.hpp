@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -35,6 +36,14 @@ public:
 private:
   std::string field_;
 };
+
+/// The larger of two errors, a NaN counting as infinitely large (std::max would drop it).
+inline double worseError(double current, double value)
+{
+  if (std::isnan(value))
+    return INFINITY;
+  return value > current ? value : current;
+}
 
 /// Formats a double the way error messages quote values (shortest round-trip form).
 std::string formatValue(double value);
