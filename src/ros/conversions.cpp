@@ -20,28 +20,32 @@ std::vector<geometry_msgs::Vector3> toVectorMsgs(const Points& vectors)
   return out;
 }
 
-Points fromMsgs(const std::vector<geometry_msgs::Point>& points)
+namespace
 {
-  Points out(3, points.size());
-  for (std::size_t i = 0; i < points.size(); ++i)
+// Point and Vector3 alike: tf2::fromMsg has an overload for each
+template <typename Message>
+Points fromMessages(const std::vector<Message>& messages)
+{
+  Points out(3, messages.size());
+  for (std::size_t i = 0; i < messages.size(); ++i)
   {
-    Eigen::Vector3d p;
-    tf2::fromMsg(points[i], p);
-    out.col(i) = p;
+    Eigen::Vector3d value;
+    tf2::fromMsg(messages[i], value);
+    out.col(i) = value;
   }
   return out;
 }
 
+}  // namespace
+
+Points fromMsgs(const std::vector<geometry_msgs::Point>& points)
+{
+  return fromMessages(points);
+}
+
 Points fromMsgs(const std::vector<geometry_msgs::Vector3>& vectors)
 {
-  Points out(3, vectors.size());
-  for (std::size_t i = 0; i < vectors.size(); ++i)
-  {
-    Eigen::Vector3d v;
-    tf2::fromMsg(vectors[i], v);
-    out.col(i) = v;
-  }
-  return out;
+  return fromMessages(vectors);
 }
 
 }  // namespace constrained_particles

@@ -81,12 +81,8 @@ TEST(Analytic, BeadOrbitsInBowl)
 TEST(Analytic, HangingChainAtRestCancelsWeights)
 {
   const int n = 6;
-  Scene scene;
-  scene.masses = { 1.0, 0.5, 2.0, 1.0, 3.0, 0.25 };
-  for (int i = 0; i + 1 < n; ++i)
-    scene.constraints.push_back(LinkConstraint{ i, i + 1, 0.3 });
-  scene.constraints.push_back(PinConstraint{ 0, Vec3(0, 0, 1) });
-  scene.forces = { GravityForce{} };
+  const Scene scene = constrained_particles::testing::pinnedChain({ 1.0, 0.5, 2.0, 1.0, 3.0, 0.25 },
+                                                                  0.3, Vec3(0, 0, 1));
   Points p(3, n), v = Points::Zero(3, n);
   for (int i = 0; i < n; ++i)
     p.col(i) = Vec3(0, 0, 1 - 0.3 * i);

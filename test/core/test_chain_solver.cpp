@@ -156,13 +156,8 @@ TEST(ChainSolver, StraightChainOf10000HasSmallResidual)
 TEST(ChainSolver, RedundantConstraintsAreReportedSingularAndStayFinite)
 {
   const int n = 8;
-  Scene scene;
-  scene.masses.assign(n, 1.0);
-  for (int i = 0; i + 1 < n; ++i)
-    scene.constraints.push_back(LinkConstraint{ i, i + 1, 1.0 });
-  scene.constraints.push_back(PinConstraint{ 0, Vec3(0, 0, 0) });
+  Scene scene = constrained_particles::testing::pinnedChain(std::vector<double>(n, 1.0), 1.0);
   scene.constraints.push_back(PinConstraint{ n - 1, Vec3(n - 1.0, 0, 0) });
-  scene.forces = { GravityForce{} };
   Points p(3, n), v = Points::Zero(3, n);
   for (int i = 0; i < n; ++i)
     p.col(i) = Vec3(i, 0, 0);

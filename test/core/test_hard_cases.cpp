@@ -13,6 +13,7 @@
 
 using namespace constrained_particles;
 using constrained_particles::testing::beadScene;
+using constrained_particles::testing::pinnedChain;
 
 namespace
 {
@@ -51,17 +52,6 @@ void printHardCase(const char* name, const char* format, double a, double b = 0,
   std::printf("[hard case] %s: ", name);
   std::printf(format, a, b, c);
   std::printf("\n");
-}
-
-Scene pinnedChain(const std::vector<double>& masses, double link_length)
-{
-  Scene scene;
-  scene.masses = masses;
-  for (int i = 0; i + 1 < static_cast<int>(masses.size()); ++i)
-    scene.constraints.push_back(LinkConstraint{ i, i + 1, link_length });
-  scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
-  scene.forces = { GravityForce{} };
-  return scene;
 }
 
 State atRest(const Points& positions)

@@ -64,6 +64,20 @@ inline Scene beadScene(const Surface& surface, double mass = 1.0)
   return scene;
 }
 
+/// A chain of the given masses [kg] joined by links of `link_length` [m], particle 0 pinned at
+/// `anchor` [m], under standard gravity.
+inline Scene pinnedChain(const std::vector<double>& masses, double link_length,
+                         const Vec3& anchor = Vec3::Zero())
+{
+  Scene scene;
+  scene.masses = masses;
+  for (int i = 0; i + 1 < static_cast<int>(masses.size()); ++i)
+    scene.constraints.push_back(LinkConstraint{ i, i + 1, link_length });
+  scene.constraints.push_back(PinConstraint{ 0, anchor });
+  scene.forces = { GravityForce{} };
+  return scene;
+}
+
 /// Central difference step for functions of O(1) arguments.
 constexpr double FD_STEP = 1e-6;
 

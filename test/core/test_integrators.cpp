@@ -99,12 +99,7 @@ TEST(Integrators, ObservedOrdersMatchTheory)
 TEST(Integrators, VelocityVerletHoldsConstraintsWithoutEnergyDrift)
 {
   const int n = 11;
-  Scene scene;
-  scene.masses.assign(n, 0.2);
-  for (int i = 0; i + 1 < n; ++i)
-    scene.constraints.push_back(LinkConstraint{ i, i + 1, 0.1 });
-  scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
-  scene.forces = { GravityForce{} };
+  const Scene scene = constrained_particles::testing::pinnedChain(std::vector<double>(n, 0.2), 0.1);
   State start;
   start.positions.resize(3, n);
   start.velocities.setZero(3, n);
