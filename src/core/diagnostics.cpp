@@ -16,9 +16,15 @@ bool Diagnostics::finite() const
 
 Diagnostics computeDiagnostics(const Model& model, const State& state)
 {
+  std::vector<ConstraintRow> rows;
+  return computeDiagnostics(model, state, rows);
+}
+
+Diagnostics computeDiagnostics(const Model& model, const State& state,
+                               std::vector<ConstraintRow>& rows)
+{
   Diagnostics d;
   const Scene& scene = model.scene();
-  std::vector<ConstraintRow> rows;
   evaluateRows(model, state.positions, state.velocities, rows);
   for (std::size_t r = 0; r < rows.size(); ++r)
   {

@@ -26,6 +26,10 @@ struct Diagnostics
 /// Evaluates the diagnostics of a state of the model. Stateless.
 Diagnostics computeDiagnostics(const Model& model, const State& state);
 
+/// As above, evaluating the rows into `rows` (a workspace reused across calls: no allocation).
+Diagnostics computeDiagnostics(const Model& model, const State& state,
+                               std::vector<ConstraintRow>& rows);
+
 /// True if every position and velocity is finite.
 bool isFinite(const State& state);
 

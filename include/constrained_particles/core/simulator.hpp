@@ -70,7 +70,7 @@ public:
   /// Errors and energies of the current state.
   Diagnostics diagnostics() const
   {
-    return computeDiagnostics(*model_, state_);
+    return computeDiagnostics(*model_, state_, diagnostic_rows_);
   }
 
   /// Constraint forces [N] and multipliers at the current state, as the next step would apply
@@ -94,6 +94,7 @@ private:
   State state_;
   StepSettings settings_;
   StepReport last_report_;
+  mutable std::vector<ConstraintRow> diagnostic_rows_;  // workspace of diagnostics()
 };
 
 }  // namespace constrained_particles
