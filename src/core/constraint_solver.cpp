@@ -1,6 +1,7 @@
 #include "constrained_particles/core/constraint_solver.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <Eigen/SparseCholesky>
 
 #include <algorithm>
@@ -12,11 +13,8 @@ void evaluateModelRow(const Model& model, int r, const Points& positions, const 
                       ConstraintRow& row)
 {
   const Scene& scene = model.scene();
-  const Constraint& c = scene.constraints[model.rowConstraints()[r]];
-  if (const auto* link = std::get_if<LinkConstraint>(&c))
-    evaluateRow(*link, positions, velocities, row);
-  else if (const auto* surface = std::get_if<SurfaceConstraint>(&c))
-    evaluateRow(*surface, scene.surfaces[surface->surface], positions, velocities, row);
+  evaluateRow(scene.constraints[model.rowConstraints()[r]], scene.surfaces, positions, velocities,
+              row);
 }
 
 double maxPositionError(const std::vector<ConstraintRow>& rows)
@@ -46,6 +44,27 @@ struct ConstraintSolver::SparseState
 struct ConstraintSolver::DenseState
 {
   Eigen::LDLT<Eigen::MatrixXd> ldlt;
+};
+
+// Block LDL^T of the saddle-point matrix [M J^T; J -delta] over the particle-row graph, leaves
+// first: a forest gives no fill, so factor and solve are O(n) whatever the branching (Baraff,
+// "Linear-time dynamics using Lagrange multipliers", 1996). Nodes are free particles [0, n) and
+// rows joining two free particles [n, n + m). A row touching one free particle only (a surface,
+// a link to a pin) would be a leaf with a zero pivot, so it joins its particle's node instead:
+// that node's block is [A G; G^T -delta] with A = m I (+ updates) and G the rows' gradients.
+struct ConstraintSolver::TreeState
+{
+  std::vector<int> order;          // every node, each after all of its children
+  std::vector<int> parent;         // parent node, -1 for a root, -2 for a row inside a particle
+  std::vector<RowIncidence> edge;  // the row and the particle's slot of the edge to the parent
+  std::vector<int> inner_start;    // rows inside particle i: inner[inner_start[i] ..)
+  std::vector<RowIncidence> inner;
+  std::vector<Eigen::Matrix3d> particle_inverse;  // A^-1 of particle nodes
+  std::vector<Eigen::LDLT<Eigen::MatrixXd>> inner_ldlt;  // of delta I + G^T A^-1 G
+  std::vector<Eigen::Matrix3Xd> inner_gradients;          // G of each particle with inner rows
+  Eigen::VectorXd row_inverse;                             // D^-1 of row nodes
+  mutable Points particle_rhs;                             // solve workspace
+  mutable Eigen::VectorXd inner_rhs;                       // solve workspace
 };
 
 ConstraintSolver::ConstraintSolver(const Model& model) : model_(&model)
@@ -82,6 +101,10 @@ ConstraintSolver::ConstraintSolver(const Model& model) : model_(&model)
   {
     dense_ = std::make_unique<DenseState>();
   }
+  else if (model.solveMethod() == SolveMethod::Tree)
+  {
+    buildTree();
+  }
 }
 
 ConstraintSolver::~ConstraintSolver() = default;
@@ -92,13 +115,18 @@ void ConstraintSolver::evaluate(const Points& positions, const Points& velocitie
 {
   // one pass: each row is evaluated, summarised and (tridiagonal) assembled while in cache
   const int m = model_->numRows();
-  const bool tridiagonal = model_->solveMethod() == SolveMethod::Tridiagonal;
+  const bool tridiagonal = model_->solveMethod() == SolveMethod::Tridiagonal ||
+                           model_->solveMethod() == SolveMethod::Single;
+  const auto& constraints = model_->scene().constraints;
+  const auto& row_constraint = model_->rowConstraints();
   std::size_t next_coupling = 0;
   double max_error = 0.0;
   for (int r = 0; r < m; ++r)
   {
     ConstraintRow& row = rows_[r];
-    evaluateModelRow(*model_, r, positions, velocities, row);
+    const Constraint& constraint = constraints[row_constraint[r]];
+    evaluateRow(constraint, model_->scene().surfaces, positions, velocities, row);
+    ++counters_.constraints[constraint.index()];
     values_[r] = row.value;
     jdot_v_[r] = row.jdot_v;
     max_error = worseError(max_error, row.metric_error);
@@ -132,8 +160,18 @@ void ConstraintSolver::assembleTridiagonalRow(int r, std::size_t& next_coupling)
 
 SolveReport ConstraintSolver::factorize()
 {
+  ++counters_.factorizations[static_cast<int>(model_->solveMethod())];
   switch (model_->solveMethod())
   {
+    case SolveMethod::Single:
+    {
+      // the 1 x 1 case of the tridiagonal factorisation: lambda = b / (J W J^T)
+      SolveReport report = factorizeTridiagonal();
+      report.method = SolveMethod::Single;
+      return report;
+    }
+    case SolveMethod::Tree:
+      return factorizeTree();
     case SolveMethod::Tridiagonal:
       return factorizeTridiagonal();
     case SolveMethod::Sparse:
@@ -280,10 +318,264 @@ SolveReport ConstraintSolver::factorizeDense()
   return report;
 }
 
+void ConstraintSolver::buildTree()
+{
+  const Model& model = *model_;
+  const int n = model.numParticles();
+  const int m = model.numRows();
+  const auto& start = model.incidenceStart();
+  const auto& incidence = model.incidence();
+  tree_ = std::make_unique<TreeState>();
+  TreeState& t = *tree_;
+  // rows with one free particle live inside that particle's node
+  std::vector<int> free_touches(m, 0);
+  for (const RowIncidence& touch : incidence)
+    ++free_touches[touch.row];
+  t.inner_start.assign(n + 1, 0);
+  for (int i = 0; i < n; ++i)
+  {
+    t.inner_start[i + 1] = t.inner_start[i];
+    for (int a = start[i]; a < start[i + 1]; ++a)
+      if (free_touches[incidence[a].row] == 1)
+      {
+        t.inner.push_back(incidence[a]);
+        ++t.inner_start[i + 1];
+      }
+  }
+  // breadth-first from each unvisited node; reversed, that order puts children first
+  t.parent.assign(n + m, -3);  // -3: not visited
+  t.edge.assign(n + m, RowIncidence{ -1, -1 });
+  for (const RowIncidence& touch : t.inner)
+    t.parent[n + touch.row] = -2;
+  std::vector<int> queue;
+  queue.reserve(n + m);
+  const auto& w = model.inverseMasses();
+  const auto& constraints = model.scene().constraints;
+  const auto& row_constraint = model.rowConstraints();
+  for (int seed = 0; seed < n + m; ++seed)
+  {
+    if (t.parent[seed] != -3 || (seed < n && w[seed] == 0.0))
+      continue;
+    t.parent[seed] = -1;
+    queue.push_back(seed);
+    for (std::size_t head = queue.size() - 1; head < queue.size(); ++head)
+    {
+      const int node = queue[head];
+      if (node < n)
+      {
+        for (int a = start[node]; a < start[node + 1]; ++a)
+        {
+          const int child = n + incidence[a].row;
+          if (child == t.parent[node] || t.parent[child] == -2)
+            continue;
+          t.parent[child] = node;
+          t.edge[child] = incidence[a];
+          queue.push_back(child);
+        }
+        continue;
+      }
+      const int r = node - n;
+      const auto particles = rowParticles(constraints[row_constraint[r]]);
+      for (int slot = 0; slot < 2; ++slot)
+      {
+        const int i = particles[slot];
+        if (i < 0 || w[i] == 0.0 || i == t.parent[node])
+          continue;
+        t.parent[i] = node;
+        t.edge[i] = RowIncidence{ r, slot };
+        queue.push_back(i);
+      }
+    }
+  }
+  t.order.assign(queue.rbegin(), queue.rend());
+  t.particle_inverse.assign(n, Eigen::Matrix3d::Zero());
+  t.inner_ldlt.resize(n);
+  t.inner_gradients.resize(n);
+  for (int i = 0; i < n; ++i)
+  {
+    const int k = t.inner_start[i + 1] - t.inner_start[i];
+    if (k > 0)
+    {
+      t.inner_ldlt[i] = Eigen::LDLT<Eigen::MatrixXd>(k);
+      t.inner_gradients[i].resize(3, k);
+    }
+  }
+  t.row_inverse.setZero(m);
+  t.particle_rhs.setZero(3, n);
+  t.inner_rhs.setZero(m);
+}
+
+SolveReport ConstraintSolver::factorizeTree()
+{
+  SolveReport report;
+  report.method = SolveMethod::Tree;
+  TreeState& t = *tree_;
+  const int n = model_->numParticles();
+  const int m = model_->numRows();
+  const auto& w = model_->inverseMasses();
+  double max_diagonal = 0.0;
+  for (int i = 0; i < n; ++i)
+    for (int a = model_->incidenceStart()[i]; a < model_->incidenceStart()[i + 1]; ++a)
+      max_diagonal = std::max(
+          max_diagonal, w[i] * rows_[model_->incidence()[a].row].gradient.squaredNorm());
+  double delta = 0.0;
+  for (int attempt = 0; attempt < 2; ++attempt)
+  {
+    // pivots start as the diagonal blocks m_i I and -delta, then take each child's update
+    for (int i = 0; i < n; ++i)
+      if (w[i] > 0.0)
+        t.particle_inverse[i] = Eigen::Matrix3d::Identity() * (1.0 / w[i]);
+    t.row_inverse.setConstant(m, -delta);
+    double min_ratio = 1.0;
+    bool singular = false;
+    auto judge = [&](double pivot, double diagonal)
+    {
+      const double ratio = diagonal > 0.0 ? pivot / diagonal : 0.0;
+      min_ratio = std::min(min_ratio, ratio);
+      if (!(ratio > SINGULAR_PIVOT_RATIO) && delta == 0.0)
+        singular = true;
+    };
+    for (const int node : t.order)
+    {
+      const int parent = t.parent[node];
+      const RowIncidence& e = t.edge[node];
+      if (node < n)
+      {
+        // A = m_i I plus positive updates: always invertible
+        Eigen::Matrix3d& inverse = t.particle_inverse[node];
+        inverse = inverse.inverse().eval();
+        const int first = t.inner_start[node], k = t.inner_start[node + 1] - first;
+        if (k > 0)
+        {
+          // rows inside the node: S = delta I + G^T A^-1 G, whose pivots say how singular
+          Eigen::Matrix3Xd& g = t.inner_gradients[node];
+          for (int c = 0; c < k; ++c)
+            g.col(c) = rows_[t.inner[first + c].row].gradientOf(t.inner[first + c].slot);
+          Eigen::MatrixXd s = g.transpose() * inverse * g;
+          s.diagonal().array() += delta;
+          t.inner_ldlt[node].compute(s);
+          const double pivot = t.inner_ldlt[node].vectorD().minCoeff();
+          judge(pivot, w[node] * g.colwise().squaredNorm().maxCoeff() + delta);
+        }
+        if (parent >= 0)
+        {
+          // the parent row sees this node's mobility g^T K g, K = A^-1 - A^-1 G S^-1 G^T A^-1
+          const Vec3 g = rows_[e.row].gradientOf(e.slot);
+          const Vec3 u = inverse * g;
+          double mobility = g.dot(u);
+          if (k > 0)
+          {
+            const Eigen::VectorXd projected = t.inner_gradients[node].transpose() * u;
+            mobility -= projected.dot(t.inner_ldlt[node].solve(projected));
+          }
+          t.row_inverse[e.row] -= mobility;
+        }
+        continue;
+      }
+      const int r = node - n;
+      const double pivot = -t.row_inverse[r];  // >= 0: the row's mobility through its children
+      // a row is a root only when it touches no free particle: nothing moves it
+      const double diagonal =
+          parent >= 0 ? w[rows_[r].particle[1 - e.slot]] * rows_[r].gradient.squaredNorm() : 0.0;
+      judge(pivot, diagonal + delta);
+      if (singular)
+        break;
+      t.row_inverse[r] = -1.0 / std::max(pivot, delta > 0.0 ? delta : pivot);
+      if (parent >= 0)
+      {
+        // particle_inverse still holds the parent's pivot A (inverted when it is reached)
+        const Vec3 g = rows_[r].gradientOf(e.slot);
+        t.particle_inverse[parent] -= t.row_inverse[r] * g * g.transpose();
+      }
+    }
+    if (attempt == 0)
+      report.min_pivot_ratio = min_ratio;
+    if (!singular)
+      return report;
+    report.singular = true;
+    delta = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+    report.regularization = delta;
+  }
+  return report;
+}
+
+void ConstraintSolver::solveTree(Eigen::VectorXd& b) const
+{
+  // [M J^T; J -delta] [y; z] = [0; b] gives (J W J^T + delta) (-z) = b
+  const TreeState& t = *tree_;
+  const int n = model_->numParticles();
+  Points& particle_rhs = t.particle_rhs;
+  particle_rhs.setZero();
+  // the top (particle) part of D^-1 [f; h] for a particle node with inner rows; fills y too
+  auto solveParticle = [&](int i, const Vec3& f, Eigen::VectorXd* y) -> Vec3
+  {
+    const Eigen::Matrix3d& inverse = t.particle_inverse[i];
+    const int first = t.inner_start[i], k = t.inner_start[i + 1] - first;
+    Vec3 x = inverse * f;
+    if (k == 0)
+      return x;
+    // y = -S^-1 (h - G^T A^-1 f), x = A^-1 (f - G y)
+    Eigen::VectorXd h(k);
+    for (int c = 0; c < k; ++c)
+      h[c] = b[t.inner[first + c].row];
+    const Eigen::VectorXd inner = -t.inner_ldlt[i].solve(h - t.inner_gradients[i].transpose() * x);
+    x -= inverse * (t.inner_gradients[i] * inner);
+    if (y)
+      *y = inner;
+    return x;
+  };
+  // forward: each node hands its eliminated right-hand side to its parent
+  for (const int node : t.order)
+  {
+    const int parent = t.parent[node];
+    if (parent < 0)
+      continue;
+    const RowIncidence& e = t.edge[node];
+    const Vec3 g = rows_[e.row].gradientOf(e.slot);
+    if (node < n)
+      b[e.row] -= g.dot(solveParticle(node, particle_rhs.col(node), nullptr));
+    else
+      particle_rhs.col(parent) -= g * (t.row_inverse[node - n] * b[node - n]);
+  }
+  // backward, roots first: z_j = D_j^-1 (rhs_j - H_jp z_p)
+  Eigen::VectorXd inner;
+  for (auto it = t.order.rbegin(); it != t.order.rend(); ++it)
+  {
+    const int node = *it;
+    const int parent = t.parent[node];
+    const RowIncidence& e = t.edge[node];
+    if (node < n)
+    {
+      Vec3 rhs = particle_rhs.col(node);
+      if (parent >= 0)
+        rhs -= rows_[e.row].gradientOf(e.slot) * b[e.row];
+      particle_rhs.col(node) = solveParticle(node, rhs, &inner);
+      const int first = t.inner_start[node];
+      for (int c = 0; c < t.inner_start[node + 1] - first; ++c)
+        t.inner_rhs[t.inner[first + c].row] = inner[c];
+    }
+    else
+    {
+      const int r = node - n;
+      double rhs = b[r];
+      if (parent >= 0)
+        rhs -= rows_[r].gradientOf(e.slot).dot(particle_rhs.col(parent));
+      b[r] = t.row_inverse[r] * rhs;
+    }
+  }
+  for (const RowIncidence& touch : t.inner)
+    b[touch.row] = t.inner_rhs[touch.row];
+  b = -b;
+}
+
 void ConstraintSolver::solveInPlace(Eigen::VectorXd& b) const
 {
   switch (model_->solveMethod())
   {
+    case SolveMethod::Tree:
+      solveTree(b);
+      break;
+    case SolveMethod::Single:
     case SolveMethod::Tridiagonal:
     {
       const int m = static_cast<int>(b.size());

@@ -118,10 +118,12 @@ const Points& Dynamics::computeAppliedForces(const Points& positions, const Poin
 {
   const Scene& scene = solver_.model().scene();
   applied_forces_.setZero();
+  EffectCounters& counters = solver_.counters();
   for (const Force& force : scene.forces)
-    std::visit([&](const auto& f)
-               { accumulateForce(f, scene.masses, positions, velocities, applied_forces_); },
-               force);
+  {
+    accumulateForce(force, scene.masses, positions, velocities, applied_forces_);
+    ++counters.forces[force.index()];
+  }
   return applied_forces_;
 }
 
@@ -173,7 +175,9 @@ SolveReport Dynamics::computeAccelerations(const Points& positions, const Points
   const auto& pins = model.pins();
   for (std::size_t k = 0; k < pins.size(); ++k)
   {
-    const int i = std::get<PinConstraint>(scene.constraints[pins[k]]).particle;
+    const Constraint& pin = scene.constraints[pins[k]];
+    ++solver_.counters().constraints[pin.index()];
+    const int i = std::get<PinConstraint>(pin).particle;
     const Vec3 reaction = -(applied_forces_.col(i) + constraint_forces_.col(i));
     constraint_forces_.col(i) += reaction;
     multipliers_.segment<3>(m + 3 * static_cast<int>(k)) = reaction;

@@ -5,30 +5,6 @@
 
 namespace constrained_particles
 {
-namespace
-{
-void requireParticle(const std::string& field, int index, int num_particles)
-{
-  if (index < 0 || index >= num_particles)
-  {
-    throw InvalidInput(field, "= " + std::to_string(index) + ", must be a particle index in [0, " +
-                                  std::to_string(num_particles - 1) + "]");
-  }
-}
-
-// rows touching one particle in one slot, for structure checks
-int rowParticle(const Scene& scene, int constraint, int slot)
-{
-  const Constraint& c = scene.constraints[constraint];
-  if (const auto* surface = std::get_if<SurfaceConstraint>(&c))
-    return slot == 0 ? surface->particle : -1;
-  if (const auto* link = std::get_if<LinkConstraint>(&c))
-    return slot == 0 ? link->first : link->second;
-  return -1;
-}
-
-}  // namespace
-
 const char* solveMethodName(SolveMethod method)
 {
   switch (method)
@@ -43,6 +19,10 @@ const char* solveMethodName(SolveMethod method)
       return "dense";
     case SolveMethod::None:
       return "none";
+    case SolveMethod::Single:
+      return "single";
+    case SolveMethod::Tree:
+      return "tree";
   }
   return "unknown";
 }
@@ -65,55 +45,33 @@ Model Model::compile(const Scene& scene, SolveMethod method)
   for (int i = 0; i < n; ++i)
     model.inverse_masses_[i] = 1.0 / scene.masses[i];
 
+  const int num_surfaces = static_cast<int>(scene.surfaces.size());
   std::vector<bool> pinned(n, false);
   for (std::size_t k = 0; k < scene.constraints.size(); ++k)
   {
     const std::string field = "constraints[" + std::to_string(k) + "]";
     const Constraint& c = scene.constraints[k];
-    if (const auto* surface = std::get_if<SurfaceConstraint>(&c))
+    validateConstraint(c, n, num_surfaces, field);
+    if (!isEliminated(c))
     {
-      requireParticle(field + ".particle", surface->particle, n);
-      if (surface->surface < 0 || surface->surface >= static_cast<int>(scene.surfaces.size()))
-      {
-        throw InvalidInput(field + ".surface",
-                           "= " + std::to_string(surface->surface) + ", must index one of the " +
-                               std::to_string(scene.surfaces.size()) + " surfaces");
-      }
       model.row_constraint_.push_back(static_cast<int>(k));
+      continue;
     }
-    else if (const auto* link = std::get_if<LinkConstraint>(&c))
-    {
-      requireParticle(field + ".first", link->first, n);
-      requireParticle(field + ".second", link->second, n);
-      if (link->first == link->second)
-        throw InvalidInput(field + ".second",
-                           "= " + std::to_string(link->second) + ", must differ from first");
-      requirePositive(field + ".length", link->length, "[m]");
-      model.row_constraint_.push_back(static_cast<int>(k));
-    }
-    else if (const auto* pin = std::get_if<PinConstraint>(&c))
-    {
-      requireParticle(field + ".particle", pin->particle, n);
-      requireFinite(field + ".anchor", pin->anchor, "[m]");
-      if (pinned[pin->particle])
-        throw InvalidInput(field + ".particle",
-                           "= " + std::to_string(pin->particle) + " is already pinned");
-      pinned[pin->particle] = true;
-      model.inverse_masses_[pin->particle] = 0.0;
-      model.pins_.push_back(static_cast<int>(k));
-    }
+    const PinConstraint& pin = std::get<PinConstraint>(c);
+    if (pinned[pin.particle])
+      throw InvalidInput(field + ".particle",
+                         "= " + std::to_string(pin.particle) + " is already pinned");
+    pinned[pin.particle] = true;
+    model.inverse_masses_[pin.particle] = 0.0;
+    model.pins_.push_back(static_cast<int>(k));
   }
-
-  for (const Force& force : scene.forces)
-    if (std::holds_alternative<GravityForce>(force))
-      model.has_potential_ = true;
 
   // incidence of rows on free particles, in CSR form
   std::vector<int> count(n + 1, 0);
   for (int r = 0; r < model.numRows(); ++r)
     for (int slot = 0; slot < 2; ++slot)
     {
-      const int i = rowParticle(scene, model.row_constraint_[r], slot);
+      const int i = rowParticles(scene.constraints[model.row_constraint_[r]])[slot];
       if (i >= 0 && !pinned[i])
         ++count[i + 1];
     }
@@ -125,20 +83,36 @@ Model Model::compile(const Scene& scene, SolveMethod method)
   for (int r = 0; r < model.numRows(); ++r)
     for (int slot = 0; slot < 2; ++slot)
     {
-      const int i = rowParticle(scene, model.row_constraint_[r], slot);
+      const int i = rowParticles(scene.constraints[model.row_constraint_[r]])[slot];
       if (i >= 0 && !pinned[i])
         model.incidence_[fill[i]++] = RowIncidence{ r, slot };
     }
 
   const bool tridiagonal = isTridiagonal(model);
   if (model.numRows() == 0)
-    model.method_ = SolveMethod::None;
+    model.method_ = SolveMethod::None;  // nothing to solve, whatever was asked
   else if (method == SolveMethod::Automatic)
-    model.method_ = tridiagonal ? SolveMethod::Tridiagonal : SolveMethod::Sparse;
+  {
+    if (model.numRows() == 1)
+      model.method_ = SolveMethod::Single;
+    else if (tridiagonal)
+      model.method_ = SolveMethod::Tridiagonal;
+    else if (isForest(model))
+      model.method_ = SolveMethod::Tree;
+    else
+      model.method_ = SolveMethod::Sparse;
+  }
   else if (method == SolveMethod::Tridiagonal && !tridiagonal)
     throw InvalidInput("solve_method",
                        "= tridiagonal, but the constraint rows of this scene do "
-                       "not form a chain; use automatic, sparse or dense");
+                       "not form a chain; use automatic, tree, sparse or dense");
+  else if (method == SolveMethod::Tree && !isForest(model))
+    throw InvalidInput("solve_method",
+                       "= tree, but the constraint rows of this scene form a cycle; use "
+                       "automatic, sparse or dense");
+  else if (method == SolveMethod::Single && model.numRows() != 1)
+    throw InvalidInput("solve_method", "= single, but the scene has " +
+                                           std::to_string(model.numRows()) + " constraint rows");
   else if (method == SolveMethod::None)
     throw InvalidInput("solve_method", "= none, but the scene has constraint rows");
   else
@@ -158,6 +132,33 @@ bool isTridiagonal(const Model& model)
     if (touches == 2 && std::abs(incidence[start[i]].row - incidence[start[i] + 1].row) != 1)
       return false;
   }
+  return true;
+}
+
+bool isForest(const Model& model)
+{
+  // union-find over free particles [0, n) and rows [n, n + m): a second path between two
+  // nodes closes a cycle
+  const int n = model.numParticles();
+  std::vector<int> root(n + model.numRows());
+  for (std::size_t k = 0; k < root.size(); ++k)
+    root[k] = static_cast<int>(k);
+  auto find = [&root](int k)
+  {
+    while (root[k] != k)
+      k = root[k] = root[root[k]];
+    return k;
+  };
+  const auto& start = model.incidenceStart();
+  const auto& incidence = model.incidence();
+  for (int i = 0; i < n; ++i)
+    for (int a = start[i]; a < start[i + 1]; ++a)
+    {
+      const int x = find(i), y = find(n + incidence[a].row);
+      if (x == y)
+        return false;
+      root[x] = y;
+    }
   return true;
 }
 

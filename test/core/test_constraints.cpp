@@ -69,7 +69,7 @@ TEST(SurfaceConstraint, JacobianAndJdotVMatchFiniteDifferences)
   };
   for (const auto& [type, coefficients] : surfaces)
   {
-    const Surface surface = makeSurface(type, coefficients);
+    const Surfaces surface{ makeSurface(type, coefficients) };
     for (int trial = 0; trial < 50; ++trial)
     {
       Points p(3, 2), v(3, 2);
@@ -104,13 +104,15 @@ TEST(LinkConstraint, JacobianAndJdotVMatchFiniteDifferences)
       v.col(i) = random.vector(3.0);
     }
     const LinkConstraint constraint{ 2, 0, random.uniform(0.1, 2.0) };
-    const ConstraintRow row = evaluateRow(constraint, p, v);
-    EXPECT_DOUBLE_EQ(row.value, constraintValue(constraint, p));
-    expectRowMatches(
-        row, numericalJacobian(p, [&](const Points& q) { return constraintValue(constraint, q); }),
-        1e-7);
+    const Surfaces none;
+    const ConstraintRow row = evaluateRow(constraint, none, p, v);
+    EXPECT_DOUBLE_EQ(row.value, constraintValue(constraint, none, p));
+    expectRowMatches(row,
+                     numericalJacobian(p, [&](const Points& q)
+                                       { return constraintValue(constraint, none, q); }),
+                     1e-7);
     const double numerical =
-        numericalJdotV(p, v, [&](const Points& q) { return evaluateRow(constraint, q, v); });
+        numericalJdotV(p, v, [&](const Points& q) { return evaluateRow(constraint, none, q, v); });
     EXPECT_NEAR(row.jdot_v, numerical, 1e-6 * (1.0 + std::abs(numerical)));
     // metric errors are in metres and metres per second
     const Vec3 d = p.col(2) - p.col(0);

@@ -70,10 +70,10 @@ TEST(Validation, SceneFieldsAreNamed)
   expectRefused([&] { Model::compile(s); }, "constraints[2].surface");
   s = validChain();
   s.forces = { GravityForce{ Vec3(0, NaN, 0) } };
-  expectRefused([&] { Model::compile(s); }, "forces[0].gravity.y");
+  expectRefused([&] { Model::compile(s); }, "forces[0].acceleration.y");
   s = validChain();
   s.forces = { LinearDampingForce{ -1.0 } };
-  expectRefused([&] { Model::compile(s); }, "forces[0].damping", ">= 0");
+  expectRefused([&] { Model::compile(s); }, "forces[0].coefficient", ">= 0");
   s = validChain();
   s.forces = { ExternalForce{ 3, Vec3(0, 0, 1) } };
   expectRefused([&] { Model::compile(s); }, "forces[0].particle");

@@ -1,8 +1,10 @@
 /// @file constraint_solver.hpp
 /// @brief Assembles and solves (J W J^T) x = b from evaluated constraint rows.
 ///
-/// Tridiagonal systems (chains, a chain hanging from a surface bead) are factorised in O(n) by
-/// LDL^T; any other structure by a sparse LDL^T whose ordering is analysed once per model.
+/// A single row is solved in closed form; tridiagonal systems (chains, a chain hanging from a
+/// surface bead) are factorised in O(n) by LDL^T; systems whose particle-row graph is a forest
+/// (branched chains, stars) in O(n) by block elimination of that graph; any other structure by a
+/// sparse LDL^T whose ordering is analysed once per model.
 /// A (near) singular matrix is detected from its pivots, reported, and solved regularised
 /// (J W J^T + delta I), so the result stays finite.
 #pragma once
@@ -12,6 +14,8 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include <array>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -41,6 +45,34 @@ struct SolveReport
 constexpr double SINGULAR_PIVOT_RATIO = 1e-12;
 /// Regularization added when singular, relative to the largest diagonal entry.
 constexpr double SINGULAR_REGULARIZATION = 1e-9;
+
+/// How often each effect and each solve was evaluated: proof that a scene pays only for what it
+/// lists. Counted where the work is dispatched, not derived from the scene.
+struct EffectCounters
+{
+  std::array<std::uint64_t, NUM_FORCE_KINDS> forces{};  ///< force records accumulated, by kind
+  /// constraint records evaluated, by kind: rows for row kinds, pin applications for pins
+  std::array<std::uint64_t, NUM_CONSTRAINT_KINDS> constraints{};
+  std::array<std::uint64_t, NUM_SOLVE_METHODS> factorizations{};  ///< by SolveMethod
+
+  /// Evaluations of the force kind `Kind` (e.g. QuadraticDragForce).
+  template <typename Kind>
+  std::uint64_t forceCount() const
+  {
+    return forces[Force(Kind{}).index()];
+  }
+  /// Evaluations of the constraint kind `Kind` (e.g. SurfaceConstraint).
+  template <typename Kind>
+  std::uint64_t constraintCount() const
+  {
+    return constraints[Constraint(Kind{}).index()];
+  }
+  /// Factorizations by `method`.
+  std::uint64_t factorizationCount(SolveMethod method) const
+  {
+    return factorizations[static_cast<int>(method)];
+  }
+};
 
 /// Workspace for one model: the evaluated rows and the factorisation of J W J^T.
 /// Allocates in the constructor; evaluate/factorize/solve of a chain allocate nothing.
@@ -98,12 +130,25 @@ public:
   /// J W J^T as a dense matrix (tests and small systems only).
   Eigen::MatrixXd denseMatrix() const;
 
+  /// Evaluation counters of this workspace (rows and factorizations; Dynamics adds forces).
+  EffectCounters& counters()
+  {
+    return counters_;
+  }
+  const EffectCounters& counters() const
+  {
+    return counters_;
+  }
+
 private:
   /// Adds row r's entries of J W J^T (diagonal, and the coupling to row r - 1).
   void assembleTridiagonalRow(int r, std::size_t& next_coupling);
   SolveReport factorizeTridiagonal();
   SolveReport factorizeSparse();
   SolveReport factorizeDense();
+  void buildTree();
+  SolveReport factorizeTree();
+  void solveTree(Eigen::VectorXd& b) const;
 
   const Model* model_;
   std::vector<ConstraintRow> rows_;
@@ -122,6 +167,9 @@ private:
   std::unique_ptr<SparseState> sparse_;
   struct DenseState;
   std::unique_ptr<DenseState> dense_;
+  struct TreeState;
+  std::unique_ptr<TreeState> tree_;
+  EffectCounters counters_;
 };
 
 }  // namespace constrained_particles

@@ -134,6 +134,11 @@ public:
   {
     return solver_;
   }
+  /// How often each force, constraint and solve was evaluated since construction.
+  const EffectCounters& counters() const
+  {
+    return solver_.counters();
+  }
 
   /// Scratch arrays of 3 x n for the integrators, so a step allocates nothing.
   Points& scratch(int index)

@@ -37,12 +37,18 @@ struct State
 /// How (J W J^T) lambda = b is solved.
 enum class SolveMethod
 {
-  Automatic,    ///< Tridiagonal when the row structure allows it, else Sparse; None if no rows
+  Automatic,    ///< chosen from the row structure: None, Single, Tridiagonal, Tree, else Sparse
   Tridiagonal,  ///< O(n) LDL^T of a tridiagonal matrix (chains, chain hanging from a bead)
   Sparse,       ///< sparse LDL^T with a fill-reducing ordering (any structure)
   Dense,        ///< dense LDL^T, O(n^3): for tests and benchmarks
   None,         ///< resolved method when a scene has no constraint rows
+  Single,       ///< one row: the closed form lambda = b / (J W J^T), no matrix
+  Tree,         ///< O(n) block elimination of the particle-row graph, leaves first, when it
+                ///< has no cycle (branched chains, stars, several chains); Baraff 1996
 };
+
+/// Number of SolveMethod values.
+constexpr int NUM_SOLVE_METHODS = 7;
 
 /// Name of a solve method ("tridiagonal", ...).
 const char* solveMethodName(SolveMethod method);
@@ -114,12 +120,6 @@ public:
   {
     return incidence_;
   }
-  /// True if the scene has a gravity force (it defines the potential energy).
-  bool hasPotential() const
-  {
-    return has_potential_;
-  }
-
   /// Throws InvalidInput unless the state has this model's particle count and is finite.
   /// @param field name used in messages, e.g. "state"
   void validateState(const State& state, const std::string& field = "state") const;
@@ -134,11 +134,14 @@ private:
   std::vector<int> incidence_start_;
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;
-  bool has_potential_ = false;
 };
 
 /// True if rows touching each free particle are at most two and adjacent, so J W J^T is
 /// tridiagonal in row order.
 bool isTridiagonal(const Model& model);
+
+/// True if the graph joining each row to the free particles it touches has no cycle, so the
+/// Tree method solves it in O(n).
+bool isForest(const Model& model);
 
 }  // namespace constrained_particles

@@ -67,6 +67,13 @@ public:
     return last_report_;
   }
 
+  /// How often each effect and solve was evaluated since the scene was set (steps, projections
+  /// and constraintForces()).
+  const EffectCounters& effectCounters() const
+  {
+    return dynamics_->counters();
+  }
+
   /// Errors and energies of the current state.
   Diagnostics diagnostics() const
   {

@@ -1,0 +1,49 @@
+/// @file gravity.hpp
+/// @brief Uniform gravity, an applied force.
+#pragma once
+
+#include "constrained_particles/core/effect_fields.hpp"
+
+#include <vector>
+
+namespace constrained_particles
+{
+/// Uniform gravity: f_i = m_i g. Potential energy -sum m_i g.p_i.
+struct GravityForce
+{
+  Vec3 acceleration{ 0.0, 0.0, -9.81 };  ///< g [m/s^2]
+
+  static constexpr const char* KIND = "gravity";
+  static constexpr auto fields()
+  {
+    return std::make_tuple(field("acceleration", &GravityForce::acceleration, FieldKind::Vector,
+                                 "m/s^2", "g, the same for every particle"));
+  }
+};
+
+/// Adds f_i = m_i g to the per-particle accumulator [N]. Stateless.
+inline void accumulateForce(const GravityForce& force, const std::vector<double>& masses,
+                            const Points& /*positions*/, const Points& /*velocities*/,
+                            Points& forces)
+{
+  for (int i = 0; i < forces.cols(); ++i)
+    forces.col(i) += masses[i] * force.acceleration;
+}
+
+/// -sum m_i g.p_i [J].
+inline double potentialEnergy(const GravityForce& force, const std::vector<double>& masses,
+                              const Points& positions)
+{
+  double energy = 0.0;
+  for (int i = 0; i < positions.cols(); ++i)
+    energy -= masses[i] * force.acceleration.dot(positions.col(i));
+  return energy;
+}
+
+/// @throws InvalidInput naming the bad field
+inline void validate(const GravityForce& force, int num_particles, const std::string& prefix)
+{
+  validateFields(force, num_particles, 0, prefix);
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,43 @@
+/// @file linear_damping.hpp
+/// @brief Viscous damping, an applied force.
+#pragma once
+
+#include "constrained_particles/core/effect_fields.hpp"
+
+#include <vector>
+
+namespace constrained_particles
+{
+/// Linear (viscous) damping on every particle: f_i = -c v_i. Not conservative.
+struct LinearDampingForce
+{
+  double coefficient = 0.0;  ///< c [N s/m], >= 0
+
+  static constexpr const char* KIND = "linear_damping";
+  static constexpr auto fields()
+  {
+    return std::make_tuple(field("coefficient", &LinearDampingForce::coefficient,
+                                 FieldKind::NonNegative, "N s/m", "c in f = -c v"));
+  }
+};
+
+/// Adds f_i = -c v_i [N]. Stateless.
+inline void accumulateForce(const LinearDampingForce& force, const std::vector<double>& /*masses*/,
+                            const Points& /*positions*/, const Points& velocities, Points& forces)
+{
+  forces -= force.coefficient * velocities;
+}
+
+/// Not conservative: 0 [J].
+inline double potentialEnergy(const LinearDampingForce&, const std::vector<double>&, const Points&)
+{
+  return 0.0;
+}
+
+/// @throws InvalidInput naming the bad field
+inline void validate(const LinearDampingForce& force, int num_particles, const std::string& prefix)
+{
+  validateFields(force, num_particles, 0, prefix);
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,44 @@
+/// @file quadratic_drag.hpp
+/// @brief Air drag, quadratic in speed.
+#pragma once
+
+#include "constrained_particles/core/effect_fields.hpp"
+
+#include <vector>
+
+namespace constrained_particles
+{
+/// Quadratic (air) drag on every particle: f_i = -c |v_i| v_i. Not conservative.
+struct QuadraticDragForce
+{
+  double coefficient = 0.0;  ///< c [N s^2/m^2] = [kg/m], >= 0
+
+  static constexpr const char* KIND = "quadratic_drag";
+  static constexpr auto fields()
+  {
+    return std::make_tuple(field("coefficient", &QuadraticDragForce::coefficient,
+                                 FieldKind::NonNegative, "kg/m", "c in f = -c |v| v"));
+  }
+};
+
+/// Adds f_i = -c |v_i| v_i [N]. Stateless.
+inline void accumulateForce(const QuadraticDragForce& force, const std::vector<double>& /*masses*/,
+                            const Points& /*positions*/, const Points& velocities, Points& forces)
+{
+  for (int i = 0; i < forces.cols(); ++i)
+    forces.col(i) -= force.coefficient * velocities.col(i).norm() * velocities.col(i);
+}
+
+/// Not conservative: 0 [J].
+inline double potentialEnergy(const QuadraticDragForce&, const std::vector<double>&, const Points&)
+{
+  return 0.0;
+}
+
+/// @throws InvalidInput naming the bad field
+inline void validate(const QuadraticDragForce& force, int num_particles, const std::string& prefix)
+{
+  validateFields(force, num_particles, 0, prefix);
+}
+
+}  // namespace constrained_particles

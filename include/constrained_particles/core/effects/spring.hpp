@@ -1,0 +1,62 @@
+/// @file spring.hpp
+/// @brief A linear spring between two particles.
+#pragma once
+
+#include "constrained_particles/core/effect_fields.hpp"
+
+#include <vector>
+
+namespace constrained_particles
+{
+/// Spring between particles i and j: f_i = -k (|p_i - p_j| - L) (p_i - p_j) / |p_i - p_j|,
+/// f_j = -f_i; potential k (|p_i - p_j| - L)^2 / 2. Coincident particles get no force (no
+/// direction); with L > 0 the force flips direction through that point, so motion through it is
+/// not smooth (L = 0 gives f = -k (p_i - p_j), smooth everywhere).
+struct SpringForce
+{
+  int first = 0;             ///< particle i
+  int second = 1;            ///< particle j, != i
+  double stiffness = 1.0;    ///< k [N/m], >= 0
+  double rest_length = 0.0;  ///< L [m], >= 0
+
+  static constexpr const char* KIND = "spring";
+  static constexpr auto fields()
+  {
+    return std::make_tuple(
+        field("first", &SpringForce::first, FieldKind::Particle, "", "particle i"),
+        field("second", &SpringForce::second, FieldKind::Particle, "", "particle j, != i"),
+        field("stiffness", &SpringForce::stiffness, FieldKind::NonNegative, "N/m", "k"),
+        field("rest_length", &SpringForce::rest_length, FieldKind::NonNegative, "m", "L"));
+  }
+};
+
+/// Adds the spring force to particles i and j [N]. Stateless.
+inline void accumulateForce(const SpringForce& force, const std::vector<double>& /*masses*/,
+                            const Points& positions, const Points& /*velocities*/, Points& forces)
+{
+  const Vec3 d = positions.col(force.first) - positions.col(force.second);
+  const double length = d.norm();
+  if (!(length > 0.0))
+    return;
+  const Vec3 f = (-force.stiffness * (length - force.rest_length) / length) * d;
+  forces.col(force.first) += f;
+  forces.col(force.second) -= f;
+}
+
+/// k (|p_i - p_j| - L)^2 / 2 [J].
+inline double potentialEnergy(const SpringForce& spring, const std::vector<double>& /*masses*/,
+                              const Points& positions)
+{
+  const double stretch =
+      (positions.col(spring.first) - positions.col(spring.second)).norm() - spring.rest_length;
+  return 0.5 * spring.stiffness * stretch * stretch;
+}
+
+/// @throws InvalidInput naming the bad field
+inline void validate(const SpringForce& spring, int num_particles, const std::string& prefix)
+{
+  validateFields(spring, num_particles, 0, prefix);
+  requireDistinctParticles(spring.first, spring.second, prefix);
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,247 @@
+// A scene evaluates only the effects it lists (per-effect counters), and its solve is chosen by
+// its constraint structure: closed form for one row, O(n) for chains and trees, sparse otherwise.
+#include "constrained_particles/core/scenarios.hpp"
+#include "constrained_particles/core/simulator.hpp"
+#include "test_helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+using namespace constrained_particles;
+using constrained_particles::testing::beadScene;
+using constrained_particles::testing::pinnedChain;
+using constrained_particles::testing::Random;
+
+namespace
+{
+StepSettings rk4Projection()
+{
+  StepSettings settings;
+  settings.dt = 1e-3;
+  settings.integrator = Integrator::RK4;
+  settings.stabilization = Stabilization::Projection;
+  return settings;
+}
+
+// A random tree: particle k > 0 hangs by a link from a random earlier particle; some particles
+// also slide on a plane; optionally particle 0 is pinned.
+Scene randomTree(int n, bool pin_root, Random& random, Points& p, Points& v)
+{
+  Scene scene;
+  scene.surfaces = { makeSurface(SurfaceType::Plane, { 0.1, -0.2, -5.0 }) };
+  p.resize(3, n);
+  v.resize(3, n);
+  p.col(0) = random.vector(1.0);
+  v.col(0) = random.vector(1.0);
+  scene.masses.push_back(random.uniform(0.1, 10.0));
+  for (int k = 1; k < n; ++k)
+  {
+    const int parent = static_cast<int>(random.uniform(0.0, k - 1e-9));
+    p.col(k) = p.col(parent) + random.uniform(0.4, 0.6) * random.unitVector();
+    v.col(k) = random.vector(1.0);
+    scene.masses.push_back(random.uniform(0.1, 10.0));
+    scene.constraints.push_back(LinkConstraint{ parent, k, 0.5 });
+  }
+  // a leaf-only surface row keeps the graph a forest (one more row per chosen particle)
+  for (int k = 1; k < n; k += 7)
+    scene.constraints.push_back(SurfaceConstraint{ k, 0 });
+  if (pin_root)
+  {
+    scene.constraints.push_back(PinConstraint{ 0, Vec3(p.col(0)) });
+    v.col(0).setZero();
+  }
+  scene.forces = { GravityForce{}, LinearDampingForce{ 0.2 } };
+  return scene;
+}
+
+struct Solved
+{
+  Eigen::VectorXd multipliers;
+  SolveReport report;
+};
+
+Solved solve(const Scene& scene, SolveMethod method, const Points& p, const Points& v)
+{
+  const Model model = Model::compile(scene, method);
+  Dynamics dynamics(model);
+  Points a(3, p.cols());
+  Solved s;
+  s.report = dynamics.computeAccelerations(p, v, 0.0, 0.0, a);
+  s.multipliers = dynamics.multipliers();
+  return s;
+}
+
+}  // namespace
+
+TEST(EffectCounters, ASceneEvaluatesOnlyTheEffectsItLists)
+{
+  ScenarioParameters parameters;
+  parameters.damping = 0.1;
+  for (const std::string& name : scenarioNames())
+  {
+    const Scenario scenario = buildScenario(name, parameters);
+    Simulator simulator(scenario.scene, scenario.initial_state, rk4Projection());
+    simulator.step(10);
+    const EffectCounters& c = simulator.effectCounters();
+    // listed: evaluated every step; not listed: never
+    EXPECT_GT(c.forceCount<GravityForce>(), 0u) << name;
+    EXPECT_GT(c.forceCount<LinearDampingForce>(), 0u) << name;
+    EXPECT_EQ(c.forceCount<QuadraticDragForce>(), 0u) << name;
+    EXPECT_EQ(c.forceCount<SpringForce>(), 0u) << name;
+    EXPECT_EQ(c.forceCount<ExternalForce>(), 0u) << name;
+    const bool has_surface = name != "chain";
+    const bool has_links = name != "bead";
+    EXPECT_EQ(c.constraintCount<SurfaceConstraint>() > 0, has_surface) << name;
+    EXPECT_EQ(c.constraintCount<LinkConstraint>() > 0, has_links) << name;
+    EXPECT_EQ(c.constraintCount<PinConstraint>() > 0, name == "chain") << name;
+    // the lone bead never assembles or factorises a matrix
+    if (name == "bead")
+    {
+      for (SolveMethod method : { SolveMethod::Tridiagonal, SolveMethod::Sparse,
+                                  SolveMethod::Dense, SolveMethod::Tree })
+        EXPECT_EQ(c.factorizationCount(method), 0u) << solveMethodName(method);
+      EXPECT_GT(c.factorizationCount(SolveMethod::Single), 0u);
+    }
+  }
+}
+
+TEST(EffectCounters, DragSceneEvaluatesDragAndNoConstraints)
+{
+  Scene scene;
+  scene.masses = { 0.5 };
+  scene.forces = { GravityForce{}, QuadraticDragForce{ 0.01 } };
+  State state;
+  state.positions = Points::Zero(3, 1);
+  state.velocities = Points::Constant(3, 1, 2.0);
+  Simulator simulator(scene, state, rk4Projection());
+  simulator.step(5);
+  const EffectCounters& c = simulator.effectCounters();
+  EXPECT_EQ(c.forceCount<QuadraticDragForce>(), 5u * 4u);  // RK4: four evaluations per step
+  EXPECT_EQ(c.forceCount<GravityForce>(), 5u * 4u);
+  for (int k = 0; k < NUM_CONSTRAINT_KINDS; ++k)
+    EXPECT_EQ(c.constraints[k], 0u);
+  for (int k = 0; k < NUM_SOLVE_METHODS; ++k)
+    EXPECT_EQ(c.factorizations[k], 0u);
+}
+
+TEST(EffectCounters, BeadCostDoesNotGrowWithChainParameters)
+{
+  // the same bead, with the (unused) chain of the configuration small and huge
+  std::vector<EffectCounters> counters;
+  for (int chain_particles : { 2, 100000 })
+  {
+    ScenarioParameters parameters;
+    parameters.chain.num_particles = chain_particles;
+    parameters.chain.link_length = 3.0;
+    const Scenario bead = buildScenario("bead", parameters);
+    EXPECT_EQ(bead.scene.masses.size(), 1u);
+    Simulator simulator(bead.scene, bead.initial_state, rk4Projection());
+    simulator.step(100);
+    counters.push_back(simulator.effectCounters());
+  }
+  EXPECT_EQ(counters[0].forces, counters[1].forces);
+  EXPECT_EQ(counters[0].constraints, counters[1].constraints);
+  EXPECT_EQ(counters[0].factorizations, counters[1].factorizations);
+  // 100 steps of RK4 + projection: one surface row per evaluation, nothing per chain particle
+  EXPECT_LT(counters[1].constraintCount<SurfaceConstraint>(), 100u * 20u);
+}
+
+TEST(SolveSelection, ChosenByConstraintStructure)
+{
+  Random random(31);
+  Points p, v;
+  EXPECT_EQ(Model::compile(beadScene(Surface{})).solveMethod(), SolveMethod::Single);
+  EXPECT_EQ(Model::compile(pinnedChain({ 1.0, 1.0, 1.0 }, 0.5)).solveMethod(),
+            SolveMethod::Tridiagonal);
+  EXPECT_EQ(Model::compile(randomTree(40, true, random, p, v)).solveMethod(), SolveMethod::Tree);
+  // two chains hanging from one particle: a star, not tridiagonal
+  Scene star;
+  star.masses.assign(7, 1.0);
+  for (int k = 1; k < 7; ++k)
+    star.constraints.push_back(LinkConstraint{ 0, k, 1.0 });
+  EXPECT_EQ(Model::compile(star).solveMethod(), SolveMethod::Tree);
+  // a ring closes a cycle: sparse; asking for the tree solve is refused
+  Scene ring;
+  ring.masses.assign(5, 1.0);
+  for (int i = 0; i < 5; ++i)
+    ring.constraints.push_back(LinkConstraint{ i, (i + 1) % 5, 1.0 });
+  EXPECT_EQ(Model::compile(ring).solveMethod(), SolveMethod::Sparse);
+  EXPECT_THROW(Model::compile(ring, SolveMethod::Tree), InvalidInput);
+  EXPECT_THROW(Model::compile(star, SolveMethod::Single), InvalidInput);
+  // a cycle through a pinned particle is no cycle: the pin is eliminated
+  Scene pinned_ring = ring;
+  pinned_ring.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  EXPECT_TRUE(isForest(Model::compile(pinned_ring, SolveMethod::Dense)));
+  EXPECT_FALSE(isForest(Model::compile(ring, SolveMethod::Dense)));
+}
+
+TEST(SolveSelection, SingleAndTreeMatchDenseSolves)
+{
+  Random random(32);
+  for (int trial = 0; trial < 30; ++trial)
+  {
+    Points p, v;
+    const int n = 2 + trial * 3;
+    const Scene tree = randomTree(n, trial % 2 == 0, random, p, v);
+    const Solved fast = solve(tree, SolveMethod::Tree, p, v);
+    const Solved dense = solve(tree, SolveMethod::Dense, p, v);
+    EXPECT_EQ(fast.report.method, SolveMethod::Tree);
+    EXPECT_FALSE(fast.report.singular);
+    EXPECT_LE((fast.multipliers - dense.multipliers).norm(), 1e-9 * dense.multipliers.norm())
+        << "n = " << n;
+  }
+  // one row: closed form
+  Points p(3, 1), v(3, 1);
+  p.col(0) = Vec3(0.3, -0.2, 0.1);
+  v.col(0) = Vec3(0.5, 0.7, 0.0);
+  const Scene bead = beadScene(makeSurface(SurfaceType::Waves, { 0.3, 2.0, 1.0 }));
+  const Solved single = solve(bead, SolveMethod::Single, p, v);
+  const Solved dense = solve(bead, SolveMethod::Dense, p, v);
+  EXPECT_NEAR(single.multipliers[0], dense.multipliers[0], 1e-12 * std::abs(dense.multipliers[0]));
+}
+
+TEST(SolveSelection, TreeSolveHandlesLargeStarsAndStaysFiniteWhenSingular)
+{
+  // a star of k links on one particle: J W J^T is dense (k^2 entries), the tree solve is O(k)
+  auto star = [](int k, Points& p, Points& v)
+  {
+    Scene scene;
+    scene.masses.assign(k + 1, 1.0);
+    p.setZero(3, k + 1);
+    v.setZero(3, k + 1);
+    for (int j = 1; j <= k; ++j)
+    {
+      const double angle = 2.0 * M_PI * j / k;
+      p.col(j) = Vec3(std::cos(angle), std::sin(angle), 0.0);
+      v.col(j) = Vec3(0.0, 0.0, 0.1 * j);
+      scene.constraints.push_back(LinkConstraint{ 0, j, 1.0 });
+    }
+    scene.forces = { GravityForce{} };
+    return scene;
+  };
+  Points p, v;
+  const Scene small = star(10, p, v);
+  const Solved tree = solve(small, SolveMethod::Tree, p, v);
+  const Solved dense = solve(small, SolveMethod::Dense, p, v);
+  EXPECT_LE((tree.multipliers - dense.multipliers).norm(), 1e-10 * dense.multipliers.norm());
+  // 20,000 links on one particle: J W J^T would have 4e8 entries; the tree solve needs none
+  const Scene large = star(20000, p, v);
+  const Model model = Model::compile(large);
+  EXPECT_EQ(model.solveMethod(), SolveMethod::Tree);
+  Dynamics dynamics(model);
+  Points a(3, p.cols());
+  dynamics.computeAccelerations(p, v, 0.0, 0.0, a);
+  EXPECT_TRUE(dynamics.multipliers().allFinite());
+  EXPECT_EQ(dynamics.counters().factorizationCount(SolveMethod::Tree), 1u);
+  // a link between two pinned particles touches no free particle: singular, regularised, finite
+  Scene stuck;
+  stuck.masses = { 1.0, 1.0, 1.0 };
+  stuck.constraints = { LinkConstraint{ 0, 1, 1.0 }, LinkConstraint{ 1, 2, 1.0 },
+                        PinConstraint{ 0, Vec3::Zero() }, PinConstraint{ 1, Vec3(1, 0, 0) } };
+  Points ps(3, 3), vs = Points::Zero(3, 3);
+  ps << 0, 1, 2, 0, 0, 0, 0, 0, 0;
+  const Solved regularised = solve(stuck, SolveMethod::Tree, ps, vs);
+  EXPECT_TRUE(regularised.report.singular);
+  EXPECT_TRUE(regularised.multipliers.allFinite());
+}
