@@ -12,7 +12,7 @@ PACKAGES=(
   librostest-dev python3-rostest rosbash python3-rospy python3-roslaunch
   python3-geometry-msgs python3-visualization-msgs python3-tf2-msgs
   python3-std-srvs python3-catkin-pkg python3-tf2-ros python3-dynamic-reconfigure
-  libdiagnostic-msgs-dev python3-diagnostic-msgs
+  libdiagnostic-msgs-dev python3-diagnostic-msgs libyaml-cpp-dev libroslib-dev
 )
 # Optional extras: rviz and Xvfb (WITH_RVIZ=1); the benchmark's peers and plots (WITH_BENCH=1).
 if [[ "${WITH_RVIZ:-0}" == 1 ]]; then

@@ -186,21 +186,25 @@ SolveReport Dynamics::computeAccelerations(const Points& positions, const Points
   return report;
 }
 
-void Dynamics::applyPins(Points& positions) const
+void Dynamics::applyPins(Points& positions)
 {
   const Scene& scene = solver_.model().scene();
   for (int k : solver_.model().pins())
   {
     const PinConstraint& pin = std::get<PinConstraint>(scene.constraints[k]);
     positions.col(pin.particle) = pin.anchor;
+    ++solver_.counters().constraints[scene.constraints[k].index()];
   }
 }
 
-void Dynamics::pinVelocities(Points& velocities) const
+void Dynamics::pinVelocities(Points& velocities)
 {
   const Scene& scene = solver_.model().scene();
   for (int k : solver_.model().pins())
+  {
     velocities.col(std::get<PinConstraint>(scene.constraints[k]).particle).setZero();
+    ++solver_.counters().constraints[scene.constraints[k].index()];
+  }
 }
 
 ProjectionReport Dynamics::projectPositions(Points& positions, double tolerance, int max_iterations)

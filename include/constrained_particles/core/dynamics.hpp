@@ -148,8 +148,8 @@ public:
   static constexpr int NUM_SCRATCH = 8;
 
 private:
-  void applyPins(Points& positions) const;
-  void pinVelocities(Points& velocities) const;
+  void applyPins(Points& positions);
+  void pinVelocities(Points& velocities);
 
   ConstraintSolver solver_;
   Eigen::VectorXd rhs_, multipliers_;

@@ -1,0 +1,254 @@
+// Scene files: every built-in scenario is a file that builds the same scene; every file in
+// config/scenes loads, runs and evaluates exactly the effects it lists; bad files are refused
+// naming file, line, key and reason.
+#include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/scenes/scene_file.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace constrained_particles;
+
+namespace
+{
+const std::string DIRECTORY = SCENES_DIR;
+
+// The message of the InvalidInput the call throws ("" if none).
+template <typename Fn>
+std::string refusal(Fn fn)
+{
+  try
+  {
+    fn();
+  }
+  catch (const InvalidInput& e)
+  {
+    return e.what();
+  }
+  return "";
+}
+
+void expectRefused(const std::string& yaml, const std::vector<std::string>& mentions)
+{
+  const std::string message = refusal([&] { buildScene(parseScene(yaml, "test.yaml")); });
+  ASSERT_FALSE(message.empty()) << "accepted:\n" << yaml;
+  for (const std::string& mention : mentions)
+    EXPECT_NE(message.find(mention), std::string::npos)
+        << "'" << mention << "' not in: " << message;
+}
+
+std::vector<int> kindsListed(const Scene& scene, bool forces)
+{
+  std::vector<int> listed(forces ? NUM_FORCE_KINDS : NUM_CONSTRAINT_KINDS, 0);
+  if (forces)
+    for (const Force& f : scene.forces)
+      listed[f.index()] = 1;
+  else
+    for (const Constraint& c : scene.constraints)
+      listed[c.index()] = 1;
+  return listed;
+}
+
+}  // namespace
+
+TEST(SceneFiles, BuiltInScenariosAreSceneFiles)
+{
+  for (const std::string& name : scenarioNames())
+  {
+    const Scenario from_file = buildScene(loadSceneFile(DIRECTORY + "/" + name + ".yaml"));
+    const Scenario built_in = buildScenario(name, ScenarioParameters{});
+    EXPECT_EQ(from_file.scene.masses, built_in.scene.masses) << name;
+    EXPECT_LE((from_file.initial_state.positions - built_in.initial_state.positions).norm(),
+              1e-15)
+        << name;
+    EXPECT_LE((from_file.initial_state.velocities - built_in.initial_state.velocities).norm(),
+              1e-15)
+        << name;
+    ASSERT_EQ(from_file.scene.constraints.size(), built_in.scene.constraints.size()) << name;
+    for (std::size_t k = 0; k < built_in.scene.constraints.size(); ++k)
+      EXPECT_EQ(from_file.scene.constraints[k].index(), built_in.scene.constraints[k].index());
+    ASSERT_EQ(from_file.scene.forces.size(), built_in.scene.forces.size()) << name;
+    // and they move the same way
+    StepSettings settings;
+    Simulator a(from_file.scene, from_file.initial_state, settings);
+    Simulator b(built_in.scene, built_in.initial_state, settings);
+    a.step(200);
+    b.step(200);
+    EXPECT_LE((a.state().positions - b.state().positions).norm(), 1e-12) << name;
+  }
+}
+
+TEST(SceneFiles, EveryFileRunsAndEvaluatesOnlyWhatItLists)
+{
+  const std::vector<std::string> names = listScenes(DIRECTORY);
+  EXPECT_GE(names.size(), 7u);
+  for (const std::string& required : { "bead", "chain", "surface_chain", "pinned_pendulum",
+                                       "chain_pinned_both_ends", "two_chains_on_surface",
+                                       "bead_with_drag" })
+    EXPECT_NE(std::find(names.begin(), names.end(), required), names.end()) << required;
+  for (const std::string& name : names)
+  {
+    const SceneDescription description = loadSceneFile(resolveScene(name, DIRECTORY));
+    EXPECT_EQ(description.name, name);
+    const Scenario scenario = buildScene(description);
+    Simulator simulator(scenario.scene, scenario.initial_state,
+                        description.solver.applyTo(StepSettings{}),
+                        description.solver.solve_method);
+    simulator.step(500);
+    const Diagnostics d = simulator.diagnostics();
+    EXPECT_TRUE(d.finite()) << name;
+    EXPECT_LT(d.max_position_error, 1e-8) << name;
+    // a kind is evaluated if and only if the scene lists it
+    const EffectCounters& c = simulator.effectCounters();
+    const std::vector<int> forces = kindsListed(scenario.scene, true);
+    for (int k = 0; k < NUM_FORCE_KINDS; ++k)
+      EXPECT_EQ(c.forces[k] > 0, forces[k] == 1)
+          << name << ": force " << KindNames<Force>::value[k];
+    const std::vector<int> constraints = kindsListed(scenario.scene, false);
+    for (int k = 0; k < NUM_CONSTRAINT_KINDS; ++k)
+      EXPECT_EQ(c.constraints[k] > 0, constraints[k] == 1)
+          << name << ": constraint " << KindNames<Constraint>::value[k];
+  }
+}
+
+TEST(SceneFiles, SolveFollowsStructure)
+{
+  auto method = [](const std::string& name)
+  {
+    const Scenario s = buildScene(loadSceneFile(DIRECTORY + "/" + name + ".yaml"));
+    return Model::compile(s.scene).solveMethod();
+  };
+  EXPECT_EQ(method("bead"), SolveMethod::Single);
+  EXPECT_EQ(method("bead_with_drag"), SolveMethod::Single);
+  EXPECT_EQ(method("chain"), SolveMethod::Tridiagonal);
+  EXPECT_EQ(method("two_chains_on_surface"), SolveMethod::Tridiagonal);
+  EXPECT_EQ(method("mobile"), SolveMethod::Tree);
+}
+
+TEST(SceneFiles, ChangesApplyToTheScene)
+{
+  SceneDescription d = loadSceneFile(DIRECTORY + "/surface_chain.yaml");
+  ChainParameters chain;
+  chain.num_particles = 9;
+  chain.link_length = 0.2;
+  setChains(d, chain);
+  setFirstSurface(d, makeSurface(SurfaceType::Plane, { 0.1, 0.0, -1.0 }));
+  setGravityAndDamping(d, Vec3(0, 0, -1.62), 0.3);
+  const Scenario s = buildScene(d);
+  EXPECT_EQ(s.scene.masses.size(), 9u);
+  EXPECT_NEAR(s.initial_state.positions(2, 0), 0.1 * 0.5 - 1.0, 1e-15);
+  EXPECT_EQ(sceneGravity(d), Vec3(0, 0, -1.62));
+  EXPECT_EQ(sceneDamping(d), 0.3);
+  // the bead has no chain; the chain has no surface
+  SceneDescription bead = loadSceneFile(DIRECTORY + "/bead.yaml");
+  EXPECT_NE(refusal([&] { setChains(bead, chain); }).find("has no chain"), std::string::npos);
+  SceneDescription pinned = loadSceneFile(DIRECTORY + "/chain.yaml");
+  EXPECT_NE(refusal([&] { setFirstSurface(pinned, Surface{}); }).find("has no surface"),
+            std::string::npos);
+  // drag is kept when gravity goes
+  SceneDescription drag = loadSceneFile(DIRECTORY + "/bead_with_drag.yaml");
+  setGravityAndDamping(drag, Vec3::Zero(), 0.0);
+  ASSERT_EQ(drag.forces.size(), 1u);
+  EXPECT_TRUE(std::holds_alternative<QuadraticDragForce>(drag.forces[0]));
+}
+
+TEST(SceneFiles, NamesAndPathsResolve)
+{
+  EXPECT_EQ(resolveScene("bead", DIRECTORY), DIRECTORY + "/bead.yaml");
+  EXPECT_EQ(resolveScene(DIRECTORY + "/mobile.yaml", DIRECTORY), DIRECTORY + "/mobile.yaml");
+  const std::string unknown = refusal([&] { resolveScene("pendulum", DIRECTORY); });
+  EXPECT_NE(unknown.find("scenario = 'pendulum' is unknown"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("bead_with_drag"), std::string::npos) << unknown;
+  EXPECT_NE(refusal([&] { resolveScene("/no/such/file.yaml", DIRECTORY); }).find("no such"),
+            std::string::npos);
+  EXPECT_FALSE(refusal([&] { resolveScene("", DIRECTORY); }).empty());
+  EXPECT_FALSE(refusal([&] { resolveScene(std::string(10000, 'x'), DIRECTORY); }).empty());
+}
+
+TEST(SceneFiles, BadFilesAreRefusedNamingFileKeyAndReason)
+{
+  const std::string bead = "surfaces:\n  ground: {type: bowl}\n"
+                           "particles:\n  - {mass: 1.0}\n"
+                           "constraints:\n  - {type: surface, particle: 0, surface: ground}\n";
+  EXPECT_NO_THROW(buildScene(parseScene(bead, "test.yaml")));
+  // unknown keys, with the valid ones
+  expectRefused(bead + "gravity: 9.81\n", { "test.yaml:7: gravity", "not a key of a scene" });
+  expectRefused("particles:\n  - {mass: 1.0, colour: red}\n",
+                { "test.yaml:2: particles[0].colour", "valid keys: mass, position, velocity" });
+  expectRefused("chains:\n  - {particles: 3, lenght: 0.5}\n",
+                { "chains[0].lenght", "link_length" });
+  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
+                "constraints:\n  - {type: link, first: 0, second: 1, lenght: 2}\n",
+                { "test.yaml:3: constraints[0].lenght", "a link record", "length" });
+  // invalid values: the key, the value and the range
+  expectRefused("particles:\n  - {mass: -1.0}\n", { "particles[0].mass", "= -1", "(0, 1e+06]" });
+  expectRefused("particles:\n  - {mass: .nan}\n", { "particles[0].mass", "nan" });
+  expectRefused("particles:\n  - {position: [1, 2]}\n",
+                { "particles[0].position", "3 numbers" });
+  expectRefused("particles:\n  - {mass: heavy}\n", { "particles[0].mass", "must be a number" });
+  expectRefused("chains:\n  - {particles: 0}\n", { "chains[0].particles", "= 0, must be in [1, " });
+  expectRefused("chains:\n  - {particles: 3, link_length: -0.5}\n",
+                { "chains[0].link_length", "= -0.5, must be in (0, " });
+  expectRefused("chains:\n  - {particles: 3, direction: [0, 0, 0]}\n",
+                { "chains[0].direction", "non-zero" });
+  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
+                "constraints:\n  - {type: link, first: 0, second: 1, length: -2}\n",
+                { "constraints[0]", "length", "> 0" });
+  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
+                "constraints:\n  - {type: link, first: 0, second: 5}\n",
+                { "constraints[0]", "second", "= 5", "[0, 1]" });
+  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
+                "constraints:\n  - {type: link, first: 1, second: 1}\n",
+                { "constraints[0]", "second", "must differ from first" });
+  expectRefused("particles: [{mass: 1}]\nforces:\n  - {type: gravity, acceleration: [0, 0, .inf]}\n",
+                { "forces[0]", "acceleration.z", "inf" });
+  expectRefused("particles: [{mass: 1}]\nforces:\n  - {type: quadratic_drag, coefficient: -1}\n",
+                { "forces[0]", "coefficient", ">= 0" });
+  // unknown kinds and names
+  expectRefused("particles: [{mass: 1}]\nforces:\n  - {type: magnetism}\n",
+                { "forces[0].type", "'magnetism' is unknown", "gravity", "spring" });
+  expectRefused("particles: [{mass: 1}]\nconstraints:\n  - {type: surface, particle: 0, surface: "
+                "floor}\n",
+                { "constraints[0].surface", "must name a surface", "defines none" });
+  expectRefused("surfaces:\n  ground: {type: cone}\nparticles: [{mass: 1}]\n",
+                { "surfaces.ground.type", "'cone' is not a surface type" });
+  expectRefused("surfaces:\n  ground: {type: expression, expression: \"sin(x\"}\n"
+                "particles: [{mass: 1}]\n",
+                { "surfaces.ground.expression", "position" });
+  expectRefused("solver: {integrator: leapfrog}\nparticles: [{mass: 1}]\n",
+                { "solver.integrator", "'leapfrog' is unknown", "rk4" });
+  expectRefused("solver: {dt: 0}\nparticles: [{mass: 1}]\n", { "solver.dt", "(0, 1]" });
+  expectRefused("solver: {solve_method: magic}\nparticles: [{mass: 1}]\n",
+                { "solver.solve_method", "tree" });
+  // structure
+  expectRefused("name: empty\n", { "particles", "at least 1 particle" });
+  expectRefused("particles: {mass: 1}\n", { "particles", "must be a list" });
+  expectRefused("particles: [{mass: 1}]\nforces: {type: gravity}\n", { "forces", "list" });
+  expectRefused("[1, 2, 3]\n", { "test.yaml", "must hold a map" });
+  expectRefused("particles: [{mass: 1}\n", { "test.yaml:", "not valid YAML" });
+  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
+                "constraints:\n  - {type: pin, particle: 0, particles: [1]}\n",
+                { "constraints[0].particles", "exclusive" });
+  EXPECT_NE(refusal([] { loadSceneFile("/no/such/scene.yaml"); }).find("cannot be read"),
+            std::string::npos);
+}
+
+TEST(SceneFiles, ParticleListsExpandAndPinsDefaultToTheirStart)
+{
+  const SceneDescription d =
+      parseScene("surfaces: {flat: {type: plane, coefficients: [0, 0, -1]}}\n"
+                 "particles:\n"
+                 "  - {position: [0, 0, 5]}\n  - {position: [1, 0, 5]}\n"
+                 "  - {position: [2, 0, 5], velocity: [1, 0, 3]}\n"
+                 "constraints:\n"
+                 "  - {type: surface, surface: flat, particles: [1, 2]}\n"
+                 "  - {type: pin, particle: 0}\n",
+                 "test.yaml");
+  const Scenario s = buildScene(d);
+  ASSERT_EQ(s.scene.constraints.size(), 3u);
+  EXPECT_EQ(std::get<SurfaceConstraint>(s.scene.constraints[0]).particle, 1);
+  EXPECT_EQ(std::get<SurfaceConstraint>(s.scene.constraints[1]).particle, 2);
+  // placed on the plane z = -1, velocity tangent
+  EXPECT_EQ(s.initial_state.positions(2, 2), -1.0);
+  EXPECT_EQ(s.initial_state.velocities(2, 2), 0.0);
+  EXPECT_EQ(std::get<PinConstraint>(s.scene.constraints[2]).anchor, Vec3(0, 0, 5));
+}
