@@ -1,6 +1,9 @@
 #include "constrained_particles/ros/parameters.hpp"
 
+#include <ros/package.h>
+
 #include <cmath>
+#include <type_traits>
 
 namespace constrained_particles
 {
@@ -15,6 +18,22 @@ void readOptional(const ros::NodeHandle& nh, const std::string& name, const std:
     return;
   if (!nh.getParam(name, value))
     throw InvalidInput("~" + name, "has the wrong type, must be " + type);
+}
+
+void readDouble(const ros::NodeHandle& nh, const std::string& name, double& value);
+
+// reads `name` into an optional only if it is set
+template <typename T>
+void readOptionalValue(const ros::NodeHandle& nh, const std::string& name, std::optional<T>& out)
+{
+  if (!nh.hasParam(name))
+    return;
+  T value{};
+  if constexpr (std::is_same_v<T, double>)
+    readDouble(nh, name, value);
+  else
+    readOptional(nh, name, std::is_same_v<T, bool> ? "a boolean" : "an integer", value);
+  out = value;
 }
 
 void readDouble(const ros::NodeHandle& nh, const std::string& name, double& value)
@@ -73,11 +92,47 @@ void validateChain(const ChainParameters& chain, int max_particles, const std::s
   requireRange(prefix + "particle_mass", chain.particle_mass, 0.0, true, 1e6, "[kg]");
 }
 
+std::vector<std::string> SceneOverrides::applyTo(SceneDescription& description) const
+{
+  std::vector<std::string> skipped;
+  if (num_particles || link_length || particle_mass || pin_first)
+  {
+    if (description.chains.empty())
+    {
+      skipped.push_back("~chain/* ignored: scene '" + description.name + "' has no chain");
+    }
+    else
+    {
+      const ChainSpec& first = description.chains.front();
+      ChainParameters chain;
+      chain.num_particles = num_particles.value_or(first.particles);
+      chain.link_length = link_length.value_or(first.link_length);
+      chain.particle_mass = particle_mass.value_or(first.particle_mass);
+      chain.pin_first = pin_first.value_or(first.pin_first);
+      setChains(description, chain);
+    }
+  }
+  if (surface)
+  {
+    if (description.surfaces.empty())
+      skipped.push_back("~surface/* ignored: scene '" + description.name + "' has no surface");
+    else
+      setFirstSurface(description, *surface);
+  }
+  if (gravity || damping)
+    setGravityAndDamping(description, gravity.value_or(sceneGravity(description)),
+                         damping.value_or(sceneDamping(description)));
+  return skipped;
+}
+
 NodeParameters readParameters(const ros::NodeHandle& nh)
 {
   NodeParameters p;
   readOptional(nh, "scenario", "a string", p.scenario);
   readDouble(nh, "dt", p.step.dt);
+  p.step_set.dt = nh.hasParam("dt");
+  p.step_set.integrator = nh.hasParam("integrator");
+  p.step_set.stabilization = nh.hasParam("stabilization");
   readDouble(nh, "real_time_factor", p.real_time_factor);
   readDouble(nh, "publish_rate", p.publish_rate);
   readDouble(nh, "status_period", p.status_period);
@@ -94,37 +149,43 @@ NodeParameters readParameters(const ros::NodeHandle& nh)
   readOptional(nh, "projection_max_iterations", "an integer", p.step.projection_max_iterations);
   readDouble(nh, "adaptive_tolerance", p.step.adaptive_tolerance);
 
-  ScenarioParameters& s = p.scenario_parameters;
+  readOptional(nh, "scene_directory", "a string", p.scene_directory);
+  if (p.scene_directory.empty())
+    p.scene_directory = ros::package::getPath("constrained_particles") + "/config/scenes";
+
+  SceneOverrides& o = p.overrides;
   if (nh.hasParam("gravity"))
   {
     std::vector<double> gravity;
     if (!nh.getParam("gravity", gravity) || gravity.size() != 3)
       throw InvalidInput("~gravity", "must be a list of 3 numbers [m/s^2]");
-    s.gravity = Vec3(gravity[0], gravity[1], gravity[2]);
+    o.gravity = Vec3(gravity[0], gravity[1], gravity[2]);
+    requireFinite("~gravity", *o.gravity, "[m/s^2]");
   }
-  readDouble(nh, "damping", s.damping);
-  readDouble(nh, "bead_mass", s.bead_mass);
-  readOptional(nh, "chain/num_particles", "an integer", s.chain.num_particles);
-  readDouble(nh, "chain/link_length", s.chain.link_length);
-  readDouble(nh, "chain/particle_mass", s.chain.particle_mass);
-  readOptional(nh, "chain/pin_first", "a boolean", s.chain.pin_first);
-
-  std::string surface_type = surfaceTypeName(s.surface.type);
-  std::vector<double> coefficients;
-  bool coefficients_set = nh.hasParam("surface/coefficients");
-  readOptional(nh, "surface/type", "a string", surface_type);
-  if (coefficients_set && !nh.getParam("surface/coefficients", coefficients))
-    throw InvalidInput("~surface/coefficients", "must be a list of numbers");
-  std::string formula;
-  readOptional(nh, "surface/expression", "a string", formula);
-  asParameter(
-      [&]
-      {
-        const SurfaceType type = parseSurfaceType(surface_type, "surface/type");
-        s.surface = type == SurfaceType::Expression
-                        ? makeExpressionSurface(formula, "surface/expression")
-                        : makeSurface(type, coefficients, "surface/coefficients");
-      });
+  readOptionalValue(nh, "damping", o.damping);
+  readOptionalValue(nh, "chain/num_particles", o.num_particles);
+  readOptionalValue(nh, "chain/link_length", o.link_length);
+  readOptionalValue(nh, "chain/particle_mass", o.particle_mass);
+  readOptionalValue(nh, "chain/pin_first", o.pin_first);
+  if (nh.hasParam("surface/type") || nh.hasParam("surface/coefficients") ||
+      nh.hasParam("surface/expression"))
+  {
+    std::string surface_type = "bowl";
+    std::vector<double> coefficients;
+    readOptional(nh, "surface/type", "a string", surface_type);
+    if (nh.hasParam("surface/coefficients") && !nh.getParam("surface/coefficients", coefficients))
+      throw InvalidInput("~surface/coefficients", "must be a list of numbers");
+    std::string formula;
+    readOptional(nh, "surface/expression", "a string", formula);
+    asParameter(
+        [&]
+        {
+          const SurfaceType type = parseSurfaceType(surface_type, "surface/type");
+          o.surface = type == SurfaceType::Expression
+                          ? makeExpressionSurface(formula, "surface/expression")
+                          : makeSurface(type, coefficients, "surface/coefficients");
+        });
+  }
 
   readOptional(nh, "max_particles", "an integer", p.max_particles);
   readOptional(nh, "fixed_frame", "a string", p.fixed_frame);
@@ -137,12 +198,8 @@ NodeParameters readParameters(const ros::NodeHandle& nh)
 
 void validateNodeParameters(const NodeParameters& p)
 {
-  bool known = false;
-  for (const auto& name : scenarioNames())
-    known = known || name == p.scenario;
-  if (!known)
-    throw InvalidInput("~scenario",
-                       "= '" + p.scenario + "' is unknown; valid: bead, chain, surface_chain");
+  if (p.scenario.empty())
+    throw InvalidInput("~scenario", "is empty; give a scene name or a scene file path");
   requireRange("~dt", p.step.dt, 0.0, true, MAX_NODE_DT, "[s]");
   asParameter([&] { validateStepSettings(p.step); });
   requireRange("~real_time_factor", p.real_time_factor, 0.0, true, 100.0, "[1]");
@@ -151,9 +208,17 @@ void validateNodeParameters(const NodeParameters& p)
   requireRange("~max_particles", p.max_particles, 1.0, false, MAX_PARTICLES, "[1]");
   requireRange("~force_scale", p.force_scale, 0.0, true, 1e3, "[m/N]");
   requireRange("~max_constraint_error", p.max_constraint_error, 0.0, true, 1e3, "[m]");
-  requireRange("~damping", p.scenario_parameters.damping, 0.0, false, 1e3, "[N s/m]");
-  validateChain(p.scenario_parameters.chain, p.max_particles, "~chain/");
-  asParameter([&] { validateScenarioParameters(p.scenario_parameters); });
+  const SceneOverrides& o = p.overrides;
+  if (o.damping)
+    requireRange("~damping", *o.damping, 0.0, false, 1e3, "[N s/m]");
+  if (o.num_particles && (*o.num_particles < 1 || *o.num_particles > p.max_particles))
+    throw InvalidInput("~chain/num_particles", "= " + std::to_string(*o.num_particles) +
+                                                   ", must be in [1, " +
+                                                   std::to_string(p.max_particles) + "]");
+  if (o.link_length)
+    requireRange("~chain/link_length", *o.link_length, 0.0, true, 1e3, "[m]");
+  if (o.particle_mass)
+    requireRange("~chain/particle_mass", *o.particle_mass, 0.0, true, 1e6, "[kg]");
   if (p.fixed_frame.empty() || p.fixed_frame.front() == '/')
     throw InvalidInput("~fixed_frame", "= '" + p.fixed_frame +
                                            "', must be a non-empty frame id without a leading '/'");

@@ -23,7 +23,7 @@ double seconds(std::chrono::steady_clock::duration d)
   return std::chrono::duration<double>(d).count();
 }
 
-SimulatorConfig configFrom(const NodeParameters& p)
+SimulatorConfig configFrom(const NodeParameters& p, const SceneDescription& scene)
 {
   SimulatorConfig c;
   c.dt = p.step.dt;
@@ -34,10 +34,11 @@ SimulatorConfig configFrom(const NodeParameters& p)
   c.baumgarte_frequency = p.step.baumgarte_frequency;
   c.baumgarte_damping_ratio = p.step.baumgarte_damping_ratio;
   c.adaptive_tolerance = p.step.adaptive_tolerance;
-  c.gravity_x = p.scenario_parameters.gravity.x();
-  c.gravity_y = p.scenario_parameters.gravity.y();
-  c.gravity_z = p.scenario_parameters.gravity.z();
-  c.damping = p.scenario_parameters.damping;
+  const Vec3 gravity = sceneGravity(scene);
+  c.gravity_x = gravity.x();
+  c.gravity_y = gravity.y();
+  c.gravity_z = gravity.z();
+  c.damping = sceneDamping(scene);
   return c;
 }
 
@@ -55,11 +56,32 @@ bool refuse(Response& response, const std::string& message)
 SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   : nh_(private_nh), parameters_(readParameters(nh_))
 {
-  const Scenario scenario = buildScenario(parameters_.scenario, parameters_.scenario_parameters);
-  simulator_ =
-      std::make_unique<Simulator>(scenario.scene, scenario.initial_state, parameters_.step);
-  scenario_ = parameters_.scenario;
-  published_model_ = std::make_shared<const Model>(simulator_->model());
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    SceneDescription scene =
+        loadSceneFile(resolveScene(parameters_.scenario, parameters_.scene_directory, "~scenario"));
+    for (const std::string& warning : parameters_.overrides.applyTo(scene))
+      ROS_WARN("simulator: %s", warning.c_str());
+    if (scene.numParticles() > parameters_.max_particles)
+      throw InvalidInput("~scenario", "= '" + parameters_.scenario + "' has " +
+                                          std::to_string(scene.numParticles()) +
+                                          " particles, over ~max_particles = " +
+                                          std::to_string(parameters_.max_particles));
+    // the scene's solver settings, unless set as parameters
+    StepSettings settings = scene.solver.applyTo(parameters_.step);
+    if (parameters_.step_set.dt)
+      settings.dt = parameters_.step.dt;
+    if (parameters_.step_set.integrator)
+      settings.integrator = parameters_.step.integrator;
+    if (parameters_.step_set.stabilization)
+      settings.stabilization = parameters_.step.stabilization;
+    const Scenario built = buildScene(scene);
+    simulator_ = std::make_unique<Simulator>(built.scene, built.initial_state, settings,
+                                             scene.solver.solve_method);
+    parameters_.step = settings;
+    scene_ = scene;
+    published_model_ = std::make_shared<const Model>(simulator_->model());
+  }
 
   state_publisher_ = nh_.advertise<SimState>("state", 10);
   force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 1);
@@ -68,6 +90,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
       ros::NodeHandle().advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 1);
 
   services_.push_back(nh_.advertiseService("reset", &SimulatorNode::resetCallback, this));
+  services_.push_back(
+      nh_.advertiseService("list_scenes", &SimulatorNode::listScenesCallback, this));
   services_.push_back(
       nh_.advertiseService("set_surface", &SimulatorNode::setSurfaceCallback, this));
   services_.push_back(nh_.advertiseService("set_chain", &SimulatorNode::setChainCallback, this));
@@ -78,7 +102,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
 
   reconfigure_server_ =
       std::make_unique<dynamic_reconfigure::Server<SimulatorConfig>>(reconfigure_mutex_, nh_);
-  SimulatorConfig config = configFrom(parameters_);
+  SimulatorConfig config = configFrom(parameters_, scene_);
   reconfigure_server_->updateConfig(config);
   reconfigure_server_->setCallback([this](SimulatorConfig& c, uint32_t level)
                                    { reconfigureCallback(c, level); });
@@ -95,8 +119,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
     reanchorLocked();
   }
   physics_thread_ = std::thread(&SimulatorNode::physicsLoop, this);
-  ROS_INFO("simulator: scenario '%s', %d particles, %s + %s, dt = %g s, solve %s",
-           scenario_.c_str(), simulator_->model().numParticles(),
+  ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s",
+           scene_.name.c_str(), simulator_->model().numParticles(),
            integratorName(parameters_.step.integrator),
            stabilizationName(parameters_.step.stabilization), parameters_.step.dt,
            solveMethodName(simulator_->model().solveMethod()));
@@ -184,7 +208,7 @@ void SimulatorNode::publish()
   Snapshot snap;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    snap.scenario = scenario_;
+    snap.scenario = scene_.name;
     snap.status = faulted_  ? SimState::STATUS_FAULT
                   : paused_ ? SimState::STATUS_PAUSED
                             : SimState::STATUS_RUNNING;
@@ -263,11 +287,29 @@ void SimulatorNode::publish()
         sceneMarkers(header, *snap.model, snap.state.positions, mesh_cache_, snap.scene_changed));
 }
 
-void SimulatorNode::rebuildLocked(const std::string& scenario)
+void SimulatorNode::rebuildLocked(const SceneDescription& description,
+                                  const StepSettings& settings)
 {
-  const Scenario built = buildScenario(scenario, parameters_.scenario_parameters);
-  simulator_->setScene(built.scene, built.initial_state);
-  scenario_ = scenario;
+  if (description.numParticles() > parameters_.max_particles)
+    throw InvalidInput("num_particles", "= " + std::to_string(description.numParticles()) +
+                                            " in scene '" + description.name +
+                                            "', must be at most ~max_particles = " +
+                                            std::to_string(parameters_.max_particles));
+  const Scenario built = buildScene(description);
+  // settings first: if the scene is refused, put them back
+  const StepSettings saved = simulator_->stepSettings();
+  simulator_->setStepSettings(settings);
+  try
+  {
+    simulator_->setScene(built.scene, built.initial_state, description.solver.solve_method);
+  }
+  catch (const InvalidInput&)
+  {
+    simulator_->setStepSettings(saved);
+    throw;
+  }
+  parameters_.step = settings;
+  scene_ = description;
   faulted_ = false;
   fault_reason_.clear();
   published_model_ = std::make_shared<const Model>(simulator_->model());
@@ -275,49 +317,78 @@ void SimulatorNode::rebuildLocked(const std::string& scenario)
   reanchorLocked();
 }
 
+void SimulatorNode::loadSceneLocked(const std::string& name_or_path, const std::string& field)
+{
+  const SceneDescription description =
+      loadSceneFile(resolveScene(name_or_path, parameters_.scene_directory, field));
+  rebuildLocked(description, description.solver.applyTo(parameters_.step));
+}
+
+void SimulatorNode::pushReconfigure()
+{
+  SimulatorConfig config;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    config = configFrom(parameters_, scene_);
+  }
+  reconfigure_server_->updateConfig(config);
+}
+
 bool SimulatorNode::resetCallback(Reset::Request& request, Reset::Response& response)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const std::string scenario = request.scenario.empty() ? scenario_ : request.scenario;
-  try
   {
-    rebuildLocked(scenario);
+    std::lock_guard<std::mutex> lock(mutex_);
+    try
+    {
+      if (request.scenario.empty())
+        rebuildLocked(scene_, parameters_.step);
+      else
+        loadSceneLocked(request.scenario, "scenario");
+    }
+    catch (const InvalidInput& e)
+    {
+      return refuse(response, e.what());
+    }
+    response.success = true;
+    response.message = "reset to scene '" + scene_.name + "' (" +
+                       std::to_string(simulator_->model().numParticles()) + " particles, solve " +
+                       solveMethodName(simulator_->model().solveMethod()) + ")";
   }
-  catch (const InvalidInput& e)
-  {
-    return refuse(response, e.what());
-  }
-  response.success = true;
-  response.message = "reset to scenario '" + scenario + "' (" +
-                     std::to_string(simulator_->model().numParticles()) + " particles)";
+  pushReconfigure();
+  return true;
+}
+
+bool SimulatorNode::listScenesCallback(ListScenes::Request&, ListScenes::Response& response)
+{
+  response.directory = parameters_.scene_directory;
+  response.names = listScenes(parameters_.scene_directory);
   return true;
 }
 
 bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface::Response& response)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const ScenarioParameters saved = parameters_.scenario_parameters;
   try
   {
     const SurfaceType type = parseSurfaceType(request.type, "type");
+    Surface surface;
     if (type == SurfaceType::Expression)
-      parameters_.scenario_parameters.surface =
-          makeExpressionSurface(request.expression, "expression");
+      surface = makeExpressionSurface(request.expression, "expression");
     else if (!request.expression.empty())
       throw InvalidInput("expression",
                          "is only for type 'expression' (type is '" + request.type + "')");
     else
-      parameters_.scenario_parameters.surface =
-          makeSurface(type, request.coefficients, "coefficients");
-    rebuildLocked(scenario_);
+      surface = makeSurface(type, request.coefficients, "coefficients");
+    SceneDescription changed = scene_;
+    setFirstSurface(changed, surface);
+    rebuildLocked(changed, parameters_.step);
   }
   catch (const InvalidInput& e)
   {
-    parameters_.scenario_parameters = saved;
     return refuse(response, e.what());
   }
   response.success = true;
-  response.message = "surface set to '" + request.type + "'; scenario '" + scenario_ + "' reset";
+  response.message = "surface set to '" + request.type + "'; scene '" + scene_.name + "' reset";
   return true;
 }
 
@@ -331,22 +402,21 @@ bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Respo
   chain.link_length = request.link_length;
   chain.particle_mass = request.particle_mass;
   chain.pin_first = request.pin_first;
-  const ScenarioParameters saved = parameters_.scenario_parameters;
   try
   {
     validateChain(chain, parameters_.max_particles, "");
-    parameters_.scenario_parameters.chain = chain;
-    rebuildLocked(scenario_);
+    SceneDescription changed = scene_;
+    setChains(changed, chain);
+    rebuildLocked(changed, parameters_.step);
   }
   catch (const InvalidInput& e)
   {
-    parameters_.scenario_parameters = saved;
     return refuse(response, e.what());
   }
   response.success = true;
   response.message = "chain set to " + std::to_string(chain.num_particles) +
                      " particles, l = " + formatValue(chain.link_length) +
-                     " m, m = " + formatValue(chain.particle_mass) + " kg; scenario '" + scenario_ +
+                     " m, m = " + formatValue(chain.particle_mass) + " kg; scene '" + scene_.name +
                      "' reset";
   return true;
 }
@@ -436,18 +506,21 @@ void SimulatorNode::reconfigureCallback(SimulatorConfig& config, uint32_t /*leve
     candidate.step.adaptive_tolerance = config.adaptive_tolerance;
     candidate.real_time_factor = config.real_time_factor;
     candidate.publish_rate = config.publish_rate;
-    candidate.scenario_parameters.gravity =
-        Vec3(config.gravity_x, config.gravity_y, config.gravity_z);
-    candidate.scenario_parameters.damping = config.damping;
+    candidate.overrides.damping = config.damping;
+    candidate.overrides.gravity = Vec3(config.gravity_x, config.gravity_y, config.gravity_z);
     validateNodeParameters(candidate);
+    requireFinite("gravity", *candidate.overrides.gravity, "[m/s^2]");
+    SceneDescription changed = scene_;
+    setGravityAndDamping(changed, *candidate.overrides.gravity, config.damping);
     simulator_->setStepSettings(candidate.step);
-    simulator_->setForces(scenarioForces(candidate.scenario_parameters));
+    simulator_->setForces(changed.forces);
+    scene_.forces = changed.forces;
   }
   catch (const InvalidInput& e)
   {
     ROS_WARN("dynamic_reconfigure refused: %s; keeping the current settings", e.what());
     simulator_->setStepSettings(parameters_.step);
-    config = configFrom(parameters_);
+    config = configFrom(parameters_, scene_);
     return;
   }
   if (candidate.publish_rate != parameters_.publish_rate)
@@ -474,7 +547,8 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
     status.level =
         faulted_ ? diagnostic_msgs::DiagnosticStatus::ERROR : diagnostic_msgs::DiagnosticStatus::OK;
     status.message = faulted_ ? fault_reason_ : paused_ ? "paused" : "running";
-    add("scenario", scenario_);
+    add("scenario", scene_.name);
+    add("solve", solveMethodName(simulator_->model().solveMethod()));
     add("particles", std::to_string(simulator_->model().numParticles()));
     add("sim_time [s]", formatValue(simulator_->state().time));
     add("steps", std::to_string(simulator_->state().steps));

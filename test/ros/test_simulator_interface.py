@@ -1,6 +1,8 @@
 #!/usr/bin/python3
 """Drives a running simulator_node through tf, ~state, markers, services and reconfigure."""
 import math
+import os
+import tempfile
 import unittest
 
 import dynamic_reconfigure.client
@@ -8,7 +10,7 @@ import rospy
 import rostest
 import tf2_ros
 from constrained_particles.msg import SimState
-from constrained_particles.srv import Reset, SetChain, SetState, SetSurface, Step
+from constrained_particles.srv import ListScenes, Reset, SetChain, SetState, SetSurface, Step
 from geometry_msgs.msg import Point, Vector3
 from std_srvs.srv import Empty
 from visualization_msgs.msg import Marker, MarkerArray
@@ -30,9 +32,11 @@ class SimulatorInterfaceTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node("simulator_interface_test")
-        for name in ("reset", "set_surface", "set_chain", "set_state", "pause", "unpause", "step"):
+        for name in ("reset", "list_scenes", "set_surface", "set_chain", "set_state", "pause",
+                     "unpause", "step"):
             rospy.wait_for_service(f"{NODE}/{name}", timeout=30.0)
         cls.reset = rospy.ServiceProxy(f"{NODE}/reset", Reset)
+        cls.list_scenes = rospy.ServiceProxy(f"{NODE}/list_scenes", ListScenes)
         cls.set_surface = rospy.ServiceProxy(f"{NODE}/set_surface", SetSurface)
         cls.set_chain = rospy.ServiceProxy(f"{NODE}/set_chain", SetChain)
         cls.set_state = rospy.ServiceProxy(f"{NODE}/set_state", SetState)
@@ -63,10 +67,8 @@ class SimulatorInterfaceTest(unittest.TestCase):
         cls.latest_scene = msg
 
     def setUp(self):
-        # every test starts paused at a known scene: the default chain and surface
+        # every test starts paused at a known scene: surface_chain as its file says
         self.pause()
-        self.assertTrue(self.set_surface("bowl", [1.0, 1.0], "").success)
-        self.assertTrue(self.set_chain(5, 0.5, 1.0, True).success)
         self.assertTrue(self.reset("surface_chain").success)
 
     def tearDown(self):
@@ -154,6 +156,70 @@ class SimulatorInterfaceTest(unittest.TestCase):
         for bad in ("pendulum", "CHAIN", "x" * 10000):
             self.assert_refused(self.reset(bad), "scenario")
             self.assert_unchanged(before)
+
+    def assert_on_constraints(self, state, tolerance=1e-8):
+        self.assert_finite(state)
+        self.assertLess(state.max_position_error, tolerance)
+
+    # --- scenes: ~list_scenes, ~reset by name or path, changes to the current scene ---
+
+    def test_list_and_load_every_scene(self):
+        listed = self.list_scenes()
+        for required in ("bead", "chain", "surface_chain", "pinned_pendulum",
+                         "chain_pinned_both_ends", "two_chains_on_surface", "bead_with_drag"):
+            self.assertIn(required, listed.names)
+        self.assertEqual(listed.names, sorted(listed.names))
+        for name in listed.names:
+            response = self.reset(name)
+            self.assertTrue(response.success, response.message)
+            self.step(50)
+            state = self.fresh_state()
+            self.assertEqual(state.scenario, name)
+            self.assertEqual(state.steps, 50)
+            self.assert_on_constraints(state)
+        # by path, as a user's own scene would be given
+        response = self.reset(os.path.join(listed.directory, "mobile.yaml"))
+        self.assertTrue(response.success, response.message)
+        self.assertIn("tree", response.message)
+        self.assertEqual(len(self.fresh_state().positions), 11)
+
+    def test_bad_scene_files_are_refused_naming_file_and_key(self):
+        before = self.fresh_state()
+        with tempfile.TemporaryDirectory() as folder:
+            cases = (
+                ("particles:\n  - {mass: 1.0, colour: red}\n", "particles[0].colour"),
+                ("particles:\n  - {mass: -2}\n", "particles[0].mass"),
+                ("chains:\n  - {particles: 5000}\n", "max_particles"),
+                ("particles: [{mass: 1}]\nforces:\n  - {type: magnetism}\n", "forces[0].type"),
+                ("particles: [{mass: 1\n", "not valid YAML"))
+            for index, (text, field) in enumerate(cases):
+                path = os.path.join(folder, f"bad_{index}.yaml")
+                with open(path, "w") as f:
+                    f.write(text)
+                response = self.reset(path)
+                self.assert_refused(response, field)
+                if field != "max_particles":
+                    self.assertIn(path, response.message)
+                self.assert_unchanged(before)
+        self.assert_refused(self.reset("/no/such/scene.yaml"), "no such scene file")
+        self.assert_unchanged(before)
+
+    def test_changes_belong_to_the_current_scene(self):
+        # ~set_chain changes the current scene; ~reset("") keeps it, a name reloads the file
+        self.assertTrue(self.set_chain(8, 0.25, 1.0, True).success)
+        self.assertTrue(self.reset("").success)
+        self.assertEqual(len(self.fresh_state().positions), 8)
+        self.assertTrue(self.reset("surface_chain").success)
+        self.assertEqual(len(self.fresh_state().positions), 5)
+        # a scene without a chain or surface refuses the change and stays as it was
+        self.assertTrue(self.reset("bead").success)
+        before = self.fresh_state()
+        self.assert_refused(self.set_chain(8, 0.25, 1.0, True), "no chain")
+        self.assert_unchanged(before)
+        self.assertTrue(self.reset("chain").success)
+        before = self.fresh_state()
+        self.assert_refused(self.set_surface("bowl", [1.0], ""), "no surface")
+        self.assert_unchanged(before)
 
     # --- ~set_surface ---
 

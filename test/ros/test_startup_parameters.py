@@ -28,6 +28,8 @@ class StartupParametersTest(unittest.TestCase):
             (("integrator", "leapfrog"),),
             (("stabilization", "magic"),),
             (("scenario", "pendulum"),),
+            (("scenario", "/no/such/scene.yaml"),),
+            (("max_particles", "3"), ("scenario", "chain")),
             (("surface/type", "cone"),),
             (("publish_rate", "-5"),),
             (("gravity", "[0, 0]"),),
@@ -37,7 +39,8 @@ class StartupParametersTest(unittest.TestCase):
         problems = []
         for index, assignments in enumerate(cases):
             code, output = run_node(f"bad_simulator_{index}", *assignments)
-            parameter = assignments[0][0]
+            # the parameter the message must name: the last one for the scene-size case
+            parameter = assignments[-1][0] if assignments[0][0] == "max_particles" else assignments[0][0]
             if code is None:
                 problems.append(f"~{parameter}: node kept running")
             elif code == 0:
@@ -47,8 +50,9 @@ class StartupParametersTest(unittest.TestCase):
         self.assertEqual(problems, [])
 
     def test_good_parameters_run(self):
-        code, output = run_node("good_simulator", ("scenario", "bead"), timeout=5.0)
-        self.assertIsNone(code, f"node with good parameters exited: {output}")
+        for index, scene in enumerate(("bead", "mobile")):
+            code, output = run_node(f"good_simulator_{index}", ("scenario", scene), timeout=5.0)
+            self.assertIsNone(code, f"node with good parameters exited: {output}")
 
 
 if __name__ == "__main__":

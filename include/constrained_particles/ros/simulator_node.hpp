@@ -8,6 +8,7 @@
 #include "constrained_particles/ros/markers.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 
+#include <constrained_particles/ListScenes.h>
 #include <constrained_particles/Reset.h>
 #include <constrained_particles/SetChain.h>
 #include <constrained_particles/SetState.h>
@@ -67,12 +68,20 @@ private:
   void physicsLoop();
   /// Restarts wall-time pacing from the current sim time. Caller holds mutex_.
   void reanchorLocked();
-  /// Rebuilds the current scenario from parameters_ and resets. Caller holds mutex_.
-  void rebuildLocked(const std::string& scenario);
+  /// Loads a scene by name or path, applies its solver settings, and resets to it.
+  /// Caller holds mutex_. @throws InvalidInput naming `field`; nothing changes
+  void loadSceneLocked(const std::string& name_or_path, const std::string& field);
+  /// Rebuilds the simulator from `description` (which becomes the current scene) and resets.
+  /// Caller holds mutex_. @throws InvalidInput; nothing changes
+  void rebuildLocked(const SceneDescription& description, const StepSettings& settings);
+  /// Shows the current settings, gravity and damping in dynamic_reconfigure. Caller must not
+  /// hold mutex_ (the reconfigure callback takes it).
+  void pushReconfigure();
   /// Steps `count` times, timing them and checking the result is finite. Caller holds mutex_.
   void stepLocked(int count);
 
   bool resetCallback(Reset::Request& request, Reset::Response& response);
+  bool listScenesCallback(ListScenes::Request& request, ListScenes::Response& response);
   bool setSurfaceCallback(SetSurface::Request& request, SetSurface::Response& response);
   bool setChainCallback(SetChain::Request& request, SetChain::Response& response);
   bool setStateCallback(SetState::Request& request, SetState::Response& response);
@@ -92,7 +101,7 @@ private:
   std::mutex mutex_;  // guards everything from here to the publishers
   std::unique_ptr<Simulator> simulator_;
   std::shared_ptr<const Model> published_model_;  // copy of the model for scene markers
-  std::string scenario_;
+  SceneDescription scene_;  // the current scene, with the changes services made to it
   bool paused_ = false;
   bool faulted_ = false;  // stepping stopped until ~reset (fault_reason_ says why)
   std::string fault_reason_;
