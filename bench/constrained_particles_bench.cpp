@@ -4,10 +4,15 @@
 //                   observed convergence orders (orders.csv)
 //   scaling         time per step against n for the chain, O(n) solve and sparse/dense solves
 //   peers           this package's side of the peer comparison (bench_common.hpp's PeerChain)
+//   scenes          per scene file: the effects evaluated per step and the step cost
+//                   (scenes.csv); the solve per structure against n for trees (trees.csv)
 // Usage: constrained_particles_bench MODE [--out DIR] [--quick]
 #include "bench_common.hpp"
 #include "constrained_particles/core/scenarios.hpp"
 #include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/scenes/scene_file.hpp"
+
+#include <sstream>
 
 #include <cmath>
 #include <cstdlib>
@@ -460,13 +465,146 @@ int peers(const std::string& out, bool quick)
   return 0;
 }
 
+// median CPU seconds per call of `fn`, each of REPEATS runs lasting at least budget / REPEATS
+template <typename Fn>
+double medianSecondsPerCall(Fn fn, double budget)
+{
+  fn();  // warm caches and workspaces
+  std::vector<double> per_call;
+  for (int r = 0; r < REPEATS; ++r)
+  {
+    long calls = 0;
+    const double start = bench::threadCpuSeconds();
+    double elapsed = 0;
+    do
+    {
+      fn();
+      ++calls;
+      elapsed = bench::threadCpuSeconds() - start;
+    } while (elapsed < budget / REPEATS);
+    per_call.push_back(elapsed / calls);
+  }
+  return bench::median(per_call);
+}
+
+// "kind:count kind:count" of the counters that moved, per step
+template <typename Variant, std::size_t N>
+std::string perStep(const std::array<std::uint64_t, N>& counts, double steps)
+{
+  std::ostringstream text;
+  for (std::size_t k = 0; k < N; ++k)
+    if (counts[k] > 0)
+      text << (text.tellp() > 0 ? " " : "") << KindNames<Variant>::value[k] << ":"
+           << counts[k] / steps;
+  return text.str().empty() ? "-" : text.str();
+}
+
+// A binary tree of n particles (particle k hangs from (k - 1) / 2), the root pinned; or a free
+// star (every particle linked to particle 0).
+Scenario treeScene(int n, bool star)
+{
+  Scenario s;
+  s.scene.masses.assign(n, 0.1);
+  s.initial_state.positions.resize(3, n);
+  s.initial_state.velocities.setZero(3, n);
+  s.initial_state.positions.col(0).setZero();
+  for (int k = 1; k < n; ++k)
+  {
+    const int parent = star ? 0 : (k - 1) / 2;
+    const double angle = 2.0 * M_PI * k / n;
+    const Vec3 offset(0.1 * std::cos(angle), 0.1 * std::sin(angle), -0.1);
+    s.initial_state.positions.col(k) =
+        s.initial_state.positions.col(parent) + 0.01 * offset.normalized();
+    s.scene.constraints.push_back(LinkConstraint{ parent, k, 0.01 });
+  }
+  // a pinned hub would make every link of a star independent: leave the star free
+  if (!star)
+    s.scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  s.scene.forces = { GravityForce{} };
+  return s;
+}
+
+int scenes(const std::string& out, bool quick)
+{
+  const double budget = quick ? 0.15 : 1.5;
+  std::ofstream csv(out + "/scenes.csv");
+  csv << "scene,particles,rows,solve,integrator,stabilization,seconds_per_step,"
+         "forces_per_step,constraints_per_step,factorizations_per_step\n";
+  for (const std::string& name : listScenes(SCENES_DIR))
+  {
+    const SceneDescription d = loadSceneFile(std::string(SCENES_DIR) + "/" + name + ".yaml");
+    const Scenario built = buildScene(d);
+    const StepSettings settings = d.solver.applyTo(StepSettings{});
+    Simulator simulator(built.scene, built.initial_state, settings, d.solver.solve_method);
+    const double seconds = medianSecondsPerCall([&] { simulator.step(); }, budget);
+    // counts of exactly 100 further steps
+    Simulator counted(built.scene, built.initial_state, settings, d.solver.solve_method);
+    const EffectCounters before = counted.effectCounters();
+    counted.step(100);
+    EffectCounters c = counted.effectCounters();
+    for (int k = 0; k < NUM_FORCE_KINDS; ++k)
+      c.forces[k] -= before.forces[k];
+    for (int k = 0; k < NUM_CONSTRAINT_KINDS; ++k)
+      c.constraints[k] -= before.constraints[k];
+    std::ostringstream factorizations;
+    for (int k = 0; k < NUM_SOLVE_METHODS; ++k)
+      if (c.factorizations[k] - before.factorizations[k] > 0)
+        factorizations << solveMethodName(static_cast<SolveMethod>(k)) << ":"
+                       << (c.factorizations[k] - before.factorizations[k]) / 100.0;
+    const std::string forces = perStep<Force>(c.forces, 100.0);
+    const std::string constraints = perStep<Constraint>(c.constraints, 100.0);
+    csv << name << "," << simulator.model().numParticles() << "," << simulator.model().numRows()
+        << "," << solveMethodName(simulator.model().solveMethod()) << ","
+        << integratorName(settings.integrator) << "," << stabilizationName(settings.stabilization)
+        << "," << seconds << "," << forces << "," << constraints << ","
+        << (factorizations.str().empty() ? "-" : factorizations.str()) << "\n";
+    std::cerr << "[scenes] " << name << ": " << seconds * 1e6 << " us/step, "
+              << solveMethodName(simulator.model().solveMethod()) << "; forces " << forces
+              << "; constraints " << constraints << "\n";
+  }
+
+  // one evaluation of the constraint forces (assemble, factorise, solve) per structure and n
+  std::ofstream trees(out + "/trees.csv");
+  trees << "shape,n,solve,seconds_per_solve\n";
+  std::vector<int> sizes = { 100, 1000, 10000, 100000 };
+  if (quick)
+    sizes = { 100, 1000, 10000 };
+  for (const bool star : { false, true })
+    for (const SolveMethod method : { SolveMethod::Tree, SolveMethod::Sparse, SolveMethod::Dense })
+      for (const int n : sizes)
+      {
+        // dense is O(n^3); sparse on a star fills an n x n matrix
+        if ((method == SolveMethod::Dense && n > 1000) ||
+            (method == SolveMethod::Sparse && star && n > 1000))
+          continue;
+        const Scenario s = treeScene(n, star);
+        const Model model = Model::compile(s.scene, method);
+        Dynamics dynamics(model);
+        Points a(3, n);
+        const double seconds = medianSecondsPerCall(
+            [&]
+            {
+              dynamics.computeAccelerations(s.initial_state.positions,
+                                            s.initial_state.velocities, 0.0, 0.0, a);
+            },
+            quick ? 0.15 : 1.0);
+        const char* shape = star ? "star" : "binary_tree";
+        trees << shape << "," << n << "," << solveMethodName(method) << "," << seconds << "\n";
+        trees.flush();
+        std::cerr << "[trees] " << shape << " n = " << n << " " << solveMethodName(method) << ": "
+                  << seconds * 1e6 << " us\n";
+      }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
 {
   if (argc < 2)
   {
-    std::cerr << "usage: " << argv[0] << " work_precision|scaling|peers [--out DIR] [--quick]\n";
+    std::cerr << "usage: " << argv[0]
+              << " work_precision|scaling|peers|scenes [--out DIR] [--quick]\n";
     return 2;
   }
   const std::string mode = argv[1];
@@ -491,6 +629,8 @@ int main(int argc, char** argv)
     return scaling(out, quick);
   if (mode == "peers")
     return peers(out, quick);
+  if (mode == "scenes")
+    return scenes(out, quick);
   std::cerr << "unknown mode " << mode << "\n";
   return 2;
 }

@@ -3,13 +3,18 @@
 # (CSV, PNG and summary.md). Installs the peers (ODE 0.16, MuJoCo 2.2.2) and matplotlib from
 # Debian's packages. Takes about 15 minutes on 2 cores; progress goes to stderr.
 # Usage: scripts/bench.sh [--quick]   (--quick: a small sweep for a smoke test, into build/bench)
+#        scripts/bench.sh --scenes         (only the per-scene and solve-by-structure part, into
+#                                          docs/bench, then the summary again: about 1 minute)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 QUICK=()
 OUT="$ROOT/docs/bench"
+ONLY_SCENES=0
 if [[ "${1:-}" == "--quick" ]]; then
   QUICK=(--quick)
   OUT="$ROOT/build/bench"
+elif [[ "${1:-}" == "--scenes" ]]; then
+  ONLY_SCENES=1
 fi
 WITH_BENCH=1 bash "$ROOT/scripts/install_deps.sh"
 LOG="$(mktemp)"
@@ -17,9 +22,16 @@ bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1 || { cat "$LOG"; exit 1; }
 rm -f "$LOG"
 BIN="$ROOT/build/ws/devel/lib/constrained_particles"
 mkdir -p "$OUT"
+if ((ONLY_SCENES)); then
+  "$BIN/constrained_particles_bench" scenes --out "$OUT"
+  /usr/bin/python3 "$ROOT/scripts/bench_report.py" "$OUT" >/dev/null
+  echo "wrote $OUT/scenes.csv, $OUT/trees.csv and $OUT/summary.md" >&2
+  exit 0
+fi
 
 "$BIN/constrained_particles_bench" work_precision --out "$OUT" "${QUICK[@]}"
 "$BIN/constrained_particles_bench" scaling --out "$OUT" "${QUICK[@]}"
+"$BIN/constrained_particles_bench" scenes --out "$OUT" "${QUICK[@]}"
 # peers, side by side in the same run
 "$BIN/constrained_particles_bench" peers --out "$OUT" "${QUICK[@]}"
 for peer in bench_peer_ode bench_peer_mujoco; do

@@ -60,7 +60,8 @@ struct ConstraintSolver::TreeState
   std::vector<int> inner_start;    // rows inside particle i: inner[inner_start[i] ..)
   std::vector<RowIncidence> inner;
   std::vector<Eigen::Matrix3d> particle_inverse;  // A^-1 of particle nodes
-  std::vector<Eigen::LDLT<Eigen::MatrixXd>> inner_ldlt;  // of delta I + G^T A^-1 G
+  std::vector<Eigen::LDLT<Eigen::MatrixXd>> inner_ldlt;  // of delta I + G^T A^-1 G (k > 1)
+  std::vector<double> inner_scalar;                       // the same for k = 1
   std::vector<Eigen::Matrix3Xd> inner_gradients;          // G of each particle with inner rows
   Eigen::VectorXd row_inverse;                             // D^-1 of row nodes
   mutable Points particle_rhs;                             // solve workspace
@@ -390,15 +391,15 @@ void ConstraintSolver::buildTree()
   t.order.assign(queue.rbegin(), queue.rend());
   t.particle_inverse.assign(n, Eigen::Matrix3d::Zero());
   t.inner_ldlt.resize(n);
+  t.inner_scalar.assign(n, 0.0);
   t.inner_gradients.resize(n);
   for (int i = 0; i < n; ++i)
   {
     const int k = t.inner_start[i + 1] - t.inner_start[i];
-    if (k > 0)
-    {
+    if (k > 1)
       t.inner_ldlt[i] = Eigen::LDLT<Eigen::MatrixXd>(k);
+    if (k > 0)
       t.inner_gradients[i].resize(3, k);
-    }
   }
   t.row_inverse.setZero(m);
   t.particle_rhs.setZero(3, n);
@@ -451,10 +452,19 @@ SolveReport ConstraintSolver::factorizeTree()
           Eigen::Matrix3Xd& g = t.inner_gradients[node];
           for (int c = 0; c < k; ++c)
             g.col(c) = rows_[t.inner[first + c].row].gradientOf(t.inner[first + c].slot);
-          Eigen::MatrixXd s = g.transpose() * inverse * g;
-          s.diagonal().array() += delta;
-          t.inner_ldlt[node].compute(s);
-          const double pivot = t.inner_ldlt[node].vectorD().minCoeff();
+          double pivot = 0.0;
+          if (k == 1)  // the usual case (a surface, a link to a pin): no matrix
+          {
+            pivot = g.col(0).dot(inverse * g.col(0)) + delta;
+            t.inner_scalar[node] = pivot;
+          }
+          else
+          {
+            Eigen::MatrixXd s = g.transpose() * inverse * g;
+            s.diagonal().array() += delta;
+            t.inner_ldlt[node].compute(s);
+            pivot = t.inner_ldlt[node].vectorD().minCoeff();
+          }
           judge(pivot, w[node] * g.colwise().squaredNorm().maxCoeff() + delta);
         }
         if (parent >= 0)
@@ -463,7 +473,12 @@ SolveReport ConstraintSolver::factorizeTree()
           const Vec3 g = rows_[e.row].gradientOf(e.slot);
           const Vec3 u = inverse * g;
           double mobility = g.dot(u);
-          if (k > 0)
+          if (k == 1)
+          {
+            const double projected = t.inner_gradients[node].col(0).dot(u);
+            mobility -= projected * projected / t.inner_scalar[node];
+          }
+          else if (k > 1)
           {
             const Eigen::VectorXd projected = t.inner_gradients[node].transpose() * u;
             mobility -= projected.dot(t.inner_ldlt[node].solve(projected));
@@ -515,6 +530,15 @@ void ConstraintSolver::solveTree(Eigen::VectorXd& b) const
     if (k == 0)
       return x;
     // y = -S^-1 (h - G^T A^-1 f), x = A^-1 (f - G y)
+    if (k == 1)
+    {
+      const Vec3 g = t.inner_gradients[i].col(0);
+      const double inner = -(b[t.inner[first].row] - g.dot(x)) / t.inner_scalar[i];
+      x -= inverse * (g * inner);
+      if (y)
+        y->setConstant(1, inner);
+      return x;
+    }
     Eigen::VectorXd h(k);
     for (int c = 0; c < k; ++c)
       h[c] = b[t.inner[first + c].row];
