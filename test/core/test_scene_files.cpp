@@ -6,6 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <sstream>
+
 using namespace constrained_particles;
 
 namespace
@@ -251,4 +254,32 @@ TEST(SceneFiles, ParticleListsExpandAndPinsDefaultToTheirStart)
   EXPECT_EQ(s.initial_state.positions(2, 2), -1.0);
   EXPECT_EQ(s.initial_state.velocities(2, 2), 0.0);
   EXPECT_EQ(std::get<PinConstraint>(s.scene.constraints[2]).anchor, Vec3(0, 0, 5));
+}
+
+TEST(SceneFiles, ReadmeExampleLoadsAndRuns)
+{
+  std::ifstream readme(README_PATH);
+  ASSERT_TRUE(readme.good());
+  std::stringstream text;
+  text << readme.rdbuf();
+  const std::string all = text.str();
+  const std::size_t section = all.find("### The format");
+  ASSERT_NE(section, std::string::npos);
+  const std::size_t start = all.find("```yaml\n", section);
+  ASSERT_NE(start, std::string::npos);
+  const std::size_t end = all.find("```", start + 8);
+  const SceneDescription d = parseScene(all.substr(start + 8, end - start - 8), "README.md");
+  EXPECT_EQ(d.name, "hanging_bridge");
+  EXPECT_EQ(d.surfaces.size(), 2u);
+  EXPECT_EQ(d.numParticles(), 6);
+  const Scenario s = buildScene(d);
+  Simulator simulator(s.scene, s.initial_state, d.solver.applyTo(StepSettings{}),
+                      d.solver.solve_method);
+  simulator.step(300);
+  EXPECT_TRUE(simulator.diagnostics().finite());
+  EXPECT_LT(simulator.diagnostics().max_position_error, 1e-8);
+  const EffectCounters& c = simulator.effectCounters();
+  EXPECT_GT(c.forceCount<SpringForce>(), 0u);
+  EXPECT_GT(c.forceCount<QuadraticDragForce>(), 0u);
+  EXPECT_EQ(c.forceCount<LinearDampingForce>(), 0u);
 }
