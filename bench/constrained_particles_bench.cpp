@@ -584,8 +584,8 @@ int scenes(const std::string& out, bool quick)
         const double seconds = medianSecondsPerCall(
             [&]
             {
-              dynamics.computeAccelerations(s.initial_state.positions,
-                                            s.initial_state.velocities, 0.0, 0.0, a);
+              dynamics.computeAccelerations(s.initial_state.positions, s.initial_state.velocities,
+                                            0.0, 0.0, a);
             },
             quick ? 0.15 : 1.0);
         const char* shape = star ? "star" : "binary_tree";

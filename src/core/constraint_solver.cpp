@@ -59,13 +59,13 @@ struct ConstraintSolver::TreeState
   std::vector<RowIncidence> edge;  // the row and the particle's slot of the edge to the parent
   std::vector<int> inner_start;    // rows inside particle i: inner[inner_start[i] ..)
   std::vector<RowIncidence> inner;
-  std::vector<Eigen::Matrix3d> particle_inverse;  // A^-1 of particle nodes
+  std::vector<Eigen::Matrix3d> particle_inverse;         // A^-1 of particle nodes
   std::vector<Eigen::LDLT<Eigen::MatrixXd>> inner_ldlt;  // of delta I + G^T A^-1 G (k > 1)
-  std::vector<double> inner_scalar;                       // the same for k = 1
-  std::vector<Eigen::Matrix3Xd> inner_gradients;          // G of each particle with inner rows
-  Eigen::VectorXd row_inverse;                             // D^-1 of row nodes
-  mutable Points particle_rhs;                             // solve workspace
-  mutable Eigen::VectorXd inner_rhs;                       // solve workspace
+  std::vector<double> inner_scalar;                      // the same for k = 1
+  std::vector<Eigen::Matrix3Xd> inner_gradients;         // G of each particle with inner rows
+  Eigen::VectorXd row_inverse;                           // D^-1 of row nodes
+  mutable Points particle_rhs;                           // solve workspace
+  mutable Eigen::VectorXd inner_rhs;                     // solve workspace
 };
 
 ConstraintSolver::ConstraintSolver(const Model& model) : model_(&model)
@@ -417,8 +417,8 @@ SolveReport ConstraintSolver::factorizeTree()
   double max_diagonal = 0.0;
   for (int i = 0; i < n; ++i)
     for (int a = model_->incidenceStart()[i]; a < model_->incidenceStart()[i + 1]; ++a)
-      max_diagonal = std::max(
-          max_diagonal, w[i] * rows_[model_->incidence()[a].row].gradient.squaredNorm());
+      max_diagonal =
+          std::max(max_diagonal, w[i] * rows_[model_->incidence()[a].row].gradient.squaredNorm());
   double delta = 0.0;
   for (int attempt = 0; attempt < 2; ++attempt)
   {

@@ -28,9 +28,9 @@ Diagnostics computeDiagnostics(const Model& model, const State& state,
   for (std::size_t r = 0; r < rows.size(); ++r)
   {
     d.max_position_error = worseError(d.max_position_error, rows[r].metric_error);
-    d.max_velocity_error =
-        worseError(d.max_velocity_error, metricRate(scene.constraints[model.rowConstraints()[r]],
-                                                    rows[r], state.velocities));
+    d.max_velocity_error = worseError(
+        d.max_velocity_error,
+        metricRate(scene.constraints[model.rowConstraints()[r]], rows[r], state.velocities));
   }
   for (int k : model.pins())
   {

@@ -63,10 +63,10 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
     for (const std::string& warning : parameters_.overrides.applyTo(scene))
       ROS_WARN("simulator: %s", warning.c_str());
     if (scene.numParticles() > parameters_.max_particles)
-      throw InvalidInput("~scenario", "= '" + parameters_.scenario + "' has " +
-                                          std::to_string(scene.numParticles()) +
-                                          " particles, over ~max_particles = " +
-                                          std::to_string(parameters_.max_particles));
+      throw InvalidInput(
+          "~scenario",
+          "= '" + parameters_.scenario + "' has " + std::to_string(scene.numParticles()) +
+              " particles, over ~max_particles = " + std::to_string(parameters_.max_particles));
     // the scene's solver settings, unless set as parameters
     StepSettings settings = scene.solver.applyTo(parameters_.step);
     if (parameters_.step_set.dt)
@@ -119,9 +119,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
     reanchorLocked();
   }
   physics_thread_ = std::thread(&SimulatorNode::physicsLoop, this);
-  ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s",
-           scene_.name.c_str(), simulator_->model().numParticles(),
-           integratorName(parameters_.step.integrator),
+  ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s", scene_.name.c_str(),
+           simulator_->model().numParticles(), integratorName(parameters_.step.integrator),
            stabilizationName(parameters_.step.stabilization), parameters_.step.dt,
            solveMethodName(simulator_->model().solveMethod()));
 }
@@ -287,14 +286,13 @@ void SimulatorNode::publish()
         sceneMarkers(header, *snap.model, snap.state.positions, mesh_cache_, snap.scene_changed));
 }
 
-void SimulatorNode::rebuildLocked(const SceneDescription& description,
-                                  const StepSettings& settings)
+void SimulatorNode::rebuildLocked(const SceneDescription& description, const StepSettings& settings)
 {
   if (description.numParticles() > parameters_.max_particles)
-    throw InvalidInput("num_particles", "= " + std::to_string(description.numParticles()) +
-                                            " in scene '" + description.name +
-                                            "', must be at most ~max_particles = " +
-                                            std::to_string(parameters_.max_particles));
+    throw InvalidInput(
+        "num_particles",
+        "= " + std::to_string(description.numParticles()) + " in scene '" + description.name +
+            "', must be at most ~max_particles = " + std::to_string(parameters_.max_particles));
   const Scenario built = buildScene(description);
   // settings first: if the scene is refused, put them back
   const StepSettings saved = simulator_->stepSettings();

@@ -68,8 +68,7 @@ void checkKeys(const Where& where, const YAML::Node& map, const std::vector<std:
   {
     const std::string key = entry.first.as<std::string>();
     if (std::find(known.begin(), known.end(), key) == known.end())
-      fail(where / key, entry.first,
-           "is not a key of " + what + "; valid keys: " + joined(known));
+      fail(where / key, entry.first, "is not a key of " + what + "; valid keys: " + joined(known));
   }
 }
 
@@ -152,8 +151,8 @@ int surfaceIndex(const Where& where, const YAML::Node& node,
     names.push_back(s.name);
   fail(where, node,
        "must name a surface of this scene" +
-           (names.empty() ? std::string(" (it defines none under 'surfaces')") :
-                            "; defined: " + joined(names)));
+           (names.empty() ? std::string(" (it defines none under 'surfaces')")
+                          : "; defined: " + joined(names)));
 }
 
 Surface parseSurface(const Where& where, const YAML::Node& node)
@@ -162,8 +161,8 @@ Surface parseSurface(const Where& where, const YAML::Node& node)
   checkKeys(where, node, { "type", "coefficients", "expression" }, "a surface");
   if (!node["type"])
     fail(where / "type", node, "is missing; valid: " + joined(surfaceTypeNames()));
-  const SurfaceType type = parseSurfaceType(readString(where / "type", node["type"]),
-                                            where.at(node["type"]) + ".type");
+  const SurfaceType type =
+      parseSurfaceType(readString(where / "type", node["type"]), where.at(node["type"]) + ".type");
   if (type == SurfaceType::Expression)
   {
     if (!node["expression"])
@@ -180,8 +179,7 @@ Surface parseSurface(const Where& where, const YAML::Node& node)
   {
     requireSequence(where / "coefficients", node["coefficients"], "numbers");
     for (std::size_t k = 0; k < node["coefficients"].size(); ++k)
-      coefficients.push_back(
-          readDouble((where / "coefficients")[k], node["coefficients"][k]));
+      coefficients.push_back(readDouble((where / "coefficients")[k], node["coefficients"][k]));
   }
   return makeSurface(type, coefficients, (where / "coefficients").at(node));
 }
@@ -223,8 +221,8 @@ struct RecordReader
           if constexpr (std::is_same_v<Member, Vec3>)
             member = readVector(at, value);
           else if constexpr (std::is_same_v<Member, int>)
-            member = spec.kind == FieldKind::Surface ? surfaceIndex(at, value, surfaces) :
-                                                       readInt(at, value);
+            member = spec.kind == FieldKind::Surface ? surfaceIndex(at, value, surfaces)
+                                                     : readInt(at, value);
           else
             member = readDouble(at, value);
         });
@@ -242,8 +240,7 @@ struct RecordReader
             {
               if constexpr (std::is_same_v<std::decay_t<decltype(copy.*(spec.member))>, int>)
                 if (std::string(spec.name) == "particle")
-                  copy.*(spec.member) =
-                      readInt((where / "particles")[k], node["particles"][k]);
+                  copy.*(spec.member) = readInt((where / "particles")[k], node["particles"][k]);
             });
         out.push_back(copy);
       }
@@ -311,8 +308,8 @@ ChainSpec parseChain(const Where& where, const YAML::Node& node,
   if (node["particles"])
   {
     chain.particles = readInt(where / "particles", node["particles"]);
-    requireRange(where / "particles", node["particles"], chain.particles, 1, false,
-                 MAX_PARTICLES, "[1]");
+    requireRange(where / "particles", node["particles"], chain.particles, 1, false, MAX_PARTICLES,
+                 "[1]");
   }
   if (node["link_length"])
   {
@@ -323,8 +320,8 @@ ChainSpec parseChain(const Where& where, const YAML::Node& node,
   if (node["particle_mass"])
   {
     chain.particle_mass = readDouble(where / "particle_mass", node["particle_mass"]);
-    requireRange(where / "particle_mass", node["particle_mass"], chain.particle_mass, 0, true,
-                 1e6, "[kg]");
+    requireRange(where / "particle_mass", node["particle_mass"], chain.particle_mass, 0, true, 1e6,
+                 "[kg]");
   }
   if (node["start"])
     chain.start = readVector(where / "start", node["start"]);
@@ -414,7 +411,8 @@ SceneDescription parseScene(const std::string& yaml, const std::string& source)
     for (const auto& entry : surfaces)
     {
       const std::string name = entry.first.as<std::string>();
-      d.surfaces.push_back(NamedSurface{ name, parseSurface(top / "surfaces" / name, entry.second) });
+      d.surfaces.push_back(
+          NamedSurface{ name, parseSurface(top / "surfaces" / name, entry.second) });
     }
   }
 
@@ -583,7 +581,8 @@ Scenario buildScene(const SceneDescription& d)
     if (chain.pin_first)
       scene.constraints.push_back(PinConstraint{ first, start });
     if (chain.pin_last)
-      scene.constraints.push_back(PinConstraint{ next - 1, Vec3(start + (chain.particles - 1) * step) });
+      scene.constraints.push_back(
+          PinConstraint{ next - 1, Vec3(start + (chain.particles - 1) * step) });
   }
   for (std::size_t k = 0; k < d.constraints.size(); ++k)
   {
@@ -626,19 +625,17 @@ std::string resolveScene(const std::string& name_or_path, const std::string& dir
 {
   const bool is_path =
       name_or_path.find('/') != std::string::npos ||
-      (name_or_path.size() > 5 &&
-       name_or_path.compare(name_or_path.size() - 5, 5, ".yaml") == 0);
+      (name_or_path.size() > 5 && name_or_path.compare(name_or_path.size() - 5, 5, ".yaml") == 0);
   const std::string path = is_path ? name_or_path : directory + "/" + name_or_path + ".yaml";
   struct stat info;
   if (!name_or_path.empty() && stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode))
     return path;
-  const std::string shown = name_or_path.size() > 200 ? name_or_path.substr(0, 200) + "..." :
-                                                        name_or_path;
+  const std::string shown =
+      name_or_path.size() > 200 ? name_or_path.substr(0, 200) + "..." : name_or_path;
   if (is_path)
     throw InvalidInput(field, "= '" + shown + "': no such scene file");
   throw InvalidInput(field, "= '" + shown + "' is unknown; valid: " +
-                                joined(listScenes(directory)) +
-                                ", or a path to a scene file");
+                                joined(listScenes(directory)) + ", or a path to a scene file");
 }
 
 void setChains(SceneDescription& d, const ChainParameters& chain)

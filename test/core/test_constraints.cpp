@@ -107,10 +107,10 @@ TEST(LinkConstraint, JacobianAndJdotVMatchFiniteDifferences)
     const Surfaces none;
     const ConstraintRow row = evaluateRow(constraint, none, p, v);
     EXPECT_DOUBLE_EQ(row.value, constraintValue(constraint, none, p));
-    expectRowMatches(row,
-                     numericalJacobian(p, [&](const Points& q)
-                                       { return constraintValue(constraint, none, q); }),
-                     1e-7);
+    expectRowMatches(
+        row,
+        numericalJacobian(p, [&](const Points& q) { return constraintValue(constraint, none, q); }),
+        1e-7);
     const double numerical =
         numericalJdotV(p, v, [&](const Points& q) { return evaluateRow(constraint, none, q, v); });
     EXPECT_NEAR(row.jdot_v, numerical, 1e-6 * (1.0 + std::abs(numerical)));

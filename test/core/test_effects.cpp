@@ -98,8 +98,8 @@ TEST(EffectCounters, ASceneEvaluatesOnlyTheEffectsItLists)
     // the lone bead never assembles or factorises a matrix
     if (name == "bead")
     {
-      for (SolveMethod method : { SolveMethod::Tridiagonal, SolveMethod::Sparse,
-                                  SolveMethod::Dense, SolveMethod::Tree })
+      for (SolveMethod method :
+           { SolveMethod::Tridiagonal, SolveMethod::Sparse, SolveMethod::Dense, SolveMethod::Tree })
         EXPECT_EQ(c.factorizationCount(method), 0u) << solveMethodName(method);
       EXPECT_GT(c.factorizationCount(SolveMethod::Single), 0u);
     }

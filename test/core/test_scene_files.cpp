@@ -60,8 +60,7 @@ TEST(SceneFiles, BuiltInScenariosAreSceneFiles)
     const Scenario from_file = buildScene(loadSceneFile(DIRECTORY + "/" + name + ".yaml"));
     const Scenario built_in = buildScenario(name, ScenarioParameters{});
     EXPECT_EQ(from_file.scene.masses, built_in.scene.masses) << name;
-    EXPECT_LE((from_file.initial_state.positions - built_in.initial_state.positions).norm(),
-              1e-15)
+    EXPECT_LE((from_file.initial_state.positions - built_in.initial_state.positions).norm(), 1e-15)
         << name;
     EXPECT_LE((from_file.initial_state.velocities - built_in.initial_state.velocities).norm(),
               1e-15)
@@ -84,9 +83,9 @@ TEST(SceneFiles, EveryFileRunsAndEvaluatesOnlyWhatItLists)
 {
   const std::vector<std::string> names = listScenes(DIRECTORY);
   EXPECT_GE(names.size(), 7u);
-  for (const std::string& required : { "bead", "chain", "surface_chain", "pinned_pendulum",
-                                       "chain_pinned_both_ends", "two_chains_on_surface",
-                                       "bead_with_drag" })
+  for (const std::string& required :
+       { "bead", "chain", "surface_chain", "pinned_pendulum", "chain_pinned_both_ends",
+         "two_chains_on_surface", "bead_with_drag" })
     EXPECT_NE(std::find(names.begin(), names.end(), required), names.end()) << required;
   for (const std::string& name : names)
   {
@@ -169,9 +168,10 @@ TEST(SceneFiles, NamesAndPathsResolve)
 
 TEST(SceneFiles, BadFilesAreRefusedNamingFileKeyAndReason)
 {
-  const std::string bead = "surfaces:\n  ground: {type: bowl}\n"
-                           "particles:\n  - {mass: 1.0}\n"
-                           "constraints:\n  - {type: surface, particle: 0, surface: ground}\n";
+  const std::string bead =
+      "surfaces:\n  ground: {type: bowl}\n"
+      "particles:\n  - {mass: 1.0}\n"
+      "constraints:\n  - {type: surface, particle: 0, surface: ground}\n";
   EXPECT_NO_THROW(buildScene(parseScene(bead, "test.yaml")));
   // unknown keys, with the valid ones
   expectRefused(bead + "gravity: 9.81\n", { "test.yaml:7: gravity", "not a key of a scene" });
@@ -179,44 +179,50 @@ TEST(SceneFiles, BadFilesAreRefusedNamingFileKeyAndReason)
                 { "test.yaml:2: particles[0].colour", "valid keys: mass, position, velocity" });
   expectRefused("chains:\n  - {particles: 3, lenght: 0.5}\n",
                 { "chains[0].lenght", "link_length" });
-  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
-                "constraints:\n  - {type: link, first: 0, second: 1, lenght: 2}\n",
-                { "test.yaml:3: constraints[0].lenght", "a link record", "length" });
+  expectRefused(
+      "particles: [{mass: 1}, {mass: 1}]\n"
+      "constraints:\n  - {type: link, first: 0, second: 1, lenght: 2}\n",
+      { "test.yaml:3: constraints[0].lenght", "a link record", "length" });
   // invalid values: the key, the value and the range
   expectRefused("particles:\n  - {mass: -1.0}\n", { "particles[0].mass", "= -1", "(0, 1e+06]" });
   expectRefused("particles:\n  - {mass: .nan}\n", { "particles[0].mass", "nan" });
-  expectRefused("particles:\n  - {position: [1, 2]}\n",
-                { "particles[0].position", "3 numbers" });
+  expectRefused("particles:\n  - {position: [1, 2]}\n", { "particles[0].position", "3 numbers" });
   expectRefused("particles:\n  - {mass: heavy}\n", { "particles[0].mass", "must be a number" });
   expectRefused("chains:\n  - {particles: 0}\n", { "chains[0].particles", "= 0, must be in [1, " });
   expectRefused("chains:\n  - {particles: 3, link_length: -0.5}\n",
                 { "chains[0].link_length", "= -0.5, must be in (0, " });
   expectRefused("chains:\n  - {particles: 3, direction: [0, 0, 0]}\n",
                 { "chains[0].direction", "non-zero" });
-  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
-                "constraints:\n  - {type: link, first: 0, second: 1, length: -2}\n",
-                { "constraints[0]", "length", "> 0" });
-  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
-                "constraints:\n  - {type: link, first: 0, second: 5}\n",
-                { "constraints[0]", "second", "= 5", "[0, 1]" });
-  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
-                "constraints:\n  - {type: link, first: 1, second: 1}\n",
-                { "constraints[0]", "second", "must differ from first" });
-  expectRefused("particles: [{mass: 1}]\nforces:\n  - {type: gravity, acceleration: [0, 0, .inf]}\n",
-                { "forces[0]", "acceleration.z", "inf" });
+  expectRefused(
+      "particles: [{mass: 1}, {mass: 1}]\n"
+      "constraints:\n  - {type: link, first: 0, second: 1, length: -2}\n",
+      { "constraints[0]", "length", "> 0" });
+  expectRefused(
+      "particles: [{mass: 1}, {mass: 1}]\n"
+      "constraints:\n  - {type: link, first: 0, second: 5}\n",
+      { "constraints[0]", "second", "= 5", "[0, 1]" });
+  expectRefused(
+      "particles: [{mass: 1}, {mass: 1}]\n"
+      "constraints:\n  - {type: link, first: 1, second: 1}\n",
+      { "constraints[0]", "second", "must differ from first" });
+  expectRefused(
+      "particles: [{mass: 1}]\nforces:\n  - {type: gravity, acceleration: [0, 0, .inf]}\n",
+      { "forces[0]", "acceleration.z", "inf" });
   expectRefused("particles: [{mass: 1}]\nforces:\n  - {type: quadratic_drag, coefficient: -1}\n",
                 { "forces[0]", "coefficient", ">= 0" });
   // unknown kinds and names
   expectRefused("particles: [{mass: 1}]\nforces:\n  - {type: magnetism}\n",
                 { "forces[0].type", "'magnetism' is unknown", "gravity", "spring" });
-  expectRefused("particles: [{mass: 1}]\nconstraints:\n  - {type: surface, particle: 0, surface: "
-                "floor}\n",
-                { "constraints[0].surface", "must name a surface", "defines none" });
+  expectRefused(
+      "particles: [{mass: 1}]\nconstraints:\n  - {type: surface, particle: 0, surface: "
+      "floor}\n",
+      { "constraints[0].surface", "must name a surface", "defines none" });
   expectRefused("surfaces:\n  ground: {type: cone}\nparticles: [{mass: 1}]\n",
                 { "surfaces.ground.type", "'cone' is not a surface type" });
-  expectRefused("surfaces:\n  ground: {type: expression, expression: \"sin(x\"}\n"
-                "particles: [{mass: 1}]\n",
-                { "surfaces.ground.expression", "position" });
+  expectRefused(
+      "surfaces:\n  ground: {type: expression, expression: \"sin(x\"}\n"
+      "particles: [{mass: 1}]\n",
+      { "surfaces.ground.expression", "position" });
   expectRefused("solver: {integrator: leapfrog}\nparticles: [{mass: 1}]\n",
                 { "solver.integrator", "'leapfrog' is unknown", "rk4" });
   expectRefused("solver: {dt: 0}\nparticles: [{mass: 1}]\n", { "solver.dt", "(0, 1]" });
@@ -228,24 +234,25 @@ TEST(SceneFiles, BadFilesAreRefusedNamingFileKeyAndReason)
   expectRefused("particles: [{mass: 1}]\nforces: {type: gravity}\n", { "forces", "list" });
   expectRefused("[1, 2, 3]\n", { "test.yaml", "must hold a map" });
   expectRefused("particles: [{mass: 1}\n", { "test.yaml:", "not valid YAML" });
-  expectRefused("particles: [{mass: 1}, {mass: 1}]\n"
-                "constraints:\n  - {type: pin, particle: 0, particles: [1]}\n",
-                { "constraints[0].particles", "exclusive" });
+  expectRefused(
+      "particles: [{mass: 1}, {mass: 1}]\n"
+      "constraints:\n  - {type: pin, particle: 0, particles: [1]}\n",
+      { "constraints[0].particles", "exclusive" });
   EXPECT_NE(refusal([] { loadSceneFile("/no/such/scene.yaml"); }).find("cannot be read"),
             std::string::npos);
 }
 
 TEST(SceneFiles, ParticleListsExpandAndPinsDefaultToTheirStart)
 {
-  const SceneDescription d =
-      parseScene("surfaces: {flat: {type: plane, coefficients: [0, 0, -1]}}\n"
-                 "particles:\n"
-                 "  - {position: [0, 0, 5]}\n  - {position: [1, 0, 5]}\n"
-                 "  - {position: [2, 0, 5], velocity: [1, 0, 3]}\n"
-                 "constraints:\n"
-                 "  - {type: surface, surface: flat, particles: [1, 2]}\n"
-                 "  - {type: pin, particle: 0}\n",
-                 "test.yaml");
+  const SceneDescription d = parseScene(
+      "surfaces: {flat: {type: plane, coefficients: [0, 0, -1]}}\n"
+      "particles:\n"
+      "  - {position: [0, 0, 5]}\n  - {position: [1, 0, 5]}\n"
+      "  - {position: [2, 0, 5], velocity: [1, 0, 3]}\n"
+      "constraints:\n"
+      "  - {type: surface, surface: flat, particles: [1, 2]}\n"
+      "  - {type: pin, particle: 0}\n",
+      "test.yaml");
   const Scenario s = buildScene(d);
   ASSERT_EQ(s.scene.constraints.size(), 3u);
   EXPECT_EQ(std::get<SurfaceConstraint>(s.scene.constraints[0]).particle, 1);

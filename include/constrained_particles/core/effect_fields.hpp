@@ -71,12 +71,12 @@ void validateFields(const Record& record, int num_particles, int num_surfaces,
         {
           const int count = spec.kind == FieldKind::Surface ? num_surfaces : num_particles;
           if (value < 0 || value >= count)
-            throw InvalidInput(name, "= " + std::to_string(value) +
-                                         (spec.kind == FieldKind::Surface ?
-                                              ", must index one of the " + std::to_string(count) +
-                                                  " surfaces" :
-                                              ", must be a particle index in [0, " +
-                                                  std::to_string(count - 1) + "]"));
+            throw InvalidInput(
+                name,
+                "= " + std::to_string(value) +
+                    (spec.kind == FieldKind::Surface
+                         ? ", must index one of the " + std::to_string(count) + " surfaces"
+                         : ", must be a particle index in [0, " + std::to_string(count - 1) + "]"));
         }
         else
         {

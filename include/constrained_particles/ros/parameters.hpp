@@ -37,7 +37,7 @@ struct NodeParameters
   std::string scenario = "chain";  ///< scene name in scene_directory, or a scene file path
   std::string scene_directory;     ///< where scene names are looked up (package config/scenes)
   SceneOverrides overrides;        ///< start-up changes to the scene
-  StepSettings step;                       ///< dt [s], integrator, stabilisation
+  StepSettings step;               ///< dt [s], integrator, stabilisation
   /// Which of dt, integrator and stabilization were set as parameters: those win over the
   /// start-up scene's own `solver` settings.
   struct
