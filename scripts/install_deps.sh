@@ -13,10 +13,15 @@ PACKAGES=(
   python3-geometry-msgs python3-visualization-msgs python3-tf2-msgs
   python3-std-srvs python3-catkin-pkg python3-tf2-ros python3-dynamic-reconfigure
   libdiagnostic-msgs-dev python3-diagnostic-msgs libyaml-cpp-dev libroslib-dev
+  libros-rosgraph-msgs-dev python3-rosgraph-msgs
 )
-# Optional extras: rviz and Xvfb (WITH_RVIZ=1); the benchmark's peers and plots (WITH_BENCH=1).
+# Optional extras: rviz and Xvfb (WITH_RVIZ=1); the benchmark's peers and plots (WITH_BENCH=1);
+# clang with libFuzzer for scripts/fuzz.sh (WITH_FUZZ=1).
 if [[ "${WITH_RVIZ:-0}" == 1 ]]; then
   PACKAGES+=(rviz xvfb x11-apps imagemagick)
+fi
+if [[ "${WITH_FUZZ:-0}" == 1 ]]; then
+  PACKAGES+=(clang libclang-rt-14-dev)
 fi
 if [[ "${WITH_BENCH:-0}" == 1 ]]; then
   PACKAGES+=(libode-dev libmujoco-dev python3-matplotlib)

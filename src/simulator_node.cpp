@@ -4,6 +4,13 @@
 int main(int argc, char** argv)
 {
   ros::init(argc, argv, "simulator");
+  // started before roscore: wait for it rather than read defaults from nowhere
+  while (!ros::master::check() && ros::ok())
+  {
+    ROS_WARN_THROTTLE(5.0, "simulator_node: waiting for the ROS master at %s",
+                      ros::master::getURI().c_str());
+    ros::WallDuration(0.2).sleep();
+  }
   // outlives the node: destroying the last handle shuts ROS (and its logging) down
   ros::NodeHandle private_nh("~");
   try

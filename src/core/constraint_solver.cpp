@@ -390,7 +390,8 @@ void ConstraintSolver::buildTree()
   }
   t.order.assign(queue.rbegin(), queue.rend());
   t.particle_inverse.assign(n, Eigen::Matrix3d::Zero());
-  t.inner_ldlt.resize(n);  // constructed in place: Eigen's LDLT copies an unset status on assignment
+  t.inner_ldlt.resize(
+      n);  // constructed in place: Eigen's LDLT copies an unset status on assignment
   t.inner_scalar.assign(n, 0.0);
   t.inner_gradients.resize(n);
   for (int i = 0; i < n; ++i)

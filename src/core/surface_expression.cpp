@@ -5,6 +5,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 
 namespace constrained_particles
@@ -93,9 +94,22 @@ public:
 private:
   [[noreturn]] void fail(const std::string& what) const
   {
+    // control characters would cut or garble the message: show them as their code
+    auto printable = [](char c)
+    {
+      const auto code = static_cast<unsigned char>(c);
+      if (code >= 32 && code != 127)
+        return std::string(1, c);
+      char escaped[8];
+      std::snprintf(escaped, sizeof(escaped), "\\x%02x", code);
+      return std::string(escaped);
+    };
+    std::string shown;
+    for (char c : text_)
+      shown += printable(c);
     const std::string found =
-        position_ < text_.size() ? "'" + std::string(1, text_[position_]) + "'" : "the end";
-    throw InvalidInput(field_, "= '" + text_ + "': at position " + std::to_string(position_ + 1) +
+        position_ < text_.size() ? "'" + printable(text_[position_]) + "'" : "the end";
+    throw InvalidInput(field_, "= '" + shown + "': at position " + std::to_string(position_ + 1) +
                                    ", " + what + ", found " + found);
   }
 

@@ -8,7 +8,6 @@ namespace constrained_particles
 {
 namespace
 {
-constexpr int MESH_CELLS = 40;  // cells per side of the surface mesh
 
 std_msgs::ColorRGBA color(float r, float g, float b, float a)
 {
@@ -101,7 +100,7 @@ const visualization_msgs::Marker& SurfaceMeshCache::mesh(const std_msgs::Header&
     marker_ = makeMarker(header, "surface", 0, visualization_msgs::Marker::TRIANGLE_LIST);
     marker_.scale.x = marker_.scale.y = marker_.scale.z = 1.0;
     marker_.color = color(0.3f, 0.7f, 0.9f, 0.6f);
-    const double hx = (max_x_ - min_x_) / MESH_CELLS, hy = (max_y_ - min_y_) / MESH_CELLS;
+    const double hx = (max_x_ - min_x_) / cells_, hy = (max_y_ - min_y_) / cells_;
     for (const Surface& surface : model.scene().surfaces)
     {
       auto vertex = [&](int i, int j)
@@ -109,8 +108,8 @@ const visualization_msgs::Marker& SurfaceMeshCache::mesh(const std_msgs::Header&
         const double x = min_x_ + i * hx, y = min_y_ + j * hy;
         return tf2::toMsg(Eigen::Vector3d(x, y, evaluateSurface(surface, x, y).z));
       };
-      for (int i = 0; i < MESH_CELLS; ++i)
-        for (int j = 0; j < MESH_CELLS; ++j)
+      for (int i = 0; i < cells_; ++i)
+        for (int j = 0; j < cells_; ++j)
         {
           const auto a = vertex(i, j), b = vertex(i + 1, j), c = vertex(i + 1, j + 1),
                      d = vertex(i, j + 1);

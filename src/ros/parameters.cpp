@@ -1,5 +1,7 @@
 #include "constrained_particles/ros/parameters.hpp"
 
+#include "constrained_particles/ros/markers.hpp"
+
 #include <ros/package.h>
 
 #include <cmath>
@@ -192,6 +194,8 @@ NodeParameters readParameters(const ros::NodeHandle& nh)
   readOptional(nh, "frame_prefix", "a string", p.frame_prefix);
   readDouble(nh, "force_scale", p.force_scale);
   readDouble(nh, "max_constraint_error", p.max_constraint_error);
+  readOptional(nh, "mesh_cells", "an integer", p.mesh_cells);
+  readOptional(nh, "publish_clock", "a boolean", p.publish_clock);
   validateNodeParameters(p);
   return p;
 }
@@ -208,6 +212,7 @@ void validateNodeParameters(const NodeParameters& p)
   requireRange("~max_particles", p.max_particles, 1.0, false, MAX_PARTICLES, "[1]");
   requireRange("~force_scale", p.force_scale, 0.0, true, 1e3, "[m/N]");
   requireRange("~max_constraint_error", p.max_constraint_error, 0.0, true, 1e3, "[m]");
+  requireRange("~mesh_cells", p.mesh_cells, 2.0, false, MAX_MESH_CELLS, "[1]");
   const SceneOverrides& o = p.overrides;
   if (o.damping)
     requireRange("~damping", *o.damping, 0.0, false, 1e3, "[N s/m]");

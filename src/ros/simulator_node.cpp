@@ -4,6 +4,7 @@
 #include "constrained_particles/ros/conversions.hpp"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <rosgraph_msgs/Clock.h>
 #include <geometry_msgs/TransformStamped.h>
 
 #include <algorithm>
@@ -83,6 +84,9 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
     published_model_ = std::make_shared<const Model>(simulator_->model());
   }
 
+  mesh_cache_ = SurfaceMeshCache(parameters_.mesh_cells);
+  if (parameters_.publish_clock)
+    clock_publisher_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10);
   state_publisher_ = nh_.advertise<SimState>("state", 10);
   force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 1);
   scene_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("scene", 1, true);
@@ -117,6 +121,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   {
     std::lock_guard<std::mutex> lock(mutex_);
     reanchorLocked();
+    rate_wall_ = Clock::now();
   }
   physics_thread_ = std::thread(&SimulatorNode::physicsLoop, this);
   ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s", scene_.name.c_str(),
@@ -187,9 +192,12 @@ void SimulatorNode::physicsLoop()
     {
       const long max_batch = std::max(1L, static_cast<long>(std::ceil(MAX_BATCH_WALL * rtf / dt)));
       stepLocked(static_cast<int>(std::min(due, max_batch)));
-      // behind wall time: slow sim time down instead of building a backlog
+      // behind wall time: slow sim time down instead of building a backlog, and say so
       if (due > max_batch)
+      {
         reanchorLocked();
+        ++behind_events_;
+      }
     }
     const double until_next = (simulator_->state().time + dt - anchor_sim_time_) / rtf;
     const auto wake = anchor_wall_ + std::chrono::duration_cast<Clock::duration>(
@@ -218,6 +226,12 @@ void SimulatorNode::publish()
     if (want_state)
       snap.diagnostics = simulator_->diagnostics();
     snap.step_time = step_time_;
+    snap.real_time_factor = achieved_rtf_;
+    snap.behind = behind_ && !paused_ && !faulted_;
+    if (snap.behind)
+      snap.status_message = "behind: achieved real-time factor " + formatValue(achieved_rtf_) +
+                            " of " + formatValue(parameters_.real_time_factor) +
+                            "; sim time is slowed, no steps are dropped";
     if (want_scene)
     {
       snap.model = published_model_;
@@ -236,7 +250,15 @@ void SimulatorNode::publish()
   }
 
   std_msgs::Header header;
-  header.stamp = ros::Time::now();
+  // sim time as ROS time: nodes with use_sim_time follow /clock
+  header.stamp =
+      parameters_.publish_clock ? ros::Time(std::max(snap.state.time, 0.0)) : ros::Time::now();
+  if (parameters_.publish_clock)
+  {
+    rosgraph_msgs::Clock clock;
+    clock.clock = header.stamp;
+    clock_publisher_.publish(clock);
+  }
   header.frame_id = parameters_.fixed_frame;
   const int n = static_cast<int>(snap.state.positions.cols());
 
@@ -270,6 +292,8 @@ void SimulatorNode::publish()
     msg.kinetic_energy = snap.diagnostics.kinetic_energy;
     msg.potential_energy = snap.diagnostics.potential_energy;
     msg.step_time = snap.step_time;
+    msg.real_time_factor = snap.real_time_factor;
+    msg.behind = snap.behind;
     msg.status = snap.status;
     msg.status_message = snap.status_message;
     state_publisher_.publish(msg);
@@ -370,6 +394,9 @@ bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface:
   {
     const SurfaceType type = parseSurfaceType(request.type, "type");
     Surface surface;
+    if (type == SurfaceType::Expression && !request.coefficients.empty())
+      throw InvalidInput("coefficients", "has " + std::to_string(request.coefficients.size()) +
+                                             " values, must be empty for type 'expression'");
     if (type == SurfaceType::Expression)
       surface = makeExpressionSurface(request.expression, "expression");
     else if (!request.expression.empty())
@@ -415,7 +442,8 @@ bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Respo
   response.message = "chain set to " + std::to_string(chain.num_particles) +
                      " particles, l = " + formatValue(chain.link_length) +
                      " m, m = " + formatValue(chain.particle_mass) + " kg; scene '" + scene_.name +
-                     "' reset";
+                     "' reset (" + std::to_string(simulator_->model().numParticles()) +
+                     " particles)";
   return true;
 }
 
@@ -430,6 +458,22 @@ bool SimulatorNode::setStateCallback(SetState::Request& request, SetState::Respo
     return refuse(response, "velocities has " + std::to_string(request.velocities.size()) +
                                 " entries, must be empty (at rest) or one per particle (" +
                                 std::to_string(n) + ")");
+  // finite is not enough: a teleport to 1e300 m would overflow on the first step
+  auto within = [](const auto& vectors, const char* name, const char* unit) -> std::string
+  {
+    for (std::size_t i = 0; i < vectors.size(); ++i)
+      for (const auto& [axis, value] : { std::pair<const char*, double>{ "x", vectors[i].x },
+                                         std::pair<const char*, double>{ "y", vectors[i].y },
+                                         std::pair<const char*, double>{ "z", vectors[i].z } })
+        if (!(std::abs(value) <= MAX_STATE_COORDINATE))
+          return std::string(name) + "[" + std::to_string(i) + "]." + axis + " = " +
+                 formatValue(value) + ", must be in [-1e6, 1e6] " + unit;
+    return "";
+  };
+  for (const std::string& problem : { within(request.positions, "positions", "[m]"),
+                                      within(request.velocities, "velocities", "[m/s]") })
+    if (!problem.empty())
+      return refuse(response, problem);
   State state = simulator_->state();
   state.positions = fromMsgs(request.positions);
   state.velocities =
@@ -527,6 +571,20 @@ void SimulatorNode::reconfigureCallback(SimulatorConfig& config, uint32_t /*leve
   reanchorLocked();
 }
 
+void SimulatorNode::updateRateLocked()
+{
+  const Clock::time_point now = Clock::now();
+  const double wall = seconds(now - rate_wall_);
+  const double sim = simulator_->state().time;
+  if (wall > 0.0)
+    achieved_rtf_ =
+        (paused_ || faulted_ || sim < rate_sim_time_) ? 0.0 : (sim - rate_sim_time_) / wall;
+  behind_ = behind_events_ > 0;
+  behind_events_ = 0;
+  rate_wall_ = now;
+  rate_sim_time_ = sim;
+}
+
 void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
 {
   diagnostic_msgs::DiagnosticStatus status;
@@ -541,10 +599,16 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   };
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    updateRateLocked();
     const Diagnostics d = simulator_->diagnostics();
-    status.level =
-        faulted_ ? diagnostic_msgs::DiagnosticStatus::ERROR : diagnostic_msgs::DiagnosticStatus::OK;
-    status.message = faulted_ ? fault_reason_ : paused_ ? "paused" : "running";
+    const bool behind = behind_ && !paused_ && !faulted_;
+    status.level = faulted_ ? diagnostic_msgs::DiagnosticStatus::ERROR
+                   : behind ? diagnostic_msgs::DiagnosticStatus::WARN
+                            : diagnostic_msgs::DiagnosticStatus::OK;
+    status.message = faulted_  ? fault_reason_
+                     : paused_ ? "paused"
+                     : behind  ? "behind: cannot keep up with the real-time factor; sim time slowed"
+                               : "running";
     add("scenario", scene_.name);
     add("solve", solveMethodName(simulator_->model().solveMethod()));
     add("particles", std::to_string(simulator_->model().numParticles()));
@@ -553,6 +617,8 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
     add("max_position_error [m]", formatValue(d.max_position_error));
     add("max_constraint_error [m]", formatValue(parameters_.max_constraint_error));
     add("step_time [s]", formatValue(step_time_));
+    add("real_time_factor achieved", formatValue(achieved_rtf_));
+    add("real_time_factor wanted", formatValue(parameters_.real_time_factor));
     add("integrator", integratorName(parameters_.step.integrator));
     add("stabilization", stabilizationName(parameters_.step.stabilization));
   }
@@ -566,9 +632,10 @@ void SimulatorNode::statusCallback(const ros::WallTimerEvent&)
 {
   Diagnostics d;
   double time = 0, step_time = 0;
-  bool paused = false, faulted = false;
+  bool paused = false, faulted = false, behind = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    behind = behind_;
     d = simulator_->diagnostics();
     time = simulator_->state().time;
     step_time = step_time_;
@@ -577,8 +644,9 @@ void SimulatorNode::statusCallback(const ros::WallTimerEvent&)
   }
   ROS_INFO("t = %8.3f s  energy = %.6f J  max error = %.2e m  step = %.1f us%s", time,
            d.totalEnergy(), d.max_position_error, 1e6 * step_time,
-           faulted  ? "  [FAULT: non-finite, call ~reset]"
+           faulted  ? "  [FAULT: call ~reset]"
            : paused ? "  [paused]"
+           : behind ? "  [behind: sim time slowed]"
                     : "");
 }
 

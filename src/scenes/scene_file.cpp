@@ -360,6 +360,11 @@ void placeOnSurface(const Surface& surface, Vec3& position, Vec3& velocity)
 
 }  // namespace
 
+namespace
+{
+SceneDescription parseSceneNodes(const std::string& yaml, const std::string& source);
+}
+
 StepSettings SolverSpec::applyTo(StepSettings settings) const
 {
   if (dt)
@@ -380,6 +385,22 @@ long SceneDescription::numParticles() const
 }
 
 SceneDescription parseScene(const std::string& yaml, const std::string& source)
+{
+  // anything yaml-cpp throws past the checks above (odd keys, deep nesting) is still bad input
+  try
+  {
+    return parseSceneNodes(yaml, source);
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw InvalidInput(source + (e.mark.is_null() ? "" : ":" + std::to_string(e.mark.line + 1)),
+                       "is not a valid scene: " + e.msg);
+  }
+}
+
+namespace
+{
+SceneDescription parseSceneNodes(const std::string& yaml, const std::string& source)
 {
   YAML::Node root;
   try
@@ -511,11 +532,19 @@ SceneDescription parseScene(const std::string& yaml, const std::string& source)
   return d;
 }
 
+}  // namespace
+
 SceneDescription loadSceneFile(const std::string& path)
 {
-  std::ifstream file(path);
+  std::ifstream file(path, std::ios::binary | std::ios::ate);
   if (!file)
     throw InvalidInput(path, "cannot be read");
+  const std::streamoff size = file.tellg();
+  if (size < 0 || size > MAX_SCENE_FILE_BYTES)
+    throw InvalidInput(path, "is " + std::to_string(static_cast<long long>(size)) +
+                                 " bytes, over the limit of " +
+                                 std::to_string(MAX_SCENE_FILE_BYTES) + " bytes");
+  file.seekg(0);
   std::stringstream text;
   text << file.rdbuf();
   SceneDescription d = parseScene(text.str(), path);
@@ -638,10 +667,48 @@ std::string resolveScene(const std::string& name_or_path, const std::string& dir
                                 joined(listScenes(directory)) + ", or a path to a scene file");
 }
 
+namespace
+{
+// the largest particle index a force or constraint record of the scene names (-1 if none)
+template <typename Variant>
+int largestParticleIndex(const std::vector<Variant>& records)
+{
+  int largest = -1;
+  for (const Variant& record : records)
+    std::visit(
+        [&](const auto& r)
+        {
+          forEachField<std::decay_t<decltype(r)>>(
+              [&](const auto& spec)
+              {
+                if constexpr (std::is_same_v<std::decay_t<decltype(r.*(spec.member))>, int>)
+                  if (spec.kind == FieldKind::Particle)
+                    largest = std::max(largest, r.*(spec.member));
+              });
+        },
+        record);
+  return largest;
+}
+
+}  // namespace
+
 void setChains(SceneDescription& d, const ChainParameters& chain)
 {
   if (d.chains.empty())
     throw InvalidInput("num_particles", "cannot be set: scene '" + d.name + "' has no chain");
+  // records naming chain particles by index would silently point elsewhere after renumbering
+  const int explicit_particles = static_cast<int>(d.particles.size());
+  const bool count_changes =
+      std::any_of(d.chains.begin(), d.chains.end(),
+                  [&](const ChainSpec& c) { return c.particles != chain.num_particles; });
+  if (count_changes && std::max(largestParticleIndex(d.forces),
+                                largestParticleIndex(d.constraints)) >= explicit_particles)
+    throw InvalidInput("num_particles",
+                       "= " + std::to_string(chain.num_particles) + " cannot be set: scene '" +
+                           d.name +
+                           "' names chain particles by index in its forces or constraints, so "
+                           "its chains keep their counts (link_length and particle_mass may "
+                           "change)");
   for (ChainSpec& spec : d.chains)
   {
     spec.particles = chain.num_particles;

@@ -146,6 +146,13 @@ TEST(SceneFiles, ChangesApplyToTheScene)
   SceneDescription pinned = loadSceneFile(DIRECTORY + "/chain.yaml");
   EXPECT_NE(refusal([&] { setFirstSurface(pinned, Surface{}); }).find("has no surface"),
             std::string::npos);
+  // a scene naming chain particles by index keeps its chain counts
+  SceneDescription mobile = loadSceneFile(DIRECTORY + "/mobile.yaml");
+  EXPECT_NE(refusal([&] { setChains(mobile, chain); }).find("names chain particles"),
+            std::string::npos);
+  ChainParameters same_count = chain;
+  same_count.num_particles = 3;
+  EXPECT_NO_THROW(setChains(mobile, same_count));
   // drag is kept when gravity goes
   SceneDescription drag = loadSceneFile(DIRECTORY + "/bead_with_drag.yaml");
   setGravityAndDamping(drag, Vec3::Zero(), 0.0);

@@ -20,16 +20,25 @@ visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& h
                                                        const Points& forces, double force_scale,
                                                        int previous_count);
 
+/// Largest ~mesh_cells accepted: 2 * 200^2 = 80,000 triangles per surface.
+constexpr int MAX_MESH_CELLS = 200;
+
 /// Triangle mesh of a surface over an x-y region, cached until the particles leave it.
 class SurfaceMeshCache
 {
 public:
+  /// @param cells cells per side of the mesh, in [2, MAX_MESH_CELLS] (2 triangles per cell)
+  explicit SurfaceMeshCache(int cells = 40) : cells_(cells)
+  {
+  }
+
   /// The mesh of every surface of the model around the given particles, rebuilt when the scene
   /// changed (`scene_changed`) or a particle left the meshed region.
   const visualization_msgs::Marker& mesh(const std_msgs::Header& header, const Model& model,
                                          const Points& positions, bool scene_changed);
 
 private:
+  int cells_;
   visualization_msgs::Marker marker_;
   double min_x_ = 0, max_x_ = -1, min_y_ = 0, max_y_ = -1;  // meshed region [m]
 };

@@ -52,10 +52,14 @@ struct NodeParameters
   std::string frame_prefix = "particle_";  ///< child frame = prefix + index
   double force_scale = 0.05;               ///< arrow length per newton [m/N], (0, 1e3]
   double max_constraint_error = 0.1;       ///< fault beyond this constraint error [m], (0, 1e3]
+  int mesh_cells = 40;                     ///< surface mesh cells per side, [2, MAX_MESH_CELLS]
+  bool publish_clock = false;              ///< publish /clock from sim time and stamp with it
 };
 
 /// Largest dt the node accepts [s].
 constexpr double MAX_NODE_DT = 0.1;
+/// Largest |coordinate| [m] and |velocity component| [m/s] ~set_state accepts.
+constexpr double MAX_STATE_COORDINATE = 1e6;
 
 /// Reads every parameter from the (private) node handle, over the defaults.
 /// @throws InvalidInput naming the parameter ("~chain/link_length") and its valid range

@@ -59,6 +59,8 @@ private:
     Eigen::VectorXd multipliers;
     Diagnostics diagnostics;
     double step_time = 0;
+    double real_time_factor = 0;
+    bool behind = false;
     std::uint8_t status = 0;
     std::string status_message;
     bool scene_changed = false;
@@ -90,8 +92,11 @@ private:
   bool stepCallback(Step::Request& request, Step::Response& response);
   void reconfigureCallback(SimulatorConfig& config, uint32_t level);
   void statusCallback(const ros::WallTimerEvent& event);
-  /// Publishes the node's health on /diagnostics.
+  /// Publishes the node's health on /diagnostics, after updating the achieved real-time factor.
   void diagnosticsCallback(const ros::WallTimerEvent& event);
+  /// Achieved real-time factor and whether stepping fell behind, over the time since the last
+  /// call. Caller holds mutex_.
+  void updateRateLocked();
   /// Stops stepping, puts back the last good state and logs why. Caller holds mutex_.
   void faultLocked(const std::string& reason);
 
@@ -105,9 +110,14 @@ private:
   bool paused_ = false;
   bool faulted_ = false;  // stepping stopped until ~reset (fault_reason_ says why)
   std::string fault_reason_;
-  State last_good_state_;      // before the last batch of steps
-  bool scene_changed_ = true;  // scene markers need their mesh rebuilt
-  double step_time_ = 0.0;     // wall time of the last physics step [s]
+  State last_good_state_;       // before the last batch of steps
+  bool scene_changed_ = true;   // scene markers need their mesh rebuilt
+  double step_time_ = 0.0;      // wall time of the last physics step [s]
+  int behind_events_ = 0;       // batches that fell behind wall time since the last rate update
+  bool behind_ = false;         // fell behind in the last second
+  double achieved_rtf_ = 0.0;   // sim seconds per wall second over the last second
+  double rate_sim_time_ = 0.0;  // sim time at the last rate update [s]
+  Clock::time_point rate_wall_;
   Clock::time_point anchor_wall_;
   double anchor_sim_time_ = 0.0;
   std::condition_variable wake_physics_;
@@ -116,6 +126,7 @@ private:
 
   int published_arrows_ = 0;  // publishing thread only
   SurfaceMeshCache mesh_cache_;
+  ros::Publisher clock_publisher_;  // /clock, with ~publish_clock
 
   ros::Publisher state_publisher_, force_marker_publisher_, scene_marker_publisher_,
       diagnostics_publisher_;

@@ -14,6 +14,9 @@
 
 namespace constrained_particles
 {
+/// Largest scene file read [bytes]: a bigger one is refused before it is read.
+constexpr long MAX_SCENE_FILE_BYTES = 1 << 20;
+
 /// One explicitly listed particle.
 struct ParticleSpec
 {
@@ -80,7 +83,8 @@ struct SceneDescription
 /// is wrong and what is valid; unknown keys are refused
 SceneDescription parseScene(const std::string& yaml, const std::string& source);
 
-/// Reads and parses a scene file. @throws InvalidInput as parseScene, or if it cannot be read
+/// Reads and parses a scene file. @throws InvalidInput as parseScene, or if it cannot be read or
+/// is larger than MAX_SCENE_FILE_BYTES
 SceneDescription loadSceneFile(const std::string& path);
 
 /// The scene and initial state a description stands for: chains expanded, particles on surfaces

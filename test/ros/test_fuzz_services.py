@@ -1,0 +1,319 @@
+#!/usr/bin/python3
+"""10,000 random and adversarial service requests, interleaved with valid ones.
+
+Every request is built knowing whether it is valid: valid ones must be accepted, invalid ones
+refused with a message naming what is wrong. Afterwards the node must be alive and publish a
+finite state that satisfies its constraints.
+"""
+import math
+import os
+import random
+import re
+import tempfile
+import time
+import unittest
+
+import rospy
+import rostest
+from constrained_particles.msg import SimState
+from constrained_particles.srv import ListScenes, Reset, SetChain, SetState, SetSurface, Step
+from dynamic_reconfigure.msg import Config, DoubleParameter, StrParameter
+from dynamic_reconfigure.srv import Reconfigure
+from geometry_msgs.msg import Point, Vector3
+from std_srvs.srv import Empty
+
+NODE = "/simulator"
+CALLS = 10000
+SEED = 20261122
+MAX_PARTICLES = 500  # as fuzz_services.test sets ~max_particles
+NAN, INF = float("nan"), float("inf")
+BAD_LINKS = [NAN, INF, -INF, -1.0, 0.0, 1e4, 1e300, -1e300]        # valid: (0, 1000] m
+BAD_MASSES = [NAN, INF, -INF, -1.0, 0.0, 1e7, 1e300]               # valid: (0, 1e6] kg
+BAD_COUNTS = [0, MAX_PARTICLES + 1, 10**6, 2**32 - 1]             # valid: [1, max_particles]
+SURFACE_TYPES = {"plane": 3, "bowl": 2, "saddle": 2, "waves": 3, "gaussian": 4}
+# scenes with chains and their particles per chain; those naming chain particles by index keep
+# their counts (config/scenes)
+CHAIN_COUNTS = {"chain": 5, "surface_chain": 5, "pinned_pendulum": 4, "two_chains_on_surface": 4,
+                "mobile": 3}
+FIXED_COUNT = {"two_chains_on_surface", "mobile"}
+WITH_SURFACE = {"bead", "surface_chain", "bead_with_drag", "two_chains_on_surface"}
+
+
+class Tally:
+    def __init__(self):
+        self.calls = 0
+        self.valid = 0
+        self.invalid = 0
+        self.problems = []
+        self.by_service = {}
+
+    def record(self, service, valid, accepted, message):
+        self.calls += 1
+        counts = self.by_service.setdefault(service, [0, 0])
+        counts[0 if valid else 1] += 1
+        if valid:
+            self.valid += 1
+            if accepted is False:
+                self.problems.append(f"{service}: valid request refused: {message}")
+        else:
+            self.invalid += 1
+            if accepted:
+                self.problems.append(f"{service}: invalid request accepted: {message}")
+            elif not message:
+                self.problems.append(f"{service}: refused without a message")
+
+
+class FuzzServicesTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("fuzz_services_test")
+        for name in ("reset", "list_scenes", "set_surface", "set_chain", "set_state", "pause",
+                     "unpause", "step", "set_parameters"):
+            rospy.wait_for_service(f"{NODE}/{name}", timeout=60.0)
+
+        def proxy(name, kind):
+            return rospy.ServiceProxy(f"{NODE}/{name}", kind, persistent=True)
+
+        cls.reset = proxy("reset", Reset)
+        cls.list_scenes = proxy("list_scenes", ListScenes)
+        cls.set_surface = proxy("set_surface", SetSurface)
+        cls.set_chain = proxy("set_chain", SetChain)
+        cls.set_state = proxy("set_state", SetState)
+        cls.pause = proxy("pause", Empty)
+        cls.unpause = proxy("unpause", Empty)
+        cls.step = proxy("step", Step)
+        cls.reconfigure = proxy("set_parameters", Reconfigure)
+        cls.latest = None
+        rospy.Subscriber(f"{NODE}/state", SimState, cls._on_state, queue_size=1)
+
+    @classmethod
+    def _on_state(cls, msg):
+        cls.latest = msg
+
+    def fresh_state(self, timeout=10.0):
+        start = rospy.Time.now()
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.latest is not None and self.latest.header.stamp > start:
+                return self.latest
+            time.sleep(0.005)
+        self.fail("no fresh ~state")
+
+    def test_fuzz_every_service(self):
+        rng = random.Random(SEED)
+        tally = Tally()
+        scenes = list(self.list_scenes().names)
+        folder = tempfile.mkdtemp()
+        bad_files = self.write_bad_scene_files(folder, rng)
+        self.pause()
+        paused = True
+        scene = "surface_chain"
+        self.assertTrue(self.reset(scene).success)
+        particles = 5
+        start = time.monotonic()
+
+        chain_count = CHAIN_COUNTS[scene]
+
+        def reset_to(name):
+            nonlocal scene, particles, chain_count
+            response = self.reset(name)
+            if response.success:
+                if name:
+                    scene = name
+                    chain_count = CHAIN_COUNTS.get(name, 0)
+                particles = int(re.search(r"\((\d+) particles", response.message).group(1))
+            return response
+
+        while tally.calls < CALLS:
+            kind = rng.random()
+            if kind < 0.14:  # ~reset
+                choice = rng.random()
+                if choice < 0.4:
+                    name = rng.choice(scenes + [""])
+                    r = reset_to(name)
+                    tally.record("reset", True, r.success, r.message)
+                else:
+                    name = rng.choice([
+                        "pendulum", "CHAIN", "x" * rng.choice([1, 100, 100000]), "../../etc/passwd",
+                        "/", folder, "/dev/null", "/dev/zero", "\0", "bead\n", "bead.yaml",
+                        "/no/such/scene.yaml"] + bad_files)
+                    r = self.reset(name)
+                    tally.record("reset", False, r.success, r.message)
+            elif kind < 0.26:  # ~set_chain
+                request = [rng.randint(1, 40), rng.uniform(0.05, 2.0), rng.uniform(0.1, 10.0),
+                           rng.random() < 0.5]
+                valid = rng.random() < 0.4
+                if scene in FIXED_COUNT and rng.random() < 0.5:
+                    request[0] = chain_count
+                if scene == "mobile":
+                    # pinning the chains' first particles would over-constrain the hub: refused
+                    # as infeasible (tested below), so valid requests leave them free
+                    request[3] = False
+                if not valid:  # one field out of range
+                    field = rng.randrange(3)
+                    request[field] = rng.choice([BAD_COUNTS, BAD_LINKS, BAD_MASSES][field])
+                expect = valid and scene in CHAIN_COUNTS and (
+                    scene not in FIXED_COUNT or request[0] == chain_count)
+                r = self.set_chain(*request)
+                tally.record("set_chain", expect, r.success, r.message)
+                if r.success:
+                    particles = int(re.search(r"\((\d+) particles", r.message).group(1))
+                    chain_count = request[0]
+            elif kind < 0.38:  # ~set_surface
+                choice = rng.random()
+                if choice < 0.35:
+                    kind_name = rng.choice(list(SURFACE_TYPES))
+                    count = rng.randint(0, SURFACE_TYPES[kind_name])
+                    coefficients = [rng.uniform(0.0, 1.0) for _ in range(count)]
+                    if kind_name == "gaussian" and count >= 2:
+                        coefficients[1] = rng.uniform(0.2, 2.0)  # width > 0
+                    r = self.set_surface(kind_name, coefficients, "")
+                    tally.record("set_surface", scene in WITH_SURFACE, r.success, r.message)
+                elif choice < 0.5:
+                    formula = rng.choice(["0.3*sin(2*x)*cos(y)", "x^2/4 + y^2/4", "0.1*x - 0.2*y",
+                                          "tanh(x)*0.2", "exp(-(x^2+y^2))"])
+                    r = self.set_surface("expression", [], formula)
+                    tally.record("set_surface", scene in WITH_SURFACE, r.success, r.message)
+                else:
+                    bad = rng.choice([
+                        ("cone", [], ""), ("", [], ""), ("bowl", [NAN], ""),
+                        ("bowl", [1.0, INF], ""), ("bowl", [-1.0], ""), ("bowl", [1e7], ""),
+                        ("plane", [1.0, 2.0, 3.0, 4.0], ""), ("gaussian", [1.0, 0.0], ""),
+                        ("bowl", [1.0], "x*y"), ("expression", [], "sin(x"),
+                        ("expression", [], ""), ("expression", [], "x" * 5000),
+                        ("expression", [], "(" * 2000), ("expression", [1.0], "x"),
+                        ("expression", [], "foo(x)"), ("expression", [], "x +* y"),
+                        ("expression", [], "1/0*x" + "\0"), ("waves", [1.0] * 100, "")])
+                    r = self.set_surface(*bad)
+                    tally.record("set_surface", False, r.success, r.message)
+            elif kind < 0.52:  # ~set_state
+                if rng.random() < 0.15 and paused:
+                    state = self.fresh_state()
+                    if len(state.positions) == particles:
+                        moved = [Point(p.x + rng.uniform(-1e-3, 1e-3), p.y + rng.uniform(-1e-3, 1e-3),
+                                       p.z + rng.uniform(-1e-3, 1e-3)) for p in state.positions]
+                        r = self.set_state(moved, [])
+                        tally.record("set_state", True, r.success, r.message)
+                        continue
+                count = rng.choice([0, particles - 1, particles + 1, particles, 10**4])
+                count = max(count, 0)
+                positions = [Point(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1))
+                             for _ in range(count)]
+                velocities = []
+                if count == particles:
+                    # right length: poison one value
+                    target = rng.choice(["position", "velocity"])
+                    if count == 0:
+                        continue
+                    bad = rng.choice([NAN, INF, -INF, 1e300, -1e7])
+                    if target == "position":
+                        i = rng.randrange(count)
+                        positions[i] = Point(bad, positions[i].y, positions[i].z)
+                    else:
+                        velocities = [Vector3(0.0, 0.0, 0.0) for _ in range(count)]
+                        velocities[rng.randrange(count)] = Vector3(0.0, bad, 0.0)
+                elif rng.random() < 0.3:
+                    velocities = [Vector3()] * (particles + rng.choice([1, 7]))
+                    positions = [Point()] * particles
+                r = self.set_state(positions, velocities)
+                tally.record("set_state", False, r.success, r.message)
+            elif kind < 0.66:  # ~step
+                if paused and rng.random() < 0.6:
+                    r = self.step(rng.randint(1, 50))
+                    tally.record("step", True, r.success, r.message)
+                else:
+                    steps = rng.choice([0, 10**6 + 1, 2**32 - 1]) if paused else rng.randint(1, 10)
+                    r = self.step(steps)
+                    tally.record("step", False, r.success, r.message)
+            elif kind < 0.74:  # ~pause / ~unpause
+                if rng.random() < 0.5:
+                    self.pause()
+                    paused = True
+                else:
+                    self.unpause()
+                    paused = False
+                tally.record("pause/unpause", True, None, "")
+            elif kind < 0.80:  # ~list_scenes
+                names = self.list_scenes().names
+                tally.record("list_scenes", True, list(names) == scenes, "names changed")
+            else:  # dynamic_reconfigure's set_parameters
+                valid = rng.random() < 0.4
+                config = Config()
+                if valid:
+                    config.doubles = [DoubleParameter("dt", rng.choice([0.0005, 0.001, 0.002]))]
+                    config.strs = [StrParameter("integrator", rng.choice(["rk4", "midpoint", "dopri5"]))]
+                    applied = self.reconfigure(config).config
+                    ok = any(d.name == "dt" and d.value == config.doubles[0].value
+                             for d in applied.doubles)
+                    tally.record("set_parameters", True, ok, "valid dt not applied")
+                else:
+                    # out-of-range numbers are clamped to the range by dynamic_reconfigure (its
+                    # convention); NaN and unknown names are refused by the node
+                    before = self.reconfigure(Config()).config
+                    name, value = rng.choice([("dt", NAN), ("gravity_z", NAN), ("damping", NAN),
+                                              ("baumgarte_frequency", NAN),
+                                              ("integrator", "leapfrog"), ("integrator", ""),
+                                              ("stabilization", "magic"),
+                                              ("integrator", "x" * 10000)])
+                    config = Config()
+                    if isinstance(value, str):
+                        config.strs = [StrParameter(name, value)]
+                    else:
+                        config.doubles = [DoubleParameter(name, value)]
+                    applied = self.reconfigure(config).config
+                    kept = [p.value for p in applied.doubles + applied.strs if p.name == name]
+                    old = [p.value for p in before.doubles + before.strs if p.name == name]
+                    # a refused reconfiguration answers with the values kept (the reason is logged)
+                    tally.record("set_parameters", False, kept != old,
+                                 "kept" if kept == old else f"{name} = {value!r} applied")
+        elapsed = time.monotonic() - start
+
+        # afterwards: alive, and a finite state on its constraints
+        self.pause()
+        self.assertTrue(self.reset("surface_chain").success)
+        self.assertTrue(self.step(100).success)
+        state = self.fresh_state()
+        values = [c for p in state.positions for c in (p.x, p.y, p.z)]
+        values += [c for v in state.velocities for c in (v.x, v.y, v.z)] + list(state.multipliers)
+        self.assertTrue(all(math.isfinite(v) for v in values))
+        self.assertLess(state.max_position_error, 1e-8)
+        self.assertEqual(state.status, SimState.STATUS_PAUSED)
+        summary = (f"fuzz: {tally.calls} calls in {elapsed:.0f} s: {tally.valid} valid "
+                   f"(all accepted: {not any('valid request refused' in p for p in tally.problems)}), "
+                   f"{tally.invalid} invalid (all refused with a message: "
+                   f"{not any('invalid' in p or 'without' in p for p in tally.problems)}); "
+                   f"node alive, final state finite, max constraint error "
+                   f"{state.max_position_error:.1e} m; by service (valid, invalid): "
+                   + ", ".join(f"{k} {v[0]}/{v[1]}" for k, v in sorted(tally.by_service.items())))
+        rospy.loginfo(summary)
+        if os.environ.get("CP_FUZZ_SUMMARY"):
+            with open(os.environ["CP_FUZZ_SUMMARY"], "w") as f:
+                f.write(summary + "\n")
+        self.assertGreaterEqual(tally.calls, 10000)
+        self.assertEqual(len(tally.problems), 0, "\n".join(tally.problems[:20]))
+
+    @staticmethod
+    def write_bad_scene_files(folder, rng):
+        texts = [
+            "particles:\n  - {mass: 1.0, colour: red}\n",
+            "chains:\n  - {particles: 100000}\n",  # over ~max_particles
+            "particles: [{mass: 1}]\nforces:\n  - {type: magnetism}\n",
+            "particles: [{mass: 1\n",
+            "[1, 2, 3]\n",
+            "particles: [{mass: .nan}]\n",
+            "particles: [{mass: 1}, {mass: 1}]\nconstraints:\n  - {type: link, first: 0, second: 9}\n",
+            "a: &a [*a]\n",
+            "x" * (2 << 20),  # over the file size limit
+            bytes(rng.getrandbits(8) for _ in range(2000)).decode("latin-1"),
+        ]
+        paths = []
+        for index, text in enumerate(texts):
+            path = os.path.join(folder, f"bad_{index}.yaml")
+            with open(path, "w", encoding="latin-1") as f:
+                f.write(text)
+            paths.append(path)
+        return paths
+
+
+if __name__ == "__main__":
+    rostest.rosrun("constrained_particles", "fuzz_services", FuzzServicesTest)

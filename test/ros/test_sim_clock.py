@@ -1,0 +1,80 @@
+#!/usr/bin/python3
+"""With ~publish_clock, /clock is the node's sim time: paused it stands, stepped it advances by
+exactly the steps, running it advances at about the real-time factor; stamps follow it."""
+import time
+import unittest
+
+import rospy
+import rostest
+import tf2_ros
+from constrained_particles.msg import SimState
+from constrained_particles.srv import Reset, Step
+from rosgraph_msgs.msg import Clock
+from std_srvs.srv import Empty
+
+NODE = "/simulator"
+
+
+class SimClockTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("sim_clock_test")
+        for name in ("reset", "pause", "unpause", "step"):
+            rospy.wait_for_service(f"{NODE}/{name}", timeout=30.0)
+        cls.reset = rospy.ServiceProxy(f"{NODE}/reset", Reset)
+        cls.pause = rospy.ServiceProxy(f"{NODE}/pause", Empty)
+        cls.unpause = rospy.ServiceProxy(f"{NODE}/unpause", Empty)
+        cls.step = rospy.ServiceProxy(f"{NODE}/step", Step)
+        cls.states = []
+        cls.clocks = []
+        rospy.Subscriber(f"{NODE}/state", SimState, lambda m: cls.states.append(m), queue_size=10)
+        rospy.Subscriber("/clock", Clock, lambda m: cls.clocks.append(m), queue_size=10)
+        cls.tf_buffer = tf2_ros.Buffer()
+        cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
+
+    def state_at(self, sim_time, timeout=10.0):
+        """The first state at `sim_time` [s] (waits in wall time: with use_sim_time, rospy's clock
+        is the node's sim time)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            for state in reversed(self.states[-20:]):
+                if abs(state.sim_time - sim_time) < 1e-9:
+                    return state
+            time.sleep(0.01)
+        self.fail(f"no ~state at sim time {sim_time} s")
+
+    def test_clock_is_sim_time(self):
+        self.assertTrue(rospy.get_param("/use_sim_time"))
+        self.pause()
+        self.assertTrue(self.reset("bead").success)
+        self.assertTrue(self.step(250).success)
+        state = self.state_at(0.25)
+        self.assertAlmostEqual(state.header.stamp.to_sec(), 0.25, places=6)
+        self.assertAlmostEqual(self.clocks[-1].clock.to_sec(), 0.25, places=6)
+        self.assertAlmostEqual(rospy.Time.now().to_sec(), 0.25, places=6)
+        # tf is stamped with sim time too
+        self.assertTrue(self.tf_buffer.can_transform("world", "particle_0", state.header.stamp,
+                                                     rospy.Duration(5.0)))
+        # paused: time stands still for a wall second
+        time.sleep(1.0)
+        self.assertAlmostEqual(self.states[-1].header.stamp.to_sec(), 0.25, places=6)
+        self.assertAlmostEqual(rospy.Time.now().to_sec(), 0.25, places=6)
+        # stepping advances it by exactly the steps
+        self.assertTrue(self.step(100).success)
+        self.assertAlmostEqual(self.state_at(0.35).header.stamp.to_sec(), 0.35, places=6)
+        time.sleep(0.2)
+        self.assertAlmostEqual(rospy.Time.now().to_sec(), 0.35, places=6)
+        # running: about one sim second per wall second
+        self.unpause()
+        wall_start, sim_start = time.monotonic(), rospy.Time.now().to_sec()
+        time.sleep(2.0)
+        rate = (rospy.Time.now().to_sec() - sim_start) / (time.monotonic() - wall_start)
+        self.pause()
+        self.assertGreater(rate, 0.5)
+        self.assertLess(rate, 1.5)
+        stamps = [s.header.stamp.to_sec() for s in self.states[-20:]]
+        self.assertEqual(stamps, sorted(stamps))
+
+
+if __name__ == "__main__":
+    rostest.rosrun("constrained_particles", "sim_clock", SimClockTest)
