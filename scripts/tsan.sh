@@ -17,7 +17,7 @@ bash "$ROOT/scripts/build.sh" -DCMAKE_CXX_FLAGS="$FLAGS" -DCMAKE_EXE_LINKER_FLAG
 rm -rf "$REPORTS" "$CP_WORKSPACE/build/test_results"
 mkdir -p "$REPORTS"
 # ROS's own libraries are not instrumented: their accesses are invisible, their locks are not
-export TSAN_OPTIONS="halt_on_error=1:exitcode=66:second_deadlock_stack=1:log_path=$REPORTS/tsan:suppressions=$ROOT/scripts/tsan_suppressions.txt"
+export TSAN_OPTIONS="ignore_noninstrumented_modules=1:halt_on_error=1:exitcode=66:second_deadlock_stack=1:log_path=$REPORTS/tsan:suppressions=$ROOT/scripts/tsan_suppressions.txt"
 (cd "$CP_WORKSPACE" && catkin_make run_tests_constrained_particles_rostest -DPYTHON_EXECUTABLE=/usr/bin/python3 -j2 \
   >>"$CP_WORKSPACE.log" 2>&1)
 races=$(cat "$REPORTS"/tsan.* 2>/dev/null | grep -c "WARNING: ThreadSanitizer" || true)

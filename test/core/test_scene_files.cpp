@@ -83,7 +83,7 @@ TEST(SceneFiles, EveryFileRunsAndEvaluatesOnlyWhatItLists)
 {
   const std::vector<std::string> names = listScenes(DIRECTORY);
   EXPECT_GE(names.size(), 7u);
-  for (const std::string& required :
+  for (const char* required :
        { "bead", "chain", "surface_chain", "pinned_pendulum", "chain_pinned_both_ends",
          "two_chains_on_surface", "bead_with_drag" })
     EXPECT_NE(std::find(names.begin(), names.end(), required), names.end()) << required;

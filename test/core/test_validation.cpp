@@ -27,7 +27,9 @@ void expectRefused(Fn fn, const std::string& field, const std::string& mention =
     EXPECT_EQ(e.field(), field) << e.what();
     EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
     if (!mention.empty())
+    {
       EXPECT_NE(std::string(e.what()).find(mention), std::string::npos) << e.what();
+    }
   }
 }
 
