@@ -85,7 +85,8 @@ void runState(const std::uint8_t* data, std::size_t size)
 void runChainAndSurface(const std::uint8_t* data, std::size_t size)
 {
   const std::vector<double> values = doubles(data, size);
-  if (values.size() < 4)
+  // the count and the surface type are picked from two values: they must be numbers
+  if (values.size() < 4 || !std::isfinite(values[0]) || !std::isfinite(values[3]))
     return;
   SceneDescription d = parseScene(
       "surfaces: {ground: {type: bowl}}\n"
