@@ -25,6 +25,16 @@ double maxPositionError(const std::vector<ConstraintRow>& rows)
   return max_error;
 }
 
+namespace
+{
+// delta added to the diagonal of a singular J W J^T (1 if every diagonal entry is 0)
+double singularRegularization(double max_diagonal)
+{
+  return max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+}
+
+}  // namespace
+
 void evaluateRows(const Model& model, const Points& positions, const Points& velocities,
                   std::vector<ConstraintRow>& rows)
 {
@@ -228,7 +238,7 @@ SolveReport ConstraintSolver::factorizeTridiagonal()
     if (!singular)
       return report;
     report.singular = true;
-    delta = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+    delta = singularRegularization(max_diagonal);
     report.regularization = delta;
   }
   return report;
@@ -287,7 +297,7 @@ SolveReport ConstraintSolver::factorizeSparse()
     if (!singular)
       return report;
     report.singular = true;
-    const double delta = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+    const double delta = singularRegularization(max_diagonal);
     report.regularization = delta;
     for (int r = 0; r < m; ++r)
       s.matrix.coeffRef(r, r) = diagonal[r] + delta;
@@ -313,7 +323,7 @@ SolveReport ConstraintSolver::factorizeDense()
     if (dense_->ldlt.info() == Eigen::Success && min_ratio > SINGULAR_PIVOT_RATIO)
       return report;
     report.singular = true;
-    report.regularization = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+    report.regularization = singularRegularization(max_diagonal);
     matrix.diagonal().array() += report.regularization;
   }
   return report;
@@ -507,7 +517,7 @@ SolveReport ConstraintSolver::factorizeTree()
     if (!singular)
       return report;
     report.singular = true;
-    delta = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+    delta = singularRegularization(max_diagonal);
     report.regularization = delta;
   }
   return report;
