@@ -345,6 +345,28 @@ int workPrecision(const std::string& out, bool quick)
   return 0;
 }
 
+// median CPU seconds per call of `fn`, each of REPEATS runs lasting at least budget / REPEATS
+template <typename Fn>
+double medianSecondsPerCall(Fn fn, double budget)
+{
+  fn();  // warm caches and workspaces
+  std::vector<double> per_call;
+  for (int r = 0; r < REPEATS; ++r)
+  {
+    long calls = 0;
+    const double start = bench::threadCpuSeconds();
+    double elapsed = 0;
+    do
+    {
+      fn();
+      ++calls;
+      elapsed = bench::threadCpuSeconds() - start;
+    } while (elapsed < budget / REPEATS);
+    per_call.push_back(elapsed / calls);
+  }
+  return bench::median(per_call);
+}
+
 /// Links of the scaling chain [m]: fixed, so that every n sees the same motion per link.
 constexpr double SCALING_LINK_LENGTH = 0.01;
 
@@ -363,23 +385,10 @@ double secondsPerStep(int n, SolveMethod method, Integrator integrator, double b
   s.integrator = integrator;
   s.stabilization = Stabilization::Projection;
   Simulator simulator(scenario.scene, scenario.initial_state, s, method);
-  simulator.step(2);  // warm caches and workspaces
-  std::vector<double> per_step;
-  for (int r = 0; r < REPEATS; ++r)
-  {
-    long steps = 0;
-    const double start = bench::threadCpuSeconds();
-    double elapsed = 0;
-    do
-    {
-      simulator.step();
-      ++steps;
-      elapsed = bench::threadCpuSeconds() - start;
-    } while (elapsed < budget / REPEATS);
-    per_step.push_back(elapsed / steps);
-  }
+  simulator.step();  // with medianSecondsPerCall's own call: two warm-up steps
+  const double seconds = medianSecondsPerCall([&] { simulator.step(); }, budget);
   newton_iterations = simulator.lastStepReport().projection.iterations;
-  return bench::median(per_step);
+  return seconds;
 }
 
 int scaling(const std::string& out, bool quick)
@@ -463,28 +472,6 @@ int peers(const std::string& out, bool quick)
       bench::reportPeer(r);
     }
   return 0;
-}
-
-// median CPU seconds per call of `fn`, each of REPEATS runs lasting at least budget / REPEATS
-template <typename Fn>
-double medianSecondsPerCall(Fn fn, double budget)
-{
-  fn();  // warm caches and workspaces
-  std::vector<double> per_call;
-  for (int r = 0; r < REPEATS; ++r)
-  {
-    long calls = 0;
-    const double start = bench::threadCpuSeconds();
-    double elapsed = 0;
-    do
-    {
-      fn();
-      ++calls;
-      elapsed = bench::threadCpuSeconds() - start;
-    } while (elapsed < budget / REPEATS);
-    per_call.push_back(elapsed / calls);
-  }
-  return bench::median(per_call);
 }
 
 // "kind:count kind:count" of the counters that moved, per step
