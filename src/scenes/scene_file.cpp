@@ -72,43 +72,34 @@ void checkKeys(const Where& where, const YAML::Node& map, const std::vector<std:
   }
 }
 
-double readDouble(const Where& where, const YAML::Node& node)
+// a scalar as T; anything yaml-cpp cannot convert is refused with `expected`
+template <typename T>
+T readScalar(const Where& where, const YAML::Node& node, const char* expected)
 {
   try
   {
     if (node.IsScalar())
-      return node.as<double>();
+      return node.as<T>();
   }
   catch (const YAML::Exception&)
   {
   }
-  fail(where, node, "must be a number");
+  fail(where, node, expected);
+}
+
+double readDouble(const Where& where, const YAML::Node& node)
+{
+  return readScalar<double>(where, node, "must be a number");
 }
 
 int readInt(const Where& where, const YAML::Node& node)
 {
-  try
-  {
-    if (node.IsScalar())
-      return node.as<int>();
-  }
-  catch (const YAML::Exception&)
-  {
-  }
-  fail(where, node, "must be an integer");
+  return readScalar<int>(where, node, "must be an integer");
 }
 
 bool readBool(const Where& where, const YAML::Node& node)
 {
-  try
-  {
-    if (node.IsScalar())
-      return node.as<bool>();
-  }
-  catch (const YAML::Exception&)
-  {
-  }
-  fail(where, node, "must be true or false");
+  return readScalar<bool>(where, node, "must be true or false");
 }
 
 std::string readString(const Where& where, const YAML::Node& node)
