@@ -216,14 +216,12 @@ void validateNodeParameters(const NodeParameters& p)
   const SceneOverrides& o = p.overrides;
   if (o.damping)
     requireRange("~damping", *o.damping, 0.0, false, 1e3, "[N s/m]");
-  if (o.num_particles && (*o.num_particles < 1 || *o.num_particles > p.max_particles))
-    throw InvalidInput("~chain/num_particles", "= " + std::to_string(*o.num_particles) +
-                                                   ", must be in [1, " +
-                                                   std::to_string(p.max_particles) + "]");
-  if (o.link_length)
-    requireRange("~chain/link_length", *o.link_length, 0.0, true, 1e3, "[m]");
-  if (o.particle_mass)
-    requireRange("~chain/particle_mass", *o.particle_mass, 0.0, true, 1e6, "[kg]");
+  // the ~set_chain checks, with valid stand-ins for the fields not set
+  ChainParameters chain;
+  chain.num_particles = o.num_particles.value_or(1);
+  chain.link_length = o.link_length.value_or(chain.link_length);
+  chain.particle_mass = o.particle_mass.value_or(chain.particle_mass);
+  validateChain(chain, p.max_particles, "~chain/");
   if (p.fixed_frame.empty() || p.fixed_frame.front() == '/')
     throw InvalidInput("~fixed_frame", "= '" + p.fixed_frame +
                                            "', must be a non-empty frame id without a leading '/'");
