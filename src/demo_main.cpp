@@ -1,6 +1,7 @@
-// Headless run of every built-in scenario: prints sim time, energy and max constraint error.
-#include "constrained_particles/core/scenarios.hpp"
+// Headless run of every shipped scene without ROS: prints sim time, energy and max constraint
+// error. Usage: constrained_particles_demo [seconds] [scene directory]
 #include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/scenes/scene_file.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -12,18 +13,20 @@ using namespace constrained_particles;
 int main(int argc, char** argv)
 {
   const double duration = argc > 1 ? std::atof(argv[1]) : 5.0;  // simulated seconds
-  StepSettings settings;
-  settings.dt = 1e-3;
-  const int steps_per_report = static_cast<int>(1.0 / settings.dt + 0.5);
+  const std::string directory = argc > 2 ? argv[2] : SCENES_DIR;
   bool all_finite = true;
-  for (const std::string& name : scenarioNames())
+  for (const std::string& name : listScenes(directory))
   {
-    const Scenario scenario = buildScenario(name, ScenarioParameters{});
-    Simulator simulator(scenario.scene, scenario.initial_state, settings);
+    const SceneDescription description = loadSceneFile(resolveScene(name, directory));
+    const BuiltScene built = buildScene(description);
+    const StepSettings settings = description.solver.applyTo(StepSettings{});
+    Simulator simulator(built.scene, built.initial_state, settings,
+                        description.solver.solve_method);
     std::printf("== %s: %d particles, %s + %s, dt = %g s, solve %s\n", name.c_str(),
-                simulator.model().numParticles(), integratorName(settings.integrator),
+                simulator.model().numParticles(), settings.integrator.c_str(),
                 stabilizationName(settings.stabilization), settings.dt,
                 solveMethodName(simulator.model().solveMethod()));
+    const int steps_per_report = static_cast<int>(1.0 / settings.dt + 0.5);
     const Diagnostics start = simulator.diagnostics();
     const auto wall_start = std::chrono::steady_clock::now();
     while (simulator.state().time < duration - 0.5 * settings.dt)

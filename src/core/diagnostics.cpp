@@ -1,8 +1,7 @@
 #include "constrained_particles/core/diagnostics.hpp"
 
-#include "constrained_particles/core/constraint_solver.hpp"
+#include "stages.hpp"
 
-#include <algorithm>
 #include <cmath>
 
 namespace constrained_particles
@@ -13,43 +12,48 @@ bool Diagnostics::finite() const
          std::isfinite(kinetic_energy) && std::isfinite(potential_energy);
 }
 
-Diagnostics computeDiagnostics(const Model& model, const State& state)
+bool isFinite(const State& state)
 {
-  std::vector<ConstraintRow> rows;
-  return computeDiagnostics(model, state, rows);
+  return state.positions.allFinite() && state.velocities.allFinite() && std::isfinite(state.time);
 }
 
-Diagnostics computeDiagnostics(const Model& model, const State& state,
-                               std::vector<ConstraintRow>& rows)
+Diagnostics computeDiagnostics(const Model& model, const State& state)
+{
+  RowData rows;
+  rows.resize(model);
+  Eigen::VectorXd rates;
+  return computeDiagnostics(model, state, rows, rates);
+}
+
+Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& rows,
+                               Eigen::VectorXd& rates)
 {
   Diagnostics d;
   const Scene& scene = model.scene();
-  evaluateRows(model, state.positions, state.velocities, rows);
-  for (std::size_t r = 0; r < rows.size(); ++r)
+  const EffectContext context{ scene.surfaces, state.time };
+  evaluateRowRecords(model, state.time, state.positions, state.velocities, rows, nullptr);
+  d.max_position_error = rows.max_violation;
+  rates.resize(model.numRows());
+  for (const RowRecord& record : model.rowRecords())
+    violationRates(scene.constraints[record.constraint], context, state.positions, state.velocities,
+                   rates.data() + record.first_row);
+  for (int r = 0; r < model.numRows(); ++r)
+    d.max_velocity_error = worseError(d.max_velocity_error, rates[r]);
+  for (int k : model.eliminated())
   {
-    d.max_position_error = worseError(d.max_position_error, rows[r].metric_error);
-    d.max_velocity_error = worseError(
-        d.max_velocity_error,
-        metricRate(scene.constraints[model.rowConstraints()[r]], rows[r], state.velocities));
-  }
-  for (int k : model.pins())
-  {
-    const PinConstraint& pin = std::get<PinConstraint>(scene.constraints[k]);
+    const Constraint& constraint = scene.constraints[k];
+    const int i = eliminatedParticle(constraint);
+    const ImposedMotion motion = imposedMotion(constraint, state.time);
     d.max_position_error =
-        worseError(d.max_position_error, (state.positions.col(pin.particle) - pin.anchor).norm());
+        worseError(d.max_position_error, (state.positions.col(i) - motion.position).norm());
     d.max_velocity_error =
-        worseError(d.max_velocity_error, state.velocities.col(pin.particle).norm());
+        worseError(d.max_velocity_error, (state.velocities.col(i) - motion.velocity).norm());
   }
   for (int i = 0; i < model.numParticles(); ++i)
     d.kinetic_energy += 0.5 * scene.masses[i] * state.velocities.col(i).squaredNorm();
   for (const Force& force : scene.forces)
     d.potential_energy += potentialEnergy(force, scene.masses, state.positions);
   return d;
-}
-
-bool isFinite(const State& state)
-{
-  return state.positions.allFinite() && state.velocities.allFinite() && std::isfinite(state.time);
 }
 
 }  // namespace constrained_particles

@@ -1,10 +1,20 @@
 #include "constrained_particles/core/model.hpp"
 
+#include "constrained_particles/core/limits.hpp"
+
 #include <cstdlib>
 #include <string>
 
 namespace constrained_particles
 {
+namespace
+{
+const SolveMethod ALL_METHODS[] = { SolveMethod::Automatic, SolveMethod::Tridiagonal,
+                                    SolveMethod::Sparse,    SolveMethod::Dense,
+                                    SolveMethod::None,      SolveMethod::Single,
+                                    SolveMethod::Tree };
+}
+
 const char* solveMethodName(SolveMethod method)
 {
   switch (method)
@@ -27,13 +37,31 @@ const char* solveMethodName(SolveMethod method)
   return "unknown";
 }
 
+SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
+{
+  // none and single are what a structure resolves to, not requests
+  std::string valid;
+  for (SolveMethod method : ALL_METHODS)
+  {
+    if (method == SolveMethod::None || method == SolveMethod::Single)
+      continue;
+    if (name == solveMethodName(method))
+      return method;
+    valid += std::string(valid.empty() ? "" : ", ") + solveMethodName(method);
+  }
+  throw InvalidInput(field, "= '" + name + "' is unknown; valid: " + valid);
+}
+
 Model Model::compile(const Scene& scene, SolveMethod method)
 {
   const int n = static_cast<int>(scene.masses.size());
   if (n == 0)
     throw InvalidInput("masses", "is empty: a scene needs at least 1 particle");
+  if (!limits::PARTICLES.contains(n))
+    throw InvalidInput(
+        "masses", "has " + std::to_string(n) + " particles, must have " + limits::PARTICLES.text());
   for (int i = 0; i < n; ++i)
-    requirePositive("masses[" + std::to_string(i) + "]", scene.masses[i], "[kg]");
+    requireInRange("masses[" + std::to_string(i) + "]", scene.masses[i], limits::MASS);
   for (std::size_t k = 0; k < scene.surfaces.size(); ++k)
     validateSurface(scene.surfaces[k], "surfaces[" + std::to_string(k) + "]");
   for (std::size_t k = 0; k < scene.forces.size(); ++k)
@@ -45,47 +73,56 @@ Model Model::compile(const Scene& scene, SolveMethod method)
   for (int i = 0; i < n; ++i)
     model.inverse_masses_[i] = 1.0 / scene.masses[i];
 
+  // rows in scene order, each record's blocks row-major; eliminated particles get W = 0
   const int num_surfaces = static_cast<int>(scene.surfaces.size());
-  std::vector<bool> pinned(n, false);
+  std::vector<int> held_by(n, -1);
   for (std::size_t k = 0; k < scene.constraints.size(); ++k)
   {
     const std::string field = "constraints[" + std::to_string(k) + "]";
     const Constraint& c = scene.constraints[k];
     validateConstraint(c, n, num_surfaces, field);
-    if (!isEliminated(c))
+    if (isEliminated(c))
     {
-      model.row_constraint_.push_back(static_cast<int>(k));
+      const int i = eliminatedParticle(c);
+      if (held_by[i] >= 0)
+        throw InvalidInput(field + ".particle", "= " + std::to_string(i) +
+                                                    " is already pinned (held by constraints[" +
+                                                    std::to_string(held_by[i]) + "], a " +
+                                                    kindOf(scene.constraints[held_by[i]]) + ")");
+      held_by[i] = static_cast<int>(k);
+      model.inverse_masses_[i] = 0.0;
+      model.eliminated_.push_back(static_cast<int>(k));
       continue;
     }
-    const PinConstraint& pin = std::get<PinConstraint>(c);
-    if (pinned[pin.particle])
-      throw InvalidInput(field + ".particle",
-                         "= " + std::to_string(pin.particle) + " is already pinned");
-    pinned[pin.particle] = true;
-    model.inverse_masses_[pin.particle] = 0.0;
-    model.pins_.push_back(static_cast<int>(k));
+    int particles[MAX_ROW_PARTICLES];
+    const int count = rowParticles(c, particles);
+    RowRecord record{ static_cast<int>(k), model.numRows(), rowCount(c), model.numBlocks(), count };
+    for (int r = 0; r < record.rows; ++r)
+    {
+      for (int p = 0; p < count; ++p)
+        model.block_particle_.push_back(particles[p]);
+      model.row_start_.push_back(model.numBlocks());
+    }
+    model.row_records_.push_back(record);
   }
 
   // incidence of rows on free particles, in CSR form
+  const std::vector<double>& w = model.inverse_masses_;
   std::vector<int> count(n + 1, 0);
-  for (int r = 0; r < model.numRows(); ++r)
-    for (int slot = 0; slot < 2; ++slot)
-    {
-      const int i = rowParticles(scene.constraints[model.row_constraint_[r]])[slot];
-      if (i >= 0 && !pinned[i])
-        ++count[i + 1];
-    }
+  for (int b = 0; b < model.numBlocks(); ++b)
+    if (w[model.block_particle_[b]] > 0.0)
+      ++count[model.block_particle_[b] + 1];
   model.incidence_start_.assign(n + 1, 0);
   for (int i = 0; i < n; ++i)
     model.incidence_start_[i + 1] = model.incidence_start_[i] + count[i + 1];
   model.incidence_.resize(model.incidence_start_[n]);
   std::vector<int> fill(model.incidence_start_.begin(), model.incidence_start_.end() - 1);
   for (int r = 0; r < model.numRows(); ++r)
-    for (int slot = 0; slot < 2; ++slot)
+    for (int b = model.row_start_[r]; b < model.row_start_[r + 1]; ++b)
     {
-      const int i = rowParticles(scene.constraints[model.row_constraint_[r]])[slot];
-      if (i >= 0 && !pinned[i])
-        model.incidence_[fill[i]++] = RowIncidence{ r, slot };
+      const int i = model.block_particle_[b];
+      if (w[i] > 0.0)
+        model.incidence_[fill[i]++] = RowIncidence{ r, b };
     }
 
   const bool tridiagonal = isTridiagonal(model);

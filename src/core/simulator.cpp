@@ -1,5 +1,8 @@
 #include "constrained_particles/core/simulator.hpp"
 
+#include "stabilization.hpp"
+#include "stages.hpp"
+
 #include <string>
 
 namespace constrained_particles
@@ -10,12 +13,14 @@ Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_
   validateStepSettings(settings);
   Compiled compiled;
   compiled.model = std::make_unique<Model>(Model::compile(scene, method));
-  compiled.model->validateState(initial_state, "initial_state");
-  compiled.dynamics = std::make_unique<Dynamics>(*compiled.model);
+  const Model& model = *compiled.model;
+  model.validateState(initial_state, "initial_state");
+  compiled.data = std::make_unique<Data>(model);
   compiled.initial_state = initial_state;
-  ProjectionReport projection = compiled.dynamics->projectPositions(
-      compiled.initial_state.positions, settings.projection_tolerance,
-      settings.projection_max_iterations);
+  State& start = compiled.initial_state;
+  const ProjectionReport projection =
+      projectPositions(model, *compiled.data, start.time, start.positions,
+                       settings.projection_tolerance, settings.projection_max_iterations);
   if (!projection.converged)
   {
     throw InvalidInput("initial_state.positions",
@@ -23,8 +28,11 @@ Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_
                            formatValue(projection.max_position_error) + " m after " +
                            std::to_string(projection.iterations) + " Newton iterations");
   }
-  compiled.dynamics->projectVelocities(compiled.initial_state.positions,
-                                       compiled.initial_state.velocities);
+  projectVelocities(model, *compiled.data, start.time, start.positions, start.velocities, false,
+                    false);
+  if (!isFinite(start))
+    throw InvalidInput("initial_state.positions",
+                       "projection onto the constraints produced a non-finite state");
   return compiled;
 }
 
@@ -33,33 +41,63 @@ Simulator::Simulator(const Scene& scene, const State& initial_state, const StepS
 {
   Compiled compiled = compile(scene, initial_state, settings, method);
   model_ = std::move(compiled.model);
-  dynamics_ = std::move(compiled.dynamics);
+  data_ = std::move(compiled.data);
   initial_state_ = compiled.initial_state;
   settings_ = settings;
+  integrator_ = &findIntegrator(settings.integrator);
+  diagnostic_rows_.resize(*model_);
   reset();
 }
 
-StepReport Simulator::step(int count)
+StepStatistics Simulator::step(int count)
 {
+  const Model& model = *model_;
+  Data& data = *data_;
+  State& x = data.state;
+  const EffectCounters before = data.counters;
+  data.statistics = StepStatistics{};
+  data.statistics.solve.method = model.solveMethod();
   for (int k = 0; k < count; ++k)
-    last_report_ = constrained_particles::step(settings_, state_, *dynamics_);
-  return last_report_;
+  {
+    const double end = x.time + settings_.dt;
+    integrator_->step(model, data, settings_);
+    imposeEliminated(model, data, end, &x.positions, &x.velocities);
+    if (!integrator_->holds_constraints && settings_.stabilization == Stabilization::Projection)
+    {
+      ProjectionReport report =
+          projectPositions(model, data, end, x.positions, settings_.projection_tolerance,
+                           settings_.projection_max_iterations);
+      bool singular = false;
+      report.max_velocity_change =
+          projectVelocities(model, data, end, x.positions, x.velocities, true, false, &singular);
+      report.singular |= singular;
+      data.statistics.projection.merge(report);
+    }
+    x.time = end;
+    ++x.steps;
+    ++data.statistics.steps;
+  }
+  data.statistics.effects = data.counters.since(before);
+  return data.statistics;
 }
 
 void Simulator::reset()
 {
-  state_ = initial_state_;
-  state_.time = 0.0;
-  state_.steps = 0;
-  last_report_ = StepReport{};
+  data_->state = initial_state_;
+  data_->state.time = 0.0;
+  data_->state.steps = 0;
+  data_->statistics = StepStatistics{};
 }
 
 ProjectionReport Simulator::setState(const State& state)
 {
   model_->validateState(state, "");
   State projected = state;
-  ProjectionReport report = dynamics_->projectPositions(
-      projected.positions, settings_.projection_tolerance, settings_.projection_max_iterations);
+  projected.time = data_->state.time;
+  projected.steps = data_->state.steps;
+  ProjectionReport report =
+      projectPositions(*model_, *data_, projected.time, projected.positions,
+                       settings_.projection_tolerance, settings_.projection_max_iterations);
   if (!report.converged)
   {
     throw InvalidInput("positions", "cannot be projected onto the constraints: error " +
@@ -67,35 +105,35 @@ ProjectionReport Simulator::setState(const State& state)
                                         std::to_string(report.iterations) +
                                         " Newton iterations; state unchanged");
   }
-  report.max_velocity_change =
-      dynamics_->projectVelocities(projected.positions, projected.velocities);
+  report.max_velocity_change = projectVelocities(
+      *model_, *data_, projected.time, projected.positions, projected.velocities, false, true);
   report.max_displacement = (projected.positions - state.positions).colwise().norm().maxCoeff();
   if (!isFinite(projected))
     throw InvalidInput("positions", "projection produced a non-finite state; state unchanged");
-  projected.time = state_.time;
-  projected.steps = state_.steps;
-  state_ = projected;
+  data_->state = projected;
   return report;
 }
 
 void Simulator::restoreState(const State& state)
 {
   model_->validateState(state);
-  state_ = state;
+  data_->state = state;
 }
 
 void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
 {
   Compiled compiled = compile(scene, initial_state, settings_, method);
   model_ = std::move(compiled.model);
-  dynamics_ = std::move(compiled.dynamics);
+  data_ = std::move(compiled.data);
   initial_state_ = compiled.initial_state;
+  diagnostic_rows_.resize(*model_);
   reset();
 }
 
 void Simulator::setStepSettings(const StepSettings& settings)
 {
   validateStepSettings(settings);
+  integrator_ = &findIntegrator(settings.integrator);
   settings_ = settings;
 }
 
@@ -104,20 +142,26 @@ void Simulator::setForces(const std::vector<Force>& forces)
   Scene scene = model_->scene();
   scene.forces = forces;
   auto model = std::make_unique<Model>(Model::compile(scene, model_->solveMethod()));
-  auto dynamics = std::make_unique<Dynamics>(*model);
+  auto data = std::make_unique<Data>(*model);
+  data->state = data_->state;
   model_ = std::move(model);
-  dynamics_ = std::move(dynamics);
+  data_ = std::move(data);
+}
+
+Diagnostics Simulator::diagnostics() const
+{
+  return computeDiagnostics(*model_, data_->state, diagnostic_rows_, diagnostic_rates_);
 }
 
 void Simulator::constraintForces(Points& forces, Eigen::VectorXd& multipliers)
 {
-  const bool baumgarte = settings_.stabilization == Stabilization::Baumgarte;
-  const double omega = baumgarte ? 2.0 * M_PI * settings_.baumgarte_frequency : 0.0;
-  Points accelerations(3, model_->numParticles());
-  dynamics_->computeAccelerations(state_.positions, state_.velocities, omega,
-                                  settings_.baumgarte_damping_ratio, accelerations);
-  forces = dynamics_->constraintForces();
-  multipliers = dynamics_->multipliers();
+  Data& data = *data_;
+  data.stages.p_stage = data.state.positions;
+  data.stages.v_stage = data.state.velocities;
+  forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
+          data.accelerations);
+  forces = data.constraint_forces;
+  multipliers = data.multipliers;
 }
 
 }  // namespace constrained_particles

@@ -1,6 +1,6 @@
 #include "constrained_particles/core/surface.hpp"
 
-#include "constrained_particles/core/surface_expression.hpp"
+#include "surface_expression.hpp"
 #include "constrained_particles/core/types.hpp"
 
 #include <cmath>
@@ -113,29 +113,26 @@ const std::vector<CoefficientSpec>& surfaceCoefficientSpecs(SurfaceType type)
   // bounds keep the constraint well-posed: slopes and curvatures beyond 1e6 are not height fields
   // a particle can follow, and a zero width or wavenumber would divide by zero or degenerate.
   static const std::vector<CoefficientSpec> PLANE = {
-    { "slope_x", "[1]", 0.3, -1e6, false, 1e6 },
-    { "slope_y", "[1]", 0.0, -1e6, false, 1e6 },
-    { "height", "[m]", 0.0, -1e6, false, 1e6 },
+    { "slope_x", 0.3, { -1e6, false, 1e6, "1", false } },
+    { "slope_y", 0.0, { -1e6, false, 1e6, "1", false } },
+    { "height", 0.0, { -1e6, false, 1e6, "m", false } },
   };
   static const std::vector<CoefficientSpec> BOWL = {
-    { "curvature_x", "[1/m]", 1.0, 0.0, false, 1e6 },
-    { "curvature_y", "[1/m]", 1.0, 0.0, false, 1e6 },
+    { "curvature_x", 1.0, { 0.0, false, 1e6, "1/m", false } },
+    { "curvature_y", 1.0, { 0.0, false, 1e6, "1/m", false } },
   };
-  static const std::vector<CoefficientSpec> SADDLE = {
-    { "curvature_x", "[1/m]", 1.0, 0.0, false, 1e6 },
-    { "curvature_y", "[1/m]", 1.0, 0.0, false, 1e6 },
-  };
+  static const std::vector<CoefficientSpec> SADDLE = BOWL;
   static const std::vector<CoefficientSpec> WAVES = {
-    { "amplitude", "[m]", 0.2, -1e3, false, 1e3 },
-    { "wavenumber_x", "[rad/m]", 2.0, 0.0, false, 1e3 },
-    { "wavenumber_y", "[rad/m]", 1.0, 0.0, false, 1e3 },
+    { "amplitude", 0.2, { -1e3, false, 1e3, "m", false } },
+    { "wavenumber_x", 2.0, { 0.0, false, 1e3, "rad/m", false } },
+    { "wavenumber_y", 1.0, { 0.0, false, 1e3, "rad/m", false } },
   };
   static const std::vector<CoefficientSpec> NONE = {};
   static const std::vector<CoefficientSpec> GAUSSIAN = {
-    { "height", "[m]", 0.5, -1e3, false, 1e3 },
-    { "width", "[m]", 0.5, 1e-6, false, 1e6 },
-    { "center_x", "[m]", 0.0, -1e6, false, 1e6 },
-    { "center_y", "[m]", 0.0, -1e6, false, 1e6 },
+    { "height", 0.5, { -1e3, false, 1e3, "m", false } },
+    { "width", 0.5, { 1e-6, false, 1e6, "m", false } },
+    { "center_x", 0.0, { -1e6, false, 1e6, "m", false } },
+    { "center_y", 0.0, { -1e6, false, 1e6, "m", false } },
   };
   switch (type)
   {
@@ -177,13 +174,11 @@ Surface makeSurface(SurfaceType type, const std::vector<double>& coefficients,
   {
     const CoefficientSpec& spec = specs[i];
     const double value = i < coefficients.size() ? coefficients[i] : spec.default_value;
-    const bool below = spec.min_exclusive ? value <= spec.min_value : value < spec.min_value;
-    if (!std::isfinite(value) || below || value > spec.max_value)
+    if (!spec.range.contains(value))
     {
       throw InvalidInput(field + "[" + std::to_string(i) + "] (" + spec.name + ")",
-                         "= " + formatValue(value) + ", must be in [" +
-                             formatValue(spec.min_value) + ", " + formatValue(spec.max_value) +
-                             "] " + spec.unit + " for surface '" + surfaceTypeName(type) + "'");
+                         "= " + formatValue(value) + ", must be in " + spec.range.text() +
+                             " for surface '" + surfaceTypeName(type) + "'");
     }
     surface.coefficients[i] = value;
   }
@@ -226,7 +221,7 @@ std::string describeSurfaceTypes()
     out << (i ? "; " : "") << SURFACE_NAMES[i] << ": " << SURFACE_FORMULAS[i] << ", coefficients [";
     const auto& specs = surfaceCoefficientSpecs(static_cast<SurfaceType>(i));
     for (std::size_t k = 0; k < specs.size(); ++k)
-      out << (k ? ", " : "") << specs[k].name << " " << specs[k].unit;
+      out << (k ? ", " : "") << specs[k].name << " [" << specs[k].range.unit << "]";
     out << "]";
   }
   return out.str();

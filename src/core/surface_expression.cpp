@@ -1,4 +1,6 @@
-#include "constrained_particles/core/surface_expression.hpp"
+#include "surface_expression.hpp"
+
+#include "constrained_particles/core/limits.hpp"
 
 #include "constrained_particles/core/surface.hpp"
 #include "constrained_particles/core/types.hpp"
@@ -328,10 +330,10 @@ Jet evaluateNode(const std::vector<SurfaceExpression::Node>& nodes, int index, d
 std::shared_ptr<const SurfaceExpression> SurfaceExpression::parse(const std::string& formula,
                                                                   const std::string& field)
 {
-  constexpr std::size_t MAX_LENGTH = 1000;  // characters; bounds parse depth and time
-  if (formula.size() > MAX_LENGTH)
+  if (formula.size() > limits::FORMULA_LENGTH)
     throw InvalidInput(field, "has " + std::to_string(formula.size()) +
-                                  " characters, must have at most " + std::to_string(MAX_LENGTH));
+                                  " characters, must have at most " +
+                                  std::to_string(limits::FORMULA_LENGTH));
   auto expression = std::make_shared<SurfaceExpression>();
   expression->formula_ = formula;
   Parser parser(expression->formula_, field, expression->nodes_);

@@ -1,6 +1,7 @@
 #include "constrained_particles/ros/simulator_node.hpp"
 
 #include "constrained_particles/SimState.h"
+#include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/ros/conversions.hpp"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
@@ -17,7 +18,6 @@ namespace
 // longest stretch of wall time one batch of steps may cover; more means we are behind
 constexpr double MAX_BATCH_WALL = 0.02;  // [s]
 constexpr auto MAX_WAIT = std::chrono::milliseconds(100);
-constexpr std::uint32_t MAX_STEPS_PER_CALL = 1000000;
 
 double seconds(std::chrono::steady_clock::duration d)
 {
@@ -30,7 +30,7 @@ SimulatorConfig configFrom(const NodeParameters& p, const SceneDescription& scen
   c.dt = p.step.dt;
   c.real_time_factor = p.real_time_factor;
   c.publish_rate = p.publish_rate;
-  c.integrator = integratorName(p.step.integrator);
+  c.integrator = p.step.integrator;
   c.stabilization = stabilizationName(p.step.stabilization);
   c.baumgarte_frequency = p.step.baumgarte_frequency;
   c.baumgarte_damping_ratio = p.step.baumgarte_damping_ratio;
@@ -69,14 +69,11 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
           "= '" + parameters_.scenario + "' has " + std::to_string(scene.numParticles()) +
               " particles, over ~max_particles = " + std::to_string(parameters_.max_particles));
     // the scene's solver settings, unless set as parameters
-    StepSettings settings = scene.solver.applyTo(parameters_.step);
-    if (parameters_.step_set.dt)
-      settings.dt = parameters_.step.dt;
-    if (parameters_.step_set.integrator)
-      settings.integrator = parameters_.step.integrator;
-    if (parameters_.step_set.stabilization)
-      settings.stabilization = parameters_.step.stabilization;
-    const Scenario built = buildScene(scene);
+    SolverSpec from_parameters;
+    from_parameters.values = parameters_.step;
+    from_parameters.given = parameters_.step_given;
+    const StepSettings settings = from_parameters.applyTo(scene.solver.applyTo(parameters_.step));
+    const BuiltScene built = buildScene(scene);
     simulator_ = std::make_unique<Simulator>(built.scene, built.initial_state, settings,
                                              scene.solver.solve_method);
     parameters_.step = settings;
@@ -125,7 +122,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   }
   physics_thread_ = std::thread(&SimulatorNode::physicsLoop, this);
   ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s", scene_.name.c_str(),
-           simulator_->model().numParticles(), integratorName(parameters_.step.integrator),
+           simulator_->model().numParticles(), parameters_.step.integrator.c_str(),
            stabilizationName(parameters_.step.stabilization), parameters_.step.dt,
            solveMethodName(simulator_->model().solveMethod()));
 }
@@ -317,7 +314,7 @@ void SimulatorNode::rebuildLocked(const SceneDescription& description, const Ste
         "num_particles",
         "= " + std::to_string(description.numParticles()) + " in scene '" + description.name +
             "', must be at most ~max_particles = " + std::to_string(parameters_.max_particles));
-  const Scenario built = buildScene(description);
+  const BuiltScene built = buildScene(description);
   // settings first: if the scene is refused, put them back
   const StepSettings saved = simulator_->stepSettings();
   simulator_->setStepSettings(settings);
@@ -420,16 +417,16 @@ bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface:
 bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Response& response)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  ChainParameters chain;
+  ChainChange chain;
   // a uint32 above INT_MAX must not wrap to a valid count
   chain.num_particles =
-      static_cast<int>(std::min<std::uint32_t>(request.num_particles, MAX_PARTICLES + 1u));
+      static_cast<int>(std::min<double>(request.num_particles, limits::PARTICLES.high + 1));
   chain.link_length = request.link_length;
   chain.particle_mass = request.particle_mass;
   chain.pin_first = request.pin_first;
   try
   {
-    validateChain(chain, parameters_.max_particles, "");
+    validateChainChange(chain, parameters_.max_particles, "");
     SceneDescription changed = scene_;
     setChains(changed, chain);
     rebuildLocked(changed, parameters_.step);
@@ -459,27 +456,20 @@ bool SimulatorNode::setStateCallback(SetState::Request& request, SetState::Respo
                                 " entries, must be empty (at rest) or one per particle (" +
                                 std::to_string(n) + ")");
   // finite is not enough: a teleport to 1e300 m would overflow on the first step
-  auto within = [](const auto& vectors, const char* name, const char* unit) -> std::string
-  {
-    for (std::size_t i = 0; i < vectors.size(); ++i)
-      for (const auto& [axis, value] : { std::pair<const char*, double>{ "x", vectors[i].x },
-                                         std::pair<const char*, double>{ "y", vectors[i].y },
-                                         std::pair<const char*, double>{ "z", vectors[i].z } })
-        if (!(std::abs(value) <= MAX_STATE_COORDINATE))
-          return std::string(name) + "[" + std::to_string(i) + "]." + axis + " = " +
-                 formatValue(value) + ", must be in [-1e6, 1e6] " + unit;
-    return "";
-  };
-  for (const std::string& problem : { within(request.positions, "positions", "[m]"),
-                                      within(request.velocities, "velocities", "[m/s]") })
-    if (!problem.empty())
-      return refuse(response, problem);
   State state = simulator_->state();
   state.positions = fromMsgs(request.positions);
   state.velocities =
       request.velocities.empty() ? Points(Points::Zero(3, n)) : fromMsgs(request.velocities);
   try
   {
+    // finite is not enough: a teleport to 1e300 m would overflow on the first step
+    for (std::size_t i = 0; i < n; ++i)
+    {
+      requireInRange("positions[" + std::to_string(i) + "]", Vec3(state.positions.col(i)),
+                     limits::COORDINATE);
+      requireInRange("velocities[" + std::to_string(i) + "]", Vec3(state.velocities.col(i)),
+                     limits::VELOCITY);
+    }
     const ProjectionReport report = simulator_->setState(state);
     response.max_displacement = report.max_displacement;
     response.message =
@@ -521,9 +511,9 @@ bool SimulatorNode::stepCallback(Step::Request& request, Step::Response& respons
       return refuse(response, "the simulation is running: call ~pause before ~step");
     if (faulted_)
       return refuse(response, "stepping is stopped (" + fault_reason_ + ")");
-    if (request.steps < 1 || request.steps > MAX_STEPS_PER_CALL)
-      return refuse(response, "steps = " + std::to_string(request.steps) + ", must be in [1, " +
-                                  std::to_string(MAX_STEPS_PER_CALL) + "]");
+    if (!limits::STEPS_PER_CALL.contains(request.steps))
+      return refuse(response, "steps = " + std::to_string(request.steps) + ", must be in " +
+                                  limits::STEPS_PER_CALL.text());
     stepLocked(static_cast<int>(request.steps));
     response.sim_time = simulator_->state().time;
     response.success = !faulted_;
@@ -541,7 +531,7 @@ void SimulatorNode::reconfigureCallback(SimulatorConfig& config, uint32_t /*leve
   try
   {
     candidate.step.dt = config.dt;
-    candidate.step.integrator = parseIntegrator(config.integrator);
+    candidate.step.integrator = findIntegrator(config.integrator).name;
     candidate.step.stabilization = parseStabilization(config.stabilization);
     candidate.step.baumgarte_frequency = config.baumgarte_frequency;
     candidate.step.baumgarte_damping_ratio = config.baumgarte_damping_ratio;
@@ -551,7 +541,6 @@ void SimulatorNode::reconfigureCallback(SimulatorConfig& config, uint32_t /*leve
     candidate.overrides.damping = config.damping;
     candidate.overrides.gravity = Vec3(config.gravity_x, config.gravity_y, config.gravity_z);
     validateNodeParameters(candidate);
-    requireFinite("gravity", *candidate.overrides.gravity, "[m/s^2]");
     SceneDescription changed = scene_;
     setGravityAndDamping(changed, *candidate.overrides.gravity, config.damping);
     simulator_->setStepSettings(candidate.step);
@@ -619,7 +608,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
     add("step_time [s]", formatValue(step_time_));
     add("real_time_factor achieved", formatValue(achieved_rtf_));
     add("real_time_factor wanted", formatValue(parameters_.real_time_factor));
-    add("integrator", integratorName(parameters_.step.integrator));
+    add("integrator", parameters_.step.integrator);
     add("stabilization", stabilizationName(parameters_.step.stabilization));
   }
   diagnostic_msgs::DiagnosticArray array;

@@ -1,4 +1,8 @@
+// yaml-cpp reads the files (a well-kept YAML parser: ours would be worse); every key is read and
+// checked through the field descriptors of the core, so its names and ranges are the core's.
 #include "constrained_particles/scenes/scene_file.hpp"
+
+#include "constrained_particles/core/integrators.hpp"
 
 #include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
@@ -38,6 +42,13 @@ struct Where
 [[noreturn]] void fail(const Where& where, const YAML::Node& node, const std::string& reason)
 {
   throw InvalidInput(where.at(node), reason);
+}
+
+// A core refusal ("dt = 0, must be ...") rethrown at the place in the file it came from
+[[noreturn]] void failAt(const Where& where, const YAML::Node& node, const InvalidInput& error)
+{
+  const std::string message = error.what();
+  fail(where / error.field(), node, message.substr(error.field().size() + 1));
 }
 
 std::string joined(const std::vector<std::string>& names)
@@ -117,16 +128,6 @@ Vec3 readVector(const Where& where, const YAML::Node& node)
               readDouble(where[2], node[2]));
 }
 
-void requireRange(const Where& where, const YAML::Node& node, double value, double low,
-                  bool low_open, double high, const std::string& unit)
-{
-  const bool below = low_open ? !(value > low) : !(value >= low);
-  if (!std::isfinite(value) || below || value > high)
-    fail(where, node,
-         "= " + formatValue(value) + ", must be in " + (low_open ? "(" : "[") + formatValue(low) +
-             ", " + formatValue(high) + "] " + unit);
-}
-
 int surfaceIndex(const Where& where, const YAML::Node& node,
                  const std::vector<NamedSurface>& surfaces)
 {
@@ -144,6 +145,55 @@ int surfaceIndex(const Where& where, const YAML::Node& node,
        "must name a surface of this scene" +
            (names.empty() ? std::string(" (it defines none under 'surfaces')")
                           : "; defined: " + joined(names)));
+}
+
+// The keys of a record kind, in the order its fields() lists them.
+template <typename Record>
+std::vector<std::string> fieldNames()
+{
+  std::vector<std::string> names;
+  forEachField<Record>([&](const auto& spec) { names.push_back(spec.name); });
+  return names;
+}
+
+// Reads every field of `record` the map gives, by its member's type; validation is the
+// descriptors' (validateFields) and comes after.
+template <typename Record>
+void readFields(const Where& where, const YAML::Node& node, Record& record,
+                const std::vector<NamedSurface>& surfaces)
+{
+  forEachField<Record>(
+      [&](const auto& spec)
+      {
+        const YAML::Node value = node[spec.name];
+        if (!value)
+          return;
+        auto& member = record.*(spec.member);
+        using Member = std::decay_t<decltype(member)>;
+        const Where at = where / spec.name;
+        if constexpr (std::is_same_v<Member, Vec3>)
+          member = readVector(at, value);
+        else if constexpr (std::is_same_v<Member, int>)
+          member = spec.kind == FieldKind::Surface ? surfaceIndex(at, value, surfaces)
+                                                   : readInt(at, value);
+        else if constexpr (std::is_same_v<Member, double>)
+          member = readDouble(at, value);
+        else if constexpr (std::is_same_v<Member, bool>)
+          member = readBool(at, value);
+        else if constexpr (std::is_same_v<Member, std::string>)
+          member = readString(at, value);
+        else if constexpr (std::is_same_v<Member, Stabilization>)
+          member = parseStabilization(readString(at, value), at.at(value));
+        else
+        {
+          // a fixed-size list of particle indices
+          if (!value.IsSequence() || value.size() != member.size())
+            fail(at, value,
+                 "must be a list of " + std::to_string(member.size()) + " particle indices");
+          for (std::size_t k = 0; k < member.size(); ++k)
+            member[k] = readInt(at[k], value[k]);
+        }
+      });
 }
 
 Surface parseSurface(const Where& where, const YAML::Node& node)
@@ -184,40 +234,18 @@ struct RecordReader
   // records of `kind`; a record with a `particle` field may list `particles` instead
   template <typename Kind>
   bool tryKind(const std::string& kind, const Where& where, const YAML::Node& node,
-               std::vector<Variant>& out, bool& anchor_given)
+               std::vector<Variant>& out)
   {
     if (kind != Kind::KIND)
       return false;
-    std::vector<std::string> known{ "type" };
-    bool has_particle = false;
-    forEachField<Kind>(
-        [&](const auto& spec)
-        {
-          known.push_back(spec.name);
-          has_particle = has_particle || std::string(spec.name) == "particle";
-        });
+    std::vector<std::string> known = fieldNames<Kind>();
+    const bool has_particle = std::find(known.begin(), known.end(), "particle") != known.end();
+    known.insert(known.begin(), "type");
     if (has_particle)
       known.push_back("particles");
     checkKeys(where, node, known, std::string("a ") + Kind::KIND + " record");
     Kind record;
-    forEachField<Kind>(
-        [&](const auto& spec)
-        {
-          const YAML::Node value = node[spec.name];
-          if (!value)
-            return;
-          auto& member = record.*(spec.member);
-          using Member = std::decay_t<decltype(member)>;
-          const Where at = where / spec.name;
-          if constexpr (std::is_same_v<Member, Vec3>)
-            member = readVector(at, value);
-          else if constexpr (std::is_same_v<Member, int>)
-            member = spec.kind == FieldKind::Surface ? surfaceIndex(at, value, surfaces)
-                                                     : readInt(at, value);
-          else
-            member = readDouble(at, value);
-        });
-    anchor_given = static_cast<bool>(node["anchor"]);
+    readFields(where, node, record, surfaces);
     if (has_particle && node["particles"])
     {
       if (node["particle"])
@@ -243,11 +271,10 @@ struct RecordReader
 
   template <std::size_t... I>
   void read(const std::string& kind, const Where& where, const YAML::Node& node,
-            std::vector<Variant>& out, bool& anchor_given, std::index_sequence<I...>)
+            std::vector<Variant>& out, std::index_sequence<I...>)
   {
     const bool found =
-        (tryKind<std::variant_alternative_t<I, Variant>>(kind, where, node, out, anchor_given) ||
-         ...);
+        (tryKind<std::variant_alternative_t<I, Variant>>(kind, where, node, out) || ...);
     if (!found)
     {
       std::vector<std::string> kinds;
@@ -263,7 +290,7 @@ struct RecordReader
 template <typename Variant>
 void readRecords(const Where& where, const YAML::Node& list,
                  const std::vector<NamedSurface>& surfaces, std::vector<Variant>& out,
-                 std::vector<std::string>& where_of, std::vector<bool>* anchor_given)
+                 std::vector<std::string>& where_of)
 {
   requireSequence(where, list, "records, each a map with a type");
   RecordReader<Variant> reader{ surfaces };
@@ -275,73 +302,39 @@ void readRecords(const Where& where, const YAML::Node& list,
     if (!node["type"])
       fail(at / "type", node, "is missing");
     const std::size_t before = out.size();
-    bool given = true;
-    reader.read(readString(at / "type", node["type"]), at, node, out, given,
+    reader.read(readString(at / "type", node["type"]), at, node, out,
                 std::make_index_sequence<std::variant_size_v<Variant>>{});
     for (std::size_t added = before; added < out.size(); ++added)
-    {
       where_of.push_back(at.at(node));
-      if (anchor_given)
-        anchor_given->push_back(given);
-    }
   }
 }
 
-ChainSpec parseChain(const Where& where, const YAML::Node& node,
-                     const std::vector<NamedSurface>& surfaces)
+// A map read into a described record (a particle, a chain) and checked against its ranges.
+template <typename Record>
+Record parseDescribed(const Where& where, const YAML::Node& node, const std::string& what,
+                      const std::vector<NamedSurface>& surfaces)
 {
-  requireMap(where, node, "a chain");
-  checkKeys(where, node,
-            { "particles", "link_length", "particle_mass", "start", "direction", "velocity",
-              "angular_velocity", "pin_first", "pin_last", "surface" },
-            "a chain");
-  ChainSpec chain;
-  if (node["particles"])
+  requireMap(where, node, what);
+  checkKeys(where, node, fieldNames<Record>(), what);
+  Record record;
+  readFields(where, node, record, surfaces);
+  try
   {
-    chain.particles = readInt(where / "particles", node["particles"]);
-    requireRange(where / "particles", node["particles"], chain.particles, 1, false, MAX_PARTICLES,
-                 "[1]");
+    validateFields(record, 0, 0, "");
   }
-  if (node["link_length"])
+  catch (const InvalidInput& e)
   {
-    chain.link_length = readDouble(where / "link_length", node["link_length"]);
-    requireRange(where / "link_length", node["link_length"], chain.link_length, 0, true, 1e3,
-                 "[m]");
+    // the field is "name" or "name.x" (prefix ""): name it at its line
+    const std::string key = e.field();
+    const std::size_t dot = key.find('.');
+    const std::string top = dot == std::string::npos ? key : key.substr(0, dot);
+    const std::string message = e.what();
+    fail(where / key, node[top], message.substr(e.field().size() + 1));
   }
-  if (node["particle_mass"])
-  {
-    chain.particle_mass = readDouble(where / "particle_mass", node["particle_mass"]);
-    requireRange(where / "particle_mass", node["particle_mass"], chain.particle_mass, 0, true, 1e6,
-                 "[kg]");
-  }
-  if (node["start"])
-    chain.start = readVector(where / "start", node["start"]);
-  if (node["direction"])
-  {
-    chain.direction = readVector(where / "direction", node["direction"]);
-    if (!(chain.direction.norm() > 0.0))
-      fail(where / "direction", node["direction"], "must be a non-zero vector");
-  }
-  if (node["velocity"])
-    chain.velocity = readVector(where / "velocity", node["velocity"]);
-  if (node["angular_velocity"])
-    chain.angular_velocity = readVector(where / "angular_velocity", node["angular_velocity"]);
-  if (node["pin_first"])
-    chain.pin_first = readBool(where / "pin_first", node["pin_first"]);
-  if (node["pin_last"])
-    chain.pin_last = readBool(where / "pin_last", node["pin_last"]);
-  if (node["surface"])
-  {
-    surfaceIndex(where / "surface", node["surface"], surfaces);
-    chain.surface = node["surface"].as<std::string>();
-    if (chain.pin_first)
-      fail(where / "pin_first", node["pin_first"],
-           "cannot be true for a chain whose first particle slides on a surface");
-  }
-  return chain;
+  return record;
 }
 
-// z = Z(x, y) and the velocity lifted into the tangent plane (vz = Zx vx + Zy vy)
+// the particle's position z and velocity lifted onto a surface (vz = Zx vx + Zy vy)
 void placeOnSurface(const Surface& surface, Vec3& position, Vec3& velocity)
 {
   const SurfaceSample s = evaluateSurface(surface, position.x(), position.y());
@@ -349,48 +342,6 @@ void placeOnSurface(const Surface& surface, Vec3& position, Vec3& velocity)
   velocity.z() = s.zx * velocity.x() + s.zy * velocity.y();
 }
 
-}  // namespace
-
-namespace
-{
-SceneDescription parseSceneNodes(const std::string& yaml, const std::string& source);
-}
-
-StepSettings SolverSpec::applyTo(StepSettings settings) const
-{
-  if (dt)
-    settings.dt = *dt;
-  if (integrator)
-    settings.integrator = *integrator;
-  if (stabilization)
-    settings.stabilization = *stabilization;
-  return settings;
-}
-
-long SceneDescription::numParticles() const
-{
-  long n = static_cast<long>(particles.size());
-  for (const ChainSpec& chain : chains)
-    n += chain.particles;
-  return n;
-}
-
-SceneDescription parseScene(const std::string& yaml, const std::string& source)
-{
-  // anything yaml-cpp throws past the checks above (odd keys, deep nesting) is still bad input
-  try
-  {
-    return parseSceneNodes(yaml, source);
-  }
-  catch (const YAML::Exception& e)
-  {
-    throw InvalidInput(source + (e.mark.is_null() ? "" : ":" + std::to_string(e.mark.line + 1)),
-                       "is not a valid scene: " + e.msg);
-  }
-}
-
-namespace
-{
 SceneDescription parseSceneNodes(const std::string& yaml, const std::string& source)
 {
   YAML::Node root;
@@ -432,98 +383,115 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
   {
     requireSequence(top / "particles", particles, "particles, each {mass, position, velocity}");
     for (std::size_t k = 0; k < particles.size(); ++k)
-    {
-      const Where at = (top / "particles")[k];
-      const YAML::Node node = particles[k];
-      requireMap(at, node, "a particle");
-      checkKeys(at, node, { "mass", "position", "velocity" }, "a particle");
-      ParticleSpec particle;
-      if (node["mass"])
-      {
-        particle.mass = readDouble(at / "mass", node["mass"]);
-        requireRange(at / "mass", node["mass"], particle.mass, 0, true, 1e6, "[kg]");
-      }
-      if (node["position"])
-        particle.position = readVector(at / "position", node["position"]);
-      if (node["velocity"])
-        particle.velocity = readVector(at / "velocity", node["velocity"]);
-      d.particles.push_back(particle);
-    }
+      d.particles.push_back(parseDescribed<ParticleSpec>((top / "particles")[k], particles[k],
+                                                         "a particle", d.surfaces));
   }
   if (const YAML::Node chains = root["chains"])
   {
     requireSequence(top / "chains", chains, "chains");
     for (std::size_t k = 0; k < chains.size(); ++k)
-      d.chains.push_back(parseChain((top / "chains")[k], chains[k], d.surfaces));
+    {
+      const Where at = (top / "chains")[k];
+      d.chains.push_back(parseDescribed<ChainSpec>(at, chains[k], "a chain", d.surfaces));
+      if (!d.chains.back().surface.empty())
+        surfaceIndex(at / "surface", chains[k]["surface"], d.surfaces);
+    }
   }
   if (d.numParticles() == 0)
     throw InvalidInput(source + ": particles",
                        "are missing: a scene needs 'particles' or 'chains' (at least 1 particle)");
-  if (d.numParticles() > MAX_PARTICLES)
+  if (!limits::PARTICLES.contains(static_cast<double>(d.numParticles())))
     throw InvalidInput(source + ": particles", "= " + std::to_string(d.numParticles()) +
-                                                   " in all, must be at most " +
-                                                   std::to_string(MAX_PARTICLES));
+                                                   " in all, must be in " +
+                                                   limits::PARTICLES.text());
 
   const int n = static_cast<int>(d.numParticles());
   const int num_surfaces = static_cast<int>(d.surfaces.size());
   std::vector<std::string> where_of;
   if (const YAML::Node forces = root["forces"])
   {
-    readRecords(top / "forces", forces, d.surfaces, d.forces, where_of, nullptr);
+    readRecords(top / "forces", forces, d.surfaces, d.forces, where_of);
     for (std::size_t k = 0; k < d.forces.size(); ++k)
       validateForce(d.forces[k], n, where_of[k]);
   }
   where_of.clear();
   if (const YAML::Node constraints = root["constraints"])
   {
-    std::vector<bool> anchor_given;
-    readRecords(top / "constraints", constraints, d.surfaces, d.constraints, where_of,
-                &anchor_given);
+    readRecords(top / "constraints", constraints, d.surfaces, d.constraints, where_of);
     for (std::size_t k = 0; k < d.constraints.size(); ++k)
-    {
-      validateConstraint(d.constraints[k], n, num_surfaces, where_of[k]);
-      d.pin_at_start.push_back(std::holds_alternative<PinConstraint>(d.constraints[k]) &&
-                               !anchor_given[k]);
-    }
+      validateConstraint(d.constraints[k], n, num_surfaces, where_of[k], true);
   }
   if (const YAML::Node solver = root["solver"])
   {
     const Where at = top / "solver";
     requireMap(at, solver, "solver settings");
-    checkKeys(at, solver, { "dt", "integrator", "stabilization", "solve_method" },
-              "solver settings");
-    if (solver["dt"])
+    std::vector<std::string> known = fieldNames<StepSettings>();
+    known.push_back("solve_method");
+    checkKeys(at, solver, known, "solver settings");
+    readFields(at, solver, d.solver.values, d.surfaces);
+    for (const std::string& name : fieldNames<StepSettings>())
+      if (solver[name])
+        d.solver.given.push_back(name);
+    try
     {
-      d.solver.dt = readDouble(at / "dt", solver["dt"]);
-      requireRange(at / "dt", solver["dt"], *d.solver.dt, 0, true, 1.0, "[s]");
+      validateStepSettings(d.solver.values);
     }
-    if (solver["integrator"])
-      d.solver.integrator = parseIntegrator(readString(at / "integrator", solver["integrator"]),
-                                            (at / "integrator").at(solver["integrator"]));
-    if (solver["stabilization"])
-      d.solver.stabilization =
-          parseStabilization(readString(at / "stabilization", solver["stabilization"]),
-                             (at / "stabilization").at(solver["stabilization"]));
+    catch (const InvalidInput& e)
+    {
+      failAt(at, solver[e.field()], e);
+    }
     if (solver["solve_method"])
-    {
-      const std::string name = readString(at / "solve_method", solver["solve_method"]);
-      bool known = false;
-      for (SolveMethod method : { SolveMethod::Automatic, SolveMethod::Tridiagonal,
-                                  SolveMethod::Tree, SolveMethod::Sparse, SolveMethod::Dense })
-        if (name == solveMethodName(method))
-        {
-          d.solver.solve_method = method;
-          known = true;
-        }
-      if (!known)
-        fail(at / "solve_method", solver["solve_method"],
-             "= '" + name + "' is unknown; valid: automatic, tridiagonal, tree, sparse, dense");
-    }
+      d.solver.solve_method =
+          parseSolveMethod(readString(at / "solve_method", solver["solve_method"]),
+                           (at / "solve_method").at(solver["solve_method"]));
   }
   return d;
 }
 
 }  // namespace
+
+void validateChainChange(const ChainChange& change, int max_particles, const std::string& prefix)
+{
+  if (change.num_particles < 1 || change.num_particles > max_particles)
+    throw InvalidInput(prefix + "num_particles", "= " + std::to_string(change.num_particles) +
+                                                     ", must be in [1, " +
+                                                     std::to_string(max_particles) + "]");
+  requireInRange(prefix + "link_length", change.link_length, limits::LINK_LENGTH);
+  requireInRange(prefix + "particle_mass", change.particle_mass, limits::MASS);
+}
+
+StepSettings SolverSpec::applyTo(StepSettings settings) const
+{
+  forEachField<StepSettings>(
+      [&](const auto& spec)
+      {
+        if (std::find(given.begin(), given.end(), spec.name) != given.end())
+          settings.*(spec.member) = values.*(spec.member);
+      });
+  return settings;
+}
+
+long SceneDescription::numParticles() const
+{
+  long n = static_cast<long>(particles.size());
+  for (const ChainSpec& chain : chains)
+    n += chain.particles;
+  return n;
+}
+
+SceneDescription parseScene(const std::string& yaml, const std::string& source)
+{
+  // anything yaml-cpp throws past the checks above (odd keys, deep nesting) is still bad input
+  try
+  {
+    return parseSceneNodes(yaml, source);
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw InvalidInput(source + (e.mark.is_null() ? "" : ":" + std::to_string(e.mark.line + 1)),
+                       "is not a valid scene: " + e.msg);
+  }
+}
 
 SceneDescription loadSceneFile(const std::string& path)
 {
@@ -531,10 +499,10 @@ SceneDescription loadSceneFile(const std::string& path)
   if (!file)
     throw InvalidInput(path, "cannot be read");
   const std::streamoff size = file.tellg();
-  if (size < 0 || size > MAX_SCENE_FILE_BYTES)
+  if (size < 0 || size > limits::SCENE_FILE_BYTES)
     throw InvalidInput(path, "is " + std::to_string(static_cast<long long>(size)) +
                                  " bytes, over the limit of " +
-                                 std::to_string(MAX_SCENE_FILE_BYTES) + " bytes");
+                                 std::to_string(limits::SCENE_FILE_BYTES) + " bytes");
   file.seekg(0);
   std::stringstream text;
   text << file.rdbuf();
@@ -550,11 +518,11 @@ SceneDescription loadSceneFile(const std::string& path)
   return d;
 }
 
-Scenario buildScene(const SceneDescription& d)
+BuiltScene buildScene(const SceneDescription& d)
 {
-  Scenario scenario;
-  Scene& scene = scenario.scene;
-  State& state = scenario.initial_state;
+  BuiltScene built;
+  Scene& scene = built.scene;
+  State& state = built.initial_state;
   const int n = static_cast<int>(d.numParticles());
   scene.name = d.name;
   for (const NamedSurface& named : d.surfaces)
@@ -570,6 +538,7 @@ Scenario buildScene(const SceneDescription& d)
     state.velocities.col(next) = particle.velocity;
     ++next;
   }
+  // chains are expanded here and nowhere else
   for (const ChainSpec& chain : d.chains)
   {
     const int first = next;
@@ -604,23 +573,14 @@ Scenario buildScene(const SceneDescription& d)
       scene.constraints.push_back(
           PinConstraint{ next - 1, Vec3(start + (chain.particles - 1) * step) });
   }
-  for (std::size_t k = 0; k < d.constraints.size(); ++k)
+  // each kind completes itself from the start: places particles on surfaces, anchors pins
+  for (Constraint constraint : d.constraints)
   {
-    Constraint c = d.constraints[k];
-    if (auto* on_surface = std::get_if<SurfaceConstraint>(&c))
-    {
-      Vec3 p = state.positions.col(on_surface->particle);
-      Vec3 v = state.velocities.col(on_surface->particle);
-      placeOnSurface(d.surfaces[on_surface->surface].surface, p, v);
-      state.positions.col(on_surface->particle) = p;
-      state.velocities.col(on_surface->particle) = v;
-    }
-    if (auto* pin = std::get_if<PinConstraint>(&c); pin && d.pin_at_start[k])
-      pin->anchor = state.positions.col(pin->particle);
-    scene.constraints.push_back(c);
+    fillFromStart(constraint, scene.surfaces, state.positions, state.velocities);
+    scene.constraints.push_back(constraint);
   }
   scene.forces = d.forces;
-  return scenario;
+  return built;
 }
 
 std::vector<std::string> listScenes(const std::string& directory)
@@ -672,9 +632,17 @@ int largestParticleIndex(const std::vector<Variant>& records)
           forEachField<std::decay_t<decltype(r)>>(
               [&](const auto& spec)
               {
-                if constexpr (std::is_same_v<std::decay_t<decltype(r.*(spec.member))>, int>)
+                using Member = std::decay_t<decltype(r.*(spec.member))>;
+                if constexpr (std::is_same_v<Member, int>)
+                {
                   if (spec.kind == FieldKind::Particle)
                     largest = std::max(largest, r.*(spec.member));
+                }
+                else if constexpr (std::is_same_v<Member, std::array<int, 3>>)
+                {
+                  for (int index : r.*(spec.member))
+                    largest = std::max(largest, index);
+                }
               });
         },
         record);
@@ -683,7 +651,7 @@ int largestParticleIndex(const std::vector<Variant>& records)
 
 }  // namespace
 
-void setChains(SceneDescription& d, const ChainParameters& chain)
+void setChains(SceneDescription& d, const ChainChange& change)
 {
   if (d.chains.empty())
     throw InvalidInput("num_particles", "cannot be set: scene '" + d.name + "' has no chain");
@@ -691,22 +659,22 @@ void setChains(SceneDescription& d, const ChainParameters& chain)
   const int explicit_particles = static_cast<int>(d.particles.size());
   const bool count_changes =
       std::any_of(d.chains.begin(), d.chains.end(),
-                  [&](const ChainSpec& c) { return c.particles != chain.num_particles; });
+                  [&](const ChainSpec& c) { return c.particles != change.num_particles; });
   if (count_changes && std::max(largestParticleIndex(d.forces),
                                 largestParticleIndex(d.constraints)) >= explicit_particles)
     throw InvalidInput("num_particles",
-                       "= " + std::to_string(chain.num_particles) + " cannot be set: scene '" +
+                       "= " + std::to_string(change.num_particles) + " cannot be set: scene '" +
                            d.name +
                            "' names chain particles by index in its forces or constraints, so "
                            "its chains keep their counts (link_length and particle_mass may "
                            "change)");
   for (ChainSpec& spec : d.chains)
   {
-    spec.particles = chain.num_particles;
-    spec.link_length = chain.link_length;
-    spec.particle_mass = chain.particle_mass;
+    spec.particles = change.num_particles;
+    spec.link_length = change.link_length;
+    spec.particle_mass = change.particle_mass;
     if (spec.surface.empty())
-      spec.pin_first = chain.pin_first;
+      spec.pin_first = change.pin_first;
   }
 }
 

@@ -1,12 +1,12 @@
 // The O(n) tridiagonal solve against a dense solve on random chains; its residual on a long
 // straight chain; structure detection; singular systems detected and kept finite.
-#include "constrained_particles/core/dynamics.hpp"
-#include "constrained_particles/core/scenarios.hpp"
+#include "constrained_particles/core/simulator.hpp"
 #include "test_helpers.hpp"
 
 #include <gtest/gtest.h>
 
 using namespace constrained_particles;
+using constrained_particles::testing::computeAccelerations;
 using constrained_particles::testing::Random;
 
 namespace
@@ -22,11 +22,10 @@ Evaluation evaluate(const Scene& scene, SolveMethod method, const Points& p, con
 {
   const Model model = Model::compile(scene, method);
   EXPECT_EQ(model.solveMethod(), method);
-  Dynamics dynamics(model);
+  Data data(model);
   Evaluation e;
-  e.accelerations.resize(3, p.cols());
-  e.report = dynamics.computeAccelerations(p, v, 0.0, 0.0, e.accelerations);
-  e.multipliers = dynamics.multipliers();
+  e.report = computeAccelerations(model, data, p, v, e.accelerations);
+  e.multipliers = data.multipliers;
   return e;
 }
 
@@ -82,10 +81,11 @@ TEST(ChainSolver, TridiagonalMatchesDenseOnRandomChains)
 
 TEST(ChainSolver, SurfaceChainIsTridiagonalAndMatchesDense)
 {
-  ScenarioParameters parameters;
-  parameters.chain.num_particles = 50;
-  parameters.surface = makeSurface("waves", { 0.3, 2.0, 1.0 });
-  const Scenario scenario = buildScenario("surface_chain", parameters);
+  SceneDescription description =
+      constrained_particles::testing::shippedDescription("surface_chain");
+  setChains(description, constrained_particles::testing::chainOf(50));
+  setFirstSurface(description, makeSurface("waves", { 0.3, 2.0, 1.0 }));
+  const BuiltScene scenario = buildScene(description);
   EXPECT_EQ(Model::compile(scenario.scene).solveMethod(), SolveMethod::Tridiagonal);
   Random random(22);
   Points p = scenario.initial_state.positions, v = scenario.initial_state.velocities;
@@ -99,9 +99,9 @@ TEST(ChainSolver, SurfaceChainIsTridiagonalAndMatchesDense)
 TEST(ChainSolver, StructureDetection)
 {
   // one row (the bead) is solved in closed form; chains are tridiagonal
-  for (const std::string& name : scenarioNames())
+  for (const std::string& name : constrained_particles::testing::seedSceneNames())
   {
-    const Scenario scenario = buildScenario(name, ScenarioParameters{});
+    const BuiltScene scenario = constrained_particles::testing::shippedScene(name);
     EXPECT_EQ(Model::compile(scenario.scene).solveMethod(),
               name == "bead" ? SolveMethod::Single : SolveMethod::Tridiagonal)
         << name;
@@ -136,17 +136,16 @@ TEST(ChainSolver, StraightChainOf10000HasSmallResidual)
     p.col(i) = Vec3(i * l, 0, 0);
   const Model model = Model::compile(scene);
   ASSERT_EQ(model.solveMethod(), SolveMethod::Tridiagonal);
-  Dynamics dynamics(model);
+  Data data(model);
   Points a(3, n);
-  const SolveReport report = dynamics.computeAccelerations(p, v, 0.0, 0.0, a);
+  const SolveReport report = computeAccelerations(model, data, p, v, a);
   EXPECT_FALSE(report.singular);
-  const Eigen::VectorXd lambda = dynamics.multipliers();
+  const Eigen::VectorXd lambda = data.multipliers;
 
   // residual of (J W J^T) lambda = b, b = -J W f
-  ConstraintSolver& solver = dynamics.solver();
   Eigen::VectorXd product, b;
-  solver.multiply(lambda, product);
-  solver.multiplyJacobianInverseMass(dynamics.appliedForces(), b);
+  multiplyJWJt(model, data.rows, lambda, product);
+  multiplyJacobianInverseMass(model, data.rows, data.applied_forces, b);
   b = -b;
   const double residual = (product - b).norm() / (b.norm() + product.norm());
   EXPECT_LE(residual, 1e-13);

@@ -1,9 +1,17 @@
-// Shared helpers of the core tests: random states and finite differences.
+// Shared helpers of the core tests: random states, the shipped seed scenes, and a window on the
+// step's stages (white-box: src/core is on these tests' include path).
 #pragma once
 
+#include "constrained_particles/core/data.hpp"
 #include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/settings.hpp"
+#include "constrained_particles/scenes/scene_file.hpp"
+#include "stages.hpp"
 
+#include <array>
 #include <random>
+#include <string>
+#include <vector>
 
 namespace constrained_particles
 {
@@ -76,6 +84,104 @@ inline Scene pinnedChain(const std::vector<double>& masses, double link_length,
   scene.constraints.push_back(PinConstraint{ 0, anchor });
   scene.forces = { GravityForce{} };
   return scene;
+}
+
+/// The seed derivation's three systems, as shipped in config/scenes.
+inline std::vector<std::string> seedSceneNames()
+{
+  return { "bead", "chain", "surface_chain" };
+}
+
+/// A shipped scene file's description (config/scenes/<name>.yaml).
+inline SceneDescription shippedDescription(const std::string& name)
+{
+  return loadSceneFile(std::string(SCENES_DIR) + "/" + name + ".yaml");
+}
+
+/// A shipped scene, built as the file says.
+inline BuiltScene shippedScene(const std::string& name)
+{
+  return buildScene(shippedDescription(name));
+}
+
+/// A shipped scene with every chain changed (as ~set_chain does).
+inline BuiltScene shippedScene(const std::string& name, const ChainChange& chain)
+{
+  SceneDescription description = shippedDescription(name);
+  setChains(description, chain);
+  return buildScene(description);
+}
+
+/// A chain change of n particles, links of l [m] and masses m [kg], the first pinned.
+inline ChainChange chainOf(int n, double link_length = 0.5, double mass = 1.0,
+                           bool pin_first = true)
+{
+  ChainChange change;
+  change.num_particles = n;
+  change.link_length = link_length;
+  change.particle_mass = mass;
+  change.pin_first = pin_first;
+  return change;
+}
+
+/// a = W (f + J^T lambda) at (p, v) and time 0 without Baumgarte: the stages in order (forward),
+/// leaving rows, forces and multipliers in `data`.
+inline SolveReport computeAccelerations(const Model& model, Data& data, const Points& positions,
+                                        const Points& velocities, Points& accelerations)
+{
+  Points p = positions, v = velocities;
+  StepSettings settings;
+  settings.stabilization = Stabilization::None;
+  accelerations.resize(3, model.numParticles());
+  return forward(model, data, settings, 0.0, p, v, accelerations);
+}
+
+/// One row record's rows, evaluated alone (for finite-difference checks).
+template <typename Kind>
+struct RecordRows
+{
+  std::array<int, Kind::PARTICLES> particles;
+  std::array<double, Kind::ROWS> value, jdot_v, violation;
+  std::array<double, Kind::ROWS> metric_rate;  ///< violationRates() [m/s]
+  std::array<Vec3, Kind::ROWS * Kind::PARTICLES> jacobian;
+
+  /// dC_row/dp of the record's k-th particle.
+  const Vec3& block(int row, int k) const
+  {
+    return jacobian[row * Kind::PARTICLES + k];
+  }
+  /// J_row as one 3-vector per particle of a scene of n particles (zero where untouched).
+  Points jacobianRow(int row, int n) const
+  {
+    Points dense = Points::Zero(3, n);
+    for (int k = 0; k < Kind::PARTICLES; ++k)
+      dense.col(particles[k]) += block(row, k);
+    return dense;
+  }
+  /// Cdot of a row: J_row v.
+  double jv(int row, const Points& velocities) const
+  {
+    double sum = 0.0;
+    for (int k = 0; k < Kind::PARTICLES; ++k)
+      sum += block(row, k).dot(velocities.col(particles[k]));
+    return sum;
+  }
+};
+
+/// Evaluates one row record of kind Kind at (p, v) and time t.
+template <typename Kind>
+RecordRows<Kind> evaluateRecord(const Kind& record, const std::vector<Surface>& surfaces,
+                                const Points& positions, const Points& velocities,
+                                double time = 0.0)
+{
+  RecordRows<Kind> rows;
+  rows.particles = rowParticles(record);
+  const EffectContext context{ surfaces, time };
+  evaluateRows(record, context, positions, velocities,
+               RowBlock{ rows.value.data(), rows.jdot_v.data(), rows.violation.data(),
+                         rows.jacobian.data() });
+  violationRates(record, context, positions, velocities, rows.metric_rate.data());
+  return rows;
 }
 
 /// Central difference step for functions of O(1) arguments.

@@ -1,6 +1,5 @@
 // The general solver against the seed derivation's closed forms (corrected per physics.md's
 // errata), on random states on the constraint manifold: relative error <= 1e-10.
-#include "constrained_particles/core/dynamics.hpp"
 #include "test_helpers.hpp"
 
 #include <Eigen/Dense>
@@ -16,11 +15,12 @@ constexpr double TOLERANCE = 1e-10;
 Points solverConstraintForces(const Scene& scene, const Points& p, const Points& v)
 {
   const Model model = Model::compile(scene);
-  Dynamics dynamics(model);
+  Data data(model);
   Points a(3, p.cols());
-  const SolveReport report = dynamics.computeAccelerations(p, v, 0.0, 0.0, a);
+  const SolveReport report =
+      constrained_particles::testing::computeAccelerations(model, data, p, v, a);
   EXPECT_FALSE(report.singular);
-  return dynamics.constraintForces();
+  return data.constraint_forces;
 }
 
 double relativeError(const Points& actual, const Points& expected)

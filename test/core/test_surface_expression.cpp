@@ -1,7 +1,7 @@
 // Surfaces from a formula: automatic derivatives against closed forms and central differences,
 // parse errors with their position, and the same motion as the built-in surface it spells out.
 #include "constrained_particles/core/simulator.hpp"
-#include "constrained_particles/core/surface_expression.hpp"
+#include "surface_expression.hpp"  // private to the core: these tests read its internals
 #include "test_helpers.hpp"
 
 #include <gtest/gtest.h>

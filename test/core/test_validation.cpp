@@ -1,6 +1,7 @@
 // Bad input to the core is refused with an error naming the field, and changes nothing.
-#include "constrained_particles/core/scenarios.hpp"
+#include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/core/simulator.hpp"
+#include "test_helpers.hpp"
 
 #include <gtest/gtest.h>
 
@@ -53,13 +54,13 @@ TEST(Validation, SceneFieldsAreNamed)
   {
     s = validChain();
     s.masses[1] = bad;
-    expectRefused([&] { Model::compile(s); }, "masses[1]", "> 0");
+    expectRefused([&] { Model::compile(s); }, "masses[1]", "(0, 1e+06] [kg]");
   }
   for (double bad : { 0.0, -2.0, NaN, INF })
   {
     s = validChain();
     std::get<LinkConstraint>(s.constraints[1]).length = bad;
-    expectRefused([&] { Model::compile(s); }, "constraints[1].length", "> 0");
+    expectRefused([&] { Model::compile(s); }, "constraints[1].length", "(0, 1000] [m]");
   }
   s = validChain();
   std::get<LinkConstraint>(s.constraints[0]).second = 7;
@@ -75,7 +76,7 @@ TEST(Validation, SceneFieldsAreNamed)
   expectRefused([&] { Model::compile(s); }, "forces[0].acceleration.y");
   s = validChain();
   s.forces = { LinearDampingForce{ -1.0 } };
-  expectRefused([&] { Model::compile(s); }, "forces[0].coefficient", ">= 0");
+  expectRefused([&] { Model::compile(s); }, "forces[0].coefficient", "[0, 1e+06] [N s/m]");
   s = validChain();
   s.forces = { ExternalForce{ 3, Vec3(0, 0, 1) } };
   expectRefused([&] { Model::compile(s); }, "forces[0].particle");
@@ -101,25 +102,24 @@ TEST(Validation, SurfacesAreChecked)
   expectRefused([] { makeSurface("plane", { 1, 2, 3, 4 }); }, "surface.coefficients", "at most 3");
 }
 
-TEST(Validation, ScenarioParametersAreChecked)
+// what ~set_chain and ~chain/* change is checked before the scene is touched
+TEST(Validation, ChainChangesAreChecked)
 {
-  expectRefused([] { buildScenario("pendulum", ScenarioParameters{}); }, "scenario",
-                "surface_chain");
-  ScenarioParameters p;
-  p.chain.num_particles = 0;
-  expectRefused([&] { buildScenario("chain", p); }, "chain.num_particles", "[1, 1000000]");
-  p = ScenarioParameters{};
-  p.chain.link_length = -0.5;
-  expectRefused([&] { buildScenario("chain", p); }, "chain.link_length");
-  p = ScenarioParameters{};
-  p.chain.particle_mass = 0.0;
-  expectRefused([&] { buildScenario("surface_chain", p); }, "chain.particle_mass");
-  p = ScenarioParameters{};
-  p.gravity.z() = NaN;
-  expectRefused([&] { buildScenario("bead", p); }, "gravity.z");
-  p = ScenarioParameters{};
-  p.damping = -0.1;
-  expectRefused([&] { buildScenario("bead", p); }, "damping");
+  ChainChange p;
+  p.num_particles = 0;
+  expectRefused([&] { validateChainChange(p, 1000000, "chain."); }, "chain.num_particles",
+                "[1, 1000000]");
+  p = ChainChange{};
+  p.link_length = -0.5;
+  expectRefused([&] { validateChainChange(p, 1000000, "chain."); }, "chain.link_length");
+  p = ChainChange{};
+  p.particle_mass = 0.0;
+  expectRefused([&] { validateChainChange(p, 1000000, "chain."); }, "chain.particle_mass");
+  Scene bead = constrained_particles::testing::shippedScene("bead").scene;
+  bead.forces = { GravityForce{ Vec3(0, 0, NaN) } };
+  expectRefused([&] { Model::compile(bead); }, "forces[0].acceleration.z");
+  bead.forces = { LinearDampingForce{ -0.1 } };
+  expectRefused([&] { Model::compile(bead); }, "forces[0].coefficient");
 }
 
 TEST(Validation, StepSettingsAreChecked)
@@ -129,7 +129,14 @@ TEST(Validation, StepSettingsAreChecked)
   {
     s = StepSettings{};
     s.dt = bad;
-    expectRefused([&] { validateStepSettings(s); }, "dt", "(0, 1] [s]");
+    expectRefused([&] { validateStepSettings(s); }, "dt", "[1e-06, 1] [s]");
+  }
+  // 0 or 1e-300 made a dopri5 step never return
+  for (double bad : { 0.0, 1e-300, -1.0, NaN, INF, 2.0 })
+  {
+    s = StepSettings{};
+    s.adaptive_tolerance = bad;
+    expectRefused([&] { validateStepSettings(s); }, "adaptive_tolerance", "[1e-14, 1] [1]");
   }
   s = StepSettings{};
   s.baumgarte_frequency = NaN;
@@ -137,13 +144,16 @@ TEST(Validation, StepSettingsAreChecked)
   s = StepSettings{};
   s.baumgarte_damping_ratio = -1;
   expectRefused([&] { validateStepSettings(s); }, "baumgarte_damping_ratio");
-  expectRefused([] { parseIntegrator("leapfrog"); }, "integrator", "rk4");
+  expectRefused([] { findIntegrator("leapfrog"); }, "integrator", "rk4");
+  s = StepSettings{};
+  s.integrator = "leapfrog";
+  expectRefused([&] { validateStepSettings(s); }, "integrator", "velocity_verlet");
   expectRefused([] { parseStabilization("magic"); }, "stabilization", "projection");
 }
 
 TEST(Validation, RefusedChangesLeaveSimulatorUntouched)
 {
-  const Scenario scenario = buildScenario("chain", ScenarioParameters{});
+  const BuiltScene scenario = constrained_particles::testing::shippedScene("chain");
   Simulator simulator(scenario.scene, scenario.initial_state, StepSettings{});
   simulator.step(25);
   const State before = simulator.state();
@@ -185,7 +195,7 @@ TEST(Validation, RefusedChangesLeaveSimulatorUntouched)
 
 TEST(Validation, TeleportIsProjectedOntoConstraints)
 {
-  const Scenario scenario = buildScenario("chain", ScenarioParameters{});
+  const BuiltScene scenario = constrained_particles::testing::shippedScene("chain");
   Simulator simulator(scenario.scene, scenario.initial_state, StepSettings{});
   State moved = simulator.state();
   moved.positions.col(2) += Vec3(0.05, -0.02, 0.03);

@@ -37,7 +37,7 @@ void runScene(const std::string& text)
   const SceneDescription d = parseScene(text, "fuzz.yaml");
   if (d.numParticles() > MAX_FUZZ_PARTICLES)
     return;
-  const Scenario s = buildScene(d);
+  const BuiltScene s = buildScene(d);
   Simulator simulator(s.scene, s.initial_state, d.solver.applyTo(StepSettings{}),
                       d.solver.solve_method);
   if (!isFinite(simulator.state()))
@@ -60,7 +60,7 @@ Simulator surfaceChain()
       "chains: [{particles: 3, start: [0.5, 0, 0], direction: [0.5, 0, -0.87], surface: ground}]\n"
       "forces: [{type: gravity}]\n",
       "fuzz.yaml");
-  const Scenario s = buildScene(d);
+  const BuiltScene s = buildScene(d);
   return Simulator(s.scene, s.initial_state, StepSettings{});
 }
 
@@ -92,19 +92,19 @@ void runChainAndSurface(const std::uint8_t* data, std::size_t size)
       "surfaces: {ground: {type: bowl}}\n"
       "chains: [{particles: 3, start: [0.5, 0, 0], direction: [0.5, 0, -0.87], surface: ground}]\n",
       "fuzz.yaml");
-  ChainParameters chain;
+  ChainChange chain;
   chain.num_particles = static_cast<int>(std::fmod(std::abs(values[0]), 50.0)) + 1;
   chain.link_length = values[1];
   chain.particle_mass = values[2];
-  if (!(chain.link_length > 0.0 && chain.link_length <= 1e3 && chain.particle_mass > 0.0 &&
-        chain.particle_mass <= 1e6))
-    return;  // the node's validateChain refuses these before the scene is touched
+  if (!limits::LINK_LENGTH.contains(chain.link_length) ||
+      !limits::MASS.contains(chain.particle_mass))
+    return;  // the node's validateChainChange refuses these before the scene is touched
   setChains(d, chain);
   const std::vector<double> coefficients(values.begin() + 3,
                                          values.begin() + std::min<std::size_t>(values.size(), 8));
   const SurfaceType type = static_cast<SurfaceType>(std::fmod(std::abs(values[3]), 5.0));
   setFirstSurface(d, makeSurface(type, coefficients, "coefficients"));
-  const Scenario s = buildScene(d);
+  const BuiltScene s = buildScene(d);
   Simulator simulator(s.scene, s.initial_state, StepSettings{});
   simulator.step(3);
 }

@@ -52,9 +52,13 @@ class SimClockTest(unittest.TestCase):
         self.assertAlmostEqual(state.header.stamp.to_sec(), 0.25, places=6)
         self.assertAlmostEqual(self.clocks[-1].clock.to_sec(), 0.25, places=6)
         self.assertAlmostEqual(rospy.Time.now().to_sec(), 0.25, places=6)
-        # tf is stamped with sim time too
-        self.assertTrue(self.tf_buffer.can_transform("world", "particle_0", state.header.stamp,
-                                                     rospy.Duration(5.0)))
+        # tf is stamped with sim time too (polled against wall time: sim time stands still here,
+        # so can_transform's own timeout would never run out)
+        deadline = time.monotonic() + 10.0
+        while not self.tf_buffer.can_transform("world", "particle_0", state.header.stamp) and \
+                time.monotonic() < deadline:
+            time.sleep(0.01)
+        self.assertTrue(self.tf_buffer.can_transform("world", "particle_0", state.header.stamp))
         # paused: time stands still for a wall second
         time.sleep(1.0)
         self.assertAlmostEqual(self.states[-1].header.stamp.to_sec(), 0.25, places=6)

@@ -1,15 +1,22 @@
 /// @file constraints.hpp
 /// @brief The registry of constraint kinds, and dispatch over them.
 ///
-/// Each kind lives in its own file under effects/. A row kind (ELIMINATED = false) gives one
-/// scalar row of the Jacobian J = dC/dp touching at most two particles, through rowParticles,
-/// evaluateRow, constraintValue, metricRate and validate. Pins are eliminated instead: a pinned
-/// particle gets inverse mass 0 (physics.md), which keeps chains tridiagonal. Adding a row kind
-/// means writing its file and adding the record to `Constraint` below.
+/// Each kind lives in its own header under effects/. A row kind (ELIMINATED = false) makes ROWS
+/// rows of the Jacobian J = dC/dp per record, each touching the record's PARTICLES particles
+/// (rowParticles), through evaluateRows, violationRates and validate. An eliminated kind (a pin,
+/// a driven anchor) holds one particle exactly instead: that particle gets inverse mass 0
+/// (physics.md), which keeps chains tridiagonal, and the kind gives eliminatedParticle and
+/// imposedMotion (position, velocity and acceleration at a time); its reaction is computed after
+/// the solve. Either kind may define fillFromStart to complete itself from the initial state.
+/// Adding a kind means writing its header and adding it to `Constraint` below.
 #pragma once
 
+#include "constrained_particles/core/effects/angle_constraint.hpp"
 #include "constrained_particles/core/effects/link_constraint.hpp"
+#include "constrained_particles/core/effects/moving_anchor.hpp"
 #include "constrained_particles/core/effects/pin_constraint.hpp"
+#include "constrained_particles/core/effects/point_on_line.hpp"
+#include "constrained_particles/core/effects/point_on_plane.hpp"
 #include "constrained_particles/core/effects/surface_constraint.hpp"
 
 #include <variant>
@@ -17,76 +24,137 @@
 namespace constrained_particles
 {
 /// One constraint of a scene: the registry of constraint kinds.
-using Constraint = std::variant<SurfaceConstraint, LinkConstraint, PinConstraint>;
+using Constraint =
+    std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
+                 PointOnLineConstraint, PointOnPlaneConstraint, MovingAnchorConstraint>;
 
 /// Number of constraint kinds.
 constexpr int NUM_CONSTRAINT_KINDS = static_cast<int>(std::variant_size_v<Constraint>);
 
-/// True for kinds solved by elimination (pins), false for row kinds.
+/// Largest PARTICLES of any row kind (a row's blocks fit in an array of this size).
+constexpr int MAX_ROW_PARTICLES = 3;
+
+/// True for kinds solved by elimination (pins, driven anchors), false for row kinds.
 inline bool isEliminated(const Constraint& constraint)
 {
   return std::visit([](const auto& c) { return std::decay_t<decltype(c)>::ELIMINATED; },
                     constraint);
 }
 
-/// Particles a row constraint touches (-1 = unused slot; both -1 for eliminated kinds).
-inline std::array<int, 2> rowParticles(const Constraint& constraint)
+/// Rows a record makes (0 for eliminated kinds).
+inline int rowCount(const Constraint& constraint)
 {
   return std::visit(
-      [](const auto& c) -> std::array<int, 2>
+      [](const auto& c)
       {
-        if constexpr (std::decay_t<decltype(c)>::ELIMINATED)
-          return { { -1, -1 } };
+        using Kind = std::decay_t<decltype(c)>;
+        if constexpr (Kind::ELIMINATED)
+          return 0;
         else
-          return rowParticles(c);
+          return Kind::ROWS;
       },
       constraint);
 }
 
-/// Evaluates a row constraint at (p, v) into `row`. Stateless. Eliminated kinds leave it as is.
-inline void evaluateRow(const Constraint& constraint, const Surfaces& surfaces,
-                        const Points& positions, const Points& velocities, ConstraintRow& row)
+/// Particles each of a record's rows touches, written to `out` (MAX_ROW_PARTICLES long);
+/// returns how many (0 for eliminated kinds).
+inline int rowParticles(const Constraint& constraint, int* out)
+{
+  return std::visit(
+      [out](const auto& c)
+      {
+        using Kind = std::decay_t<decltype(c)>;
+        if constexpr (Kind::ELIMINATED)
+          return 0;
+        else
+        {
+          static_assert(Kind::PARTICLES <= MAX_ROW_PARTICLES, "raise MAX_ROW_PARTICLES");
+          const auto particles = rowParticles(c);
+          for (int k = 0; k < Kind::PARTICLES; ++k)
+            out[k] = particles[k];
+          return Kind::PARTICLES;
+        }
+      },
+      constraint);
+}
+
+/// Evaluates a row record's rows at (p, v) into `out`. Stateless. Eliminated kinds: nothing.
+inline void evaluateRows(const Constraint& constraint, const EffectContext& context,
+                         const Points& positions, const Points& velocities, RowBlock out)
 {
   std::visit(
       [&](const auto& c)
       {
         if constexpr (!std::decay_t<decltype(c)>::ELIMINATED)
-          evaluateRow(c, surfaces, positions, velocities, row);
+          evaluateRows(c, context, positions, velocities, out);
       },
       constraint);
 }
 
-/// |dC/dt| of an evaluated row in metric units [m/s]; 0 for eliminated kinds.
-inline double metricRate(const Constraint& constraint, const ConstraintRow& row,
-                         const Points& velocities)
+/// |dC/dt| of each of a row record's rows in metric units [m/s]. Eliminated kinds: nothing.
+inline void violationRates(const Constraint& constraint, const EffectContext& context,
+                           const Points& positions, const Points& velocities, double* rates)
 {
-  return std::visit(
+  std::visit(
       [&](const auto& c)
       {
-        if constexpr (std::decay_t<decltype(c)>::ELIMINATED)
-          return 0.0;
-        else
-          return metricRate(c, row, velocities);
+        if constexpr (!std::decay_t<decltype(c)>::ELIMINATED)
+          violationRates(c, context, positions, velocities, rates);
       },
       constraint);
+}
+
+/// The particle an eliminated record holds (-1 for row kinds).
+inline int eliminatedParticle(const Constraint& constraint)
+{
+  return std::visit(
+      [](const auto& c)
+      {
+        if constexpr (std::decay_t<decltype(c)>::ELIMINATED)
+          return eliminatedParticle(c);
+        else
+          return -1;
+      },
+      constraint);
+}
+
+/// Position, velocity and acceleration an eliminated record imposes at `time` [s].
+inline ImposedMotion imposedMotion(const Constraint& constraint, double time)
+{
+  return std::visit(
+      [time](const auto& c)
+      {
+        if constexpr (std::decay_t<decltype(c)>::ELIMINATED)
+          return imposedMotion(c, time);
+        else
+          return ImposedMotion{ Vec3::Zero(), Vec3::Zero(), Vec3::Zero() };
+      },
+      constraint);
+}
+
+/// Kinds without their own fillFromStart have nothing to complete.
+template <typename Kind>
+void fillFromStart(Kind& /*constraint*/, const std::vector<Surface>& /*surfaces*/,
+                   Points& /*positions*/, Points& /*velocities*/)
+{
+}
+
+/// Completes a record from the initial state (unset anchors and angles) and places its
+/// particles where the kind requires (on a surface). Used when scene files are built.
+inline void fillFromStart(Constraint& constraint, const std::vector<Surface>& surfaces,
+                          Points& positions, Points& velocities)
+{
+  std::visit([&](auto& c) { fillFromStart(c, surfaces, positions, velocities); }, constraint);
 }
 
 /// Throws InvalidInput if the record is malformed for the scene's particles and surfaces.
 /// @param field name of the record in messages, e.g. "constraints[2]"
+/// @param allow_unset accept fields left for fillFromStart (a scene description)
 inline void validateConstraint(const Constraint& constraint, int num_particles, int num_surfaces,
-                               const std::string& field)
+                               const std::string& field, bool allow_unset = false)
 {
-  std::visit([&](const auto& c) { validate(c, num_particles, num_surfaces, field); }, constraint);
-}
-
-/// The row of one row constraint, returned by value (tests, one-off uses).
-template <typename RowConstraint>
-ConstraintRow evaluateRow(const RowConstraint& constraint, const Surfaces& surfaces,
-                          const Points& positions, const Points& velocities)
-{
-  ConstraintRow row;
-  evaluateRow(constraint, surfaces, positions, velocities, row);
-  return row;
+  std::visit([&](const auto& c) { validate(c, num_particles, num_surfaces, field, allow_unset); },
+             constraint);
 }
 
 }  // namespace constrained_particles

@@ -2,6 +2,7 @@
 /// @brief Constraint errors and energies of a state.
 #pragma once
 
+#include "constrained_particles/core/data.hpp"
 #include "constrained_particles/core/model.hpp"
 
 namespace constrained_particles
@@ -9,11 +10,10 @@ namespace constrained_particles
 /// How far a state is from its constraints, and its energy.
 struct Diagnostics
 {
-  double max_position_error =
-      0;  ///< max over constraints of ||p_i - p_j| - l|, |Z - z|, |p - a| [m]
-  double max_velocity_error = 0;  ///< max over constraints of |dC/dt| in metric form [m/s]
+  double max_position_error = 0;  ///< max over rows' metric errors and |p_i - p_imposed| [m]
+  double max_velocity_error = 0;  ///< max over rows' metric rates and |v_i - v_imposed| [m/s]
   double kinetic_energy = 0;      ///< sum 1/2 m |v|^2 [J]
-  double potential_energy = 0;    ///< sum -m g.p over gravity forces [J]
+  double potential_energy = 0;    ///< sum of the conservative forces' potentials [J]
 
   double totalEnergy() const
   {
@@ -23,14 +23,12 @@ struct Diagnostics
   bool finite() const;
 };
 
-/// Evaluates the diagnostics of a state of the model. Stateless.
+/// Evaluates the diagnostics of a state of the model. Allocates its row workspace.
 Diagnostics computeDiagnostics(const Model& model, const State& state);
 
-/// As above, evaluating the rows into `rows` (a workspace reused across calls: no allocation).
-Diagnostics computeDiagnostics(const Model& model, const State& state,
-                               std::vector<ConstraintRow>& rows);
-
-/// True if every position and velocity is finite.
-bool isFinite(const State& state);
+/// As above, evaluating the rows into `rows` (sized for the model: no allocation) and the
+/// rates into `rates` (m, resized once).
+Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& rows,
+                               Eigen::VectorXd& rates);
 
 }  // namespace constrained_particles

@@ -1,11 +1,13 @@
 /// @file effect_fields.hpp
 /// @brief Field descriptors of effect records: each force and constraint kind lists its fields
-/// once (name, member, kind, unit), and validation, scene files and documentation read them.
+/// once (name, member, kind, range), and validation, scene files and documentation read them.
 #pragma once
 
+#include "constrained_particles/core/limits.hpp"
 #include "constrained_particles/core/types.hpp"
 
 #include <array>
+#include <cmath>
 #include <string>
 #include <tuple>
 #include <type_traits>
@@ -16,12 +18,13 @@ namespace constrained_particles
 /// What values a field takes, and so how it is read and checked.
 enum class FieldKind
 {
-  Real,         ///< a finite number
-  NonNegative,  ///< a finite number >= 0
-  Positive,     ///< a finite number > 0
-  Particle,     ///< a particle index in [0, n)
-  Surface,      ///< an index into Scene::surfaces (a name in scene files)
-  Vector,       ///< three finite numbers
+  Number,     ///< a number (double, or int for counts) inside its range
+  Particle,   ///< a particle index in [0, n)
+  Particles,  ///< a fixed-size list of distinct particle indices
+  Surface,    ///< an index into Scene::surfaces (a name in scene files)
+  Vector,     ///< three doubles, each inside the range
+  Direction,  ///< three doubles, each inside the range, not all zero
+  Name,       ///< one of a table of names (an integrator, a stabilisation), or a flag
 };
 
 /// One field of an effect record: `record.*member`.
@@ -31,16 +34,20 @@ struct FieldSpec
   const char* name;         ///< key in scene files and in error messages
   Member Record::*member;   ///< the record's member
   FieldKind kind;           ///< how it is read and validated
-  const char* unit;         ///< SI unit, e.g. "N s/m" ("" for indices)
+  const Range* range;       ///< valid values (Number, Vector, Direction), nullptr for indices
   const char* description;  ///< one line, for documentation
+  /// true: may be left unset (NaN) in a scene description; the kind's fillFromStart() then
+  /// computes it from the initial state (a pin's anchor: where its particle starts)
+  bool from_start = false;
 };
 
 /// Builds a FieldSpec, deducing the record and member types.
 template <typename Record, typename Member>
 constexpr FieldSpec<Record, Member> field(const char* name, Member Record::*member, FieldKind kind,
-                                          const char* unit, const char* description)
+                                          const Range* range, const char* description,
+                                          bool from_start = false)
 {
-  return FieldSpec<Record, Member>{ name, member, kind, unit, description };
+  return FieldSpec<Record, Member>{ name, member, kind, range, description, from_start };
 }
 
 /// Calls fn(spec) for every field of a record kind (Record::fields() returns a tuple of specs).
@@ -50,42 +57,79 @@ void forEachField(Fn&& fn)
   std::apply([&](const auto&... spec) { (fn(spec), ...); }, Record::fields());
 }
 
-/// Checks every field of a record against its kind.
+/// True if the field of a from_start spec is still unset (NaN) in a description.
+inline bool isUnset(double value)
+{
+  return std::isnan(value);
+}
+inline bool isUnset(const Vec3& value)
+{
+  return value.hasNaN();
+}
+
+namespace detail
+{
+inline void requireIndex(const std::string& name, int value, int count, bool surface)
+{
+  if (value < 0 || value >= count)
+    throw InvalidInput(
+        name,
+        "= " + std::to_string(value) +
+            (surface ? ", must index one of the " + std::to_string(count) + " surfaces"
+                     : ", must be a particle index in [0, " + std::to_string(count - 1) + "]"));
+}
+
+}  // namespace detail
+
+/// Checks every field of a record against its kind and range.
 /// @param prefix field name prefix in messages, e.g. "forces[2]"
+/// @param allow_unset accept NaN in from_start fields (a scene description before buildScene)
 /// @throws InvalidInput naming the first bad field, its value and valid range
 template <typename Record>
 void validateFields(const Record& record, int num_particles, int num_surfaces,
-                    const std::string& prefix)
+                    const std::string& prefix, bool allow_unset = false)
 {
   forEachField<Record>(
       [&](const auto& spec)
       {
-        const std::string name = prefix + "." + spec.name;
-        const std::string unit = std::string("[") + spec.unit + "]";
+        const std::string name = prefix.empty() ? spec.name : prefix + "." + spec.name;
         const auto& value = record.*(spec.member);
-        if constexpr (std::is_same_v<std::decay_t<decltype(value)>, Vec3>)
+        using Member = std::decay_t<decltype(value)>;
+        if constexpr (std::is_same_v<Member, int>)
         {
-          requireFinite(name, value, unit);
+          if (spec.kind == FieldKind::Number)
+            requireInRange(name, value, *spec.range);
+          else
+            detail::requireIndex(name, value,
+                                 spec.kind == FieldKind::Surface ? num_surfaces : num_particles,
+                                 spec.kind == FieldKind::Surface);
         }
-        else if constexpr (std::is_same_v<std::decay_t<decltype(value)>, int>)
+        else if constexpr (std::is_same_v<Member, bool> || std::is_same_v<Member, std::string>)
         {
-          const int count = spec.kind == FieldKind::Surface ? num_surfaces : num_particles;
-          if (value < 0 || value >= count)
-            throw InvalidInput(
-                name,
-                "= " + std::to_string(value) +
-                    (spec.kind == FieldKind::Surface
-                         ? ", must index one of the " + std::to_string(count) + " surfaces"
-                         : ", must be a particle index in [0, " + std::to_string(count - 1) + "]"));
+          // flags and names: any value reads as valid here; names are resolved by their reader
+        }
+        else if constexpr (std::is_same_v<Member, double> || std::is_same_v<Member, Vec3>)
+        {
+          if (spec.from_start && allow_unset && isUnset(value))
+            return;
+          requireInRange(name, value, *spec.range);
+          if constexpr (std::is_same_v<Member, Vec3>)
+            if (spec.kind == FieldKind::Direction && value.isZero(0.0))
+              throw InvalidInput(name, "= [0, 0, 0], must be a non-zero vector");
         }
         else
         {
-          if (spec.kind == FieldKind::Positive)
-            requirePositive(name, value, unit);
-          else if (spec.kind == FieldKind::NonNegative)
-            requireNonNegative(name, value, unit);
-          else
-            requireFinite(name, value, unit);
+          // a list of particle indices, each valid, no two the same
+          for (std::size_t k = 0; k < value.size(); ++k)
+          {
+            detail::requireIndex(name + "[" + std::to_string(k) + "]", value[k], num_particles,
+                                 false);
+            for (std::size_t earlier = 0; earlier < k; ++earlier)
+              if (value[earlier] == value[k])
+                throw InvalidInput(name + "[" + std::to_string(k) + "]",
+                                   "= " + std::to_string(value[k]) + " appears twice; the " +
+                                       std::to_string(value.size()) + " particles must differ");
+          }
         }
       });
 }

@@ -1,40 +1,16 @@
 /// @file model.hpp
-/// @brief Scene (what a user describes), State (what changes each step) and Model (a scene
-/// validated and compiled for the solver, constant while it runs) — MuJoCo's model/data split.
+/// @brief Model: a scene validated and compiled for the solver, constant while it runs
+/// (MuJoCo's mjModel). What changes lives in Data (data.hpp).
 #pragma once
 
-#include "constrained_particles/core/constraints.hpp"
-#include "constrained_particles/core/forces.hpp"
-#include "constrained_particles/core/surface.hpp"
-#include "constrained_particles/core/types.hpp"
+#include "constrained_particles/core/scene.hpp"
 
-#include <cstdint>
 #include <string>
 #include <vector>
 
 namespace constrained_particles
 {
-/// A scene: the particles and the forces and constraints acting on them — and nothing else is
-/// evaluated. Plain data; Model::compile() validates it.
-struct Scene
-{
-  std::string name;                     ///< scenario or scene name, for messages
-  std::vector<double> masses;           ///< one per particle [kg], > 0
-  std::vector<Surface> surfaces;        ///< height fields referred to by SurfaceConstraint
-  std::vector<Force> forces;            ///< applied forces
-  std::vector<Constraint> constraints;  ///< rows are ordered as listed (pins excepted)
-};
-
-/// Everything that changes while simulating.
-struct State
-{
-  Points positions;         ///< [m], 3 x n
-  Points velocities;        ///< [m/s], 3 x n
-  double time = 0.0;        ///< simulated time [s]
-  std::uint64_t steps = 0;  ///< physics steps taken since reset
-};
-
-/// How (J W J^T) lambda = b is solved.
+/// How (J W J^T) lambda = b is solved; each method is one file in src/core/solvers/.
 enum class SolveMethod
 {
   Automatic,    ///< chosen from the row structure: None, Single, Tridiagonal, Tree, else Sparse
@@ -53,11 +29,25 @@ constexpr int NUM_SOLVE_METHODS = 7;
 /// Name of a solve method ("tridiagonal", ...).
 const char* solveMethodName(SolveMethod method);
 
-/// One touch of a constraint row on a particle: Jacobian block `slot` of row `row`.
+/// @throws InvalidInput naming `field` and the valid names
+SolveMethod parseSolveMethod(const std::string& name, const std::string& field = "solve_method");
+
+/// One touch of a constraint row on a free particle: Jacobian block `block` of row `row`.
 struct RowIncidence
 {
-  int row;
-  int slot;
+  int row;    ///< row index in [0, numRows())
+  int block;  ///< block index in [0, numBlocks()): data.rows.jacobian[block]
+};
+
+/// The rows of one row-kind constraint record: `rows` consecutive rows from `first_row`, each
+/// with `particles` Jacobian blocks, row-major from `first_block`.
+struct RowRecord
+{
+  int constraint;   ///< index in scene().constraints
+  int first_row;    ///< its first row
+  int rows;         ///< its kind's ROWS
+  int first_block;  ///< its first Jacobian block
+  int particles;    ///< its kind's PARTICLES
 };
 
 /// A validated scene plus the structure the solver needs. Constant during a run.
@@ -65,7 +55,7 @@ class Model
 {
 public:
   /// Validates the scene and precomputes inverse masses, rows and solve structure.
-  /// @param method requested solve method; Tridiagonal is refused if the rows are not a chain
+  /// @param method requested solve method; one the structure does not allow is refused
   /// @throws InvalidInput naming the first bad field
   static Model compile(const Scene& scene, SolveMethod method = SolveMethod::Automatic);
 
@@ -77,21 +67,26 @@ public:
   {
     return static_cast<int>(scene_.masses.size());
   }
-  /// Number of scalar constraint rows (surface and link constraints; pins are eliminated).
+  /// Number of scalar constraint rows (eliminated kinds make none).
   int numRows() const
   {
-    return static_cast<int>(row_constraint_.size());
+    return static_cast<int>(row_start_.size()) - 1;
   }
-  /// Number of multipliers: one per row, then three (the reaction [N]) per pin.
+  /// Number of Jacobian blocks (3-vectors), over all rows.
+  int numBlocks() const
+  {
+    return static_cast<int>(block_particle_.size());
+  }
+  /// Number of multipliers: one per row, then three (the reaction [N]) per eliminated record.
   int numMultipliers() const
   {
-    return numRows() + 3 * static_cast<int>(pins_.size());
+    return numRows() + 3 * static_cast<int>(eliminated_.size());
   }
   const std::vector<double>& masses() const
   {
     return scene_.masses;
   }
-  /// W_i = 1/m_i, or 0 for a pinned particle [1/kg].
+  /// W_i = 1/m_i, or 0 for a particle an eliminated kind holds [1/kg]: n.
   const std::vector<double>& inverseMasses() const
   {
     return inverse_masses_;
@@ -101,15 +96,25 @@ public:
   {
     return method_;
   }
-  /// For each row, the index of its constraint in scene().constraints.
-  const std::vector<int>& rowConstraints() const
+  /// Every row-kind record, in scene order.
+  const std::vector<RowRecord>& rowRecords() const
   {
-    return row_constraint_;
+    return row_records_;
   }
-  /// Indices in scene().constraints of the pins.
-  const std::vector<int>& pins() const
+  /// Blocks of row r: [rowStart()[r], rowStart()[r + 1]): numRows() + 1.
+  const std::vector<int>& rowStart() const
   {
-    return pins_;
+    return row_start_;
+  }
+  /// Particle of each block: numBlocks().
+  const std::vector<int>& blockParticle() const
+  {
+    return block_particle_;
+  }
+  /// Indices in scene().constraints of the eliminated records (pins, driven anchors).
+  const std::vector<int>& eliminated() const
+  {
+    return eliminated_;
   }
   /// Rows touching free particle i: incidence()[incidenceStart()[i] .. incidenceStart()[i+1]).
   const std::vector<int>& incidenceStart() const
@@ -129,8 +134,10 @@ private:
 
   Scene scene_;
   std::vector<double> inverse_masses_;
-  std::vector<int> row_constraint_;
-  std::vector<int> pins_;
+  std::vector<RowRecord> row_records_;
+  std::vector<int> row_start_{ 0 };
+  std::vector<int> block_particle_;
+  std::vector<int> eliminated_;
   std::vector<int> incidence_start_;
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;

@@ -1,11 +1,13 @@
 /// @file simulator.hpp
-/// @brief A model, its state and its step settings, with validated updates: a refused change
+/// @brief A model, its data and its step settings, with validated updates: a refused change
 /// leaves everything as it was.
 #pragma once
 
+#include "constrained_particles/core/data.hpp"
 #include "constrained_particles/core/diagnostics.hpp"
-#include "constrained_particles/core/dynamics.hpp"
+#include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/settings.hpp"
 
 #include <memory>
 
@@ -16,18 +18,20 @@ class Simulator
 {
 public:
   /// Validates and compiles scene, initial state and settings; projects the initial state onto
-  /// the constraints. @throws InvalidInput naming the first bad field
+  /// the constraints (eliminated particles where their kinds put them at its time).
+  /// @throws InvalidInput naming the first bad field
   Simulator(const Scene& scene, const State& initial_state, const StepSettings& settings,
             SolveMethod method = SolveMethod::Automatic);
 
-  /// Takes `count` steps of settings().dt. @return report of the last step
-  StepReport step(int count = 1);
+  /// Takes `count` steps of stepSettings().dt.
+  /// @return the worst and the totals over all `count` steps
+  StepStatistics step(int count = 1);
 
   /// Back to the initial state (time 0, step count 0).
   void reset();
 
-  /// Teleports to a state, projected onto the constraints (pins exact); time and step count
-  /// are kept from the current state.
+  /// Teleports to a state, projected onto the constraints (eliminated particles exact); time and
+  /// step count are kept from the current state.
   /// @throws InvalidInput if the state is malformed or cannot be projected; state untouched
   ProjectionReport setState(const State& state);
 
@@ -50,9 +54,14 @@ public:
   {
     return *model_;
   }
+  /// Rows, forces, multipliers and buffers of the last evaluation.
+  const Data& data() const
+  {
+    return *data_;
+  }
   const State& state() const
   {
-    return state_;
+    return data_->state;
   }
   const State& initialState() const
   {
@@ -62,23 +71,16 @@ public:
   {
     return settings_;
   }
-  const StepReport& lastStepReport() const
-  {
-    return last_report_;
-  }
 
   /// How often each effect and solve was evaluated since the scene was set (steps, projections
   /// and constraintForces()).
   const EffectCounters& effectCounters() const
   {
-    return dynamics_->counters();
+    return data_->counters;
   }
 
   /// Errors and energies of the current state.
-  Diagnostics diagnostics() const
-  {
-    return computeDiagnostics(*model_, state_, diagnostic_rows_);
-  }
+  Diagnostics diagnostics() const;
 
   /// Constraint forces [N] and multipliers at the current state, as the next step would apply
   /// them (computed on demand).
@@ -89,19 +91,19 @@ private:
   struct Compiled
   {
     std::unique_ptr<Model> model;
-    std::unique_ptr<Dynamics> dynamics;
+    std::unique_ptr<Data> data;
     State initial_state;
   };
   static Compiled compile(const Scene& scene, const State& initial_state,
                           const StepSettings& settings, SolveMethod method);
 
   std::unique_ptr<Model> model_;
-  std::unique_ptr<Dynamics> dynamics_;
+  std::unique_ptr<Data> data_;
   State initial_state_;
-  State state_;
   StepSettings settings_;
-  StepReport last_report_;
-  mutable std::vector<ConstraintRow> diagnostic_rows_;  // workspace of diagnostics()
+  const IntegratorInfo* integrator_ = nullptr;  // settings_.integrator's row
+  mutable RowData diagnostic_rows_;             // workspaces of diagnostics()
+  mutable Eigen::VectorXd diagnostic_rates_;
 };
 
 }  // namespace constrained_particles

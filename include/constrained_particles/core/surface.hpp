@@ -2,6 +2,8 @@
 /// @brief Height-field surfaces z = Z(x, y) with analytic gradient and Hessian.
 #pragma once
 
+#include "constrained_particles/core/limits.hpp"
+
 #include <array>
 #include <memory>
 #include <string>
@@ -44,15 +46,12 @@ struct SurfaceSample
   double zyy = 0;  ///< d2Z/dy2 [1/m]
 };
 
-/// Description of one coefficient: its name, unit, default and valid range.
+/// Description of one coefficient: its name, default and valid range (with its unit).
 struct CoefficientSpec
 {
   const char* name;
-  const char* unit;
   double default_value;
-  double min_value;  ///< inclusive unless min_exclusive
-  bool min_exclusive;
-  double max_value;  ///< inclusive
+  Range range;
 };
 
 /// Evaluates Z, gradient and Hessian of a surface at (x, y) [m]. Stateless; no allocation.

@@ -13,7 +13,7 @@ namespace constrained_particles
 /// A 3-vector: a position [m], velocity [m/s], force [N] or acceleration [m/s^2].
 using Vec3 = Eigen::Vector3d;
 
-/// One 3-vector per particle, stored column-wise (column i is particle i).
+/// One 3-vector per particle, stored column-wise (column i is particle i): shape 3 x n.
 using Points = Eigen::Matrix3Xd;
 
 /// Rejected input: names the offending field, its value and its valid range.
@@ -21,7 +21,7 @@ class InvalidInput : public std::invalid_argument
 {
 public:
   /// @param field dotted name of the offending field, e.g. "chain.link_length"
-  /// @param reason what is wrong and what is valid, e.g. "= -1, must be > 0 [m]"
+  /// @param reason what is wrong and what is valid, e.g. "= -1, must be in (0, 1000] [m]"
   InvalidInput(const std::string& field, const std::string& reason)
     : std::invalid_argument(field + " " + reason), field_(field)
   {
@@ -51,13 +51,7 @@ std::string formatValue(double value);
 /// Throws InvalidInput unless value is finite.
 void requireFinite(const std::string& field, double value, const std::string& unit);
 
-/// Throws InvalidInput unless value is finite and > 0.
-void requirePositive(const std::string& field, double value, const std::string& unit);
-
-/// Throws InvalidInput unless value is finite and >= 0.
-void requireNonNegative(const std::string& field, double value, const std::string& unit);
-
-/// Throws InvalidInput unless every component is finite.
+/// Throws InvalidInput naming `field.x`, `.y` or `.z` unless every component is finite.
 void requireFinite(const std::string& field, const Vec3& value, const std::string& unit);
 
 }  // namespace constrained_particles

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/limits.hpp"
 
 #include <std_msgs/Header.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -20,14 +21,11 @@ visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& h
                                                        const Points& forces, double force_scale,
                                                        int previous_count);
 
-/// Largest ~mesh_cells accepted: 2 * 200^2 = 80,000 triangles per surface.
-constexpr int MAX_MESH_CELLS = 200;
-
 /// Triangle mesh of a surface over an x-y region, cached until the particles leave it.
 class SurfaceMeshCache
 {
 public:
-  /// @param cells cells per side of the mesh, in [2, MAX_MESH_CELLS] (2 triangles per cell)
+  /// @param cells cells per side of the mesh, in limits::MESH_CELLS (2 triangles per cell)
   explicit SurfaceMeshCache(int cells = 40) : cells_(cells)
   {
   }

@@ -1,15 +1,17 @@
 /// @file parameters.hpp
-/// @brief simulator_node's private parameters: defaults, reading and validation.
+/// @brief simulator_node's private parameters: defaults, reading and validation. Every range is
+/// a limits.hpp range, read through the same field descriptors as the core and scene files.
 #pragma once
 
-#include "constrained_particles/core/dynamics.hpp"
-#include "constrained_particles/core/scenarios.hpp"
+#include "constrained_particles/core/limits.hpp"
+#include "constrained_particles/core/settings.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
 #include <ros/node_handle.h>
 
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace constrained_particles
 {
@@ -37,40 +39,58 @@ struct NodeParameters
   std::string scenario = "chain";  ///< scene name in scene_directory, or a scene file path
   std::string scene_directory;     ///< where scene names are looked up (package config/scenes)
   SceneOverrides overrides;        ///< start-up changes to the scene
-  StepSettings step;               ///< dt [s], integrator, stabilisation
-  /// Which of dt, integrator and stabilization were set as parameters: those win over the
-  /// start-up scene's own `solver` settings.
-  struct
-  {
-    bool dt = false, integrator = false, stabilization = false;
-  } step_set;
-  double real_time_factor = 1.0;           ///< sim seconds per wall second, (0, 100]
-  double publish_rate = 30.0;              ///< [Hz], [0.1, 1000]
+  StepSettings step;               ///< dt [s], integrator, stabilisation, tolerances
+  /// Names of the StepSettings fields set as parameters: those win over the start-up scene's
+  /// own `solver` settings.
+  std::vector<std::string> step_given;
+  double real_time_factor = 1.0;           ///< sim seconds per wall second
+  double publish_rate = 30.0;              ///< [Hz]
   double status_period = 1.0;              ///< status log period [s], 0 = off
-  int max_particles = 100000;              ///< largest scene accepted, [1, MAX_PARTICLES]
+  int max_particles = 100000;              ///< largest scene accepted
   std::string fixed_frame = "world";       ///< parent of every particle frame
   std::string frame_prefix = "particle_";  ///< child frame = prefix + index
-  double force_scale = 0.05;               ///< arrow length per newton [m/N], (0, 1e3]
-  double max_constraint_error = 0.1;       ///< fault beyond this constraint error [m], (0, 1e3]
-  int mesh_cells = 40;                     ///< surface mesh cells per side, [2, MAX_MESH_CELLS]
+  double force_scale = 0.05;               ///< arrow length per newton [m/N]
+  double max_constraint_error = 0.1;       ///< fault beyond this constraint error [m]
+  int mesh_cells = 40;                     ///< surface mesh cells per side
   bool publish_clock = false;              ///< publish /clock from sim time and stamp with it
-};
 
-/// Largest dt the node accepts [s].
-constexpr double MAX_NODE_DT = 0.1;
-/// Largest |coordinate| [m] and |velocity component| [m/s] ~set_state accepts.
-constexpr double MAX_STATE_COORDINATE = 1e6;
+  /// The node's own settings (the step's are StepSettings::fields()): name, member, range.
+  static constexpr auto fields()
+  {
+    return std::make_tuple(
+        field("real_time_factor", &NodeParameters::real_time_factor, FieldKind::Number,
+              &limits::REAL_TIME_FACTOR, "simulated seconds per wall second"),
+        field("publish_rate", &NodeParameters::publish_rate, FieldKind::Number,
+              &limits::PUBLISH_RATE, "tf, ~state and marker rate"),
+        field("status_period", &NodeParameters::status_period, FieldKind::Number,
+              &limits::STATUS_PERIOD, "status log period, 0 = off"),
+        field("max_particles", &NodeParameters::max_particles, FieldKind::Number,
+              &limits::PARTICLES, "largest scene accepted"),
+        field("force_scale", &NodeParameters::force_scale, FieldKind::Number, &limits::FORCE_SCALE,
+              "constraint-force arrow length per newton"),
+        field("max_constraint_error", &NodeParameters::max_constraint_error, FieldKind::Number,
+              &limits::MAX_CONSTRAINT_ERROR, "stepping stops beyond this constraint error"),
+        field("mesh_cells", &NodeParameters::mesh_cells, FieldKind::Number, &limits::MESH_CELLS,
+              "surface mesh cells per side"),
+        field("scenario", &NodeParameters::scenario, FieldKind::Name, nullptr,
+              "scene name or scene file path"),
+        field("scene_directory", &NodeParameters::scene_directory, FieldKind::Name, nullptr,
+              "where scene names are looked up"),
+        field("fixed_frame", &NodeParameters::fixed_frame, FieldKind::Name, nullptr,
+              "parent frame of every particle frame"),
+        field("frame_prefix", &NodeParameters::frame_prefix, FieldKind::Name, nullptr,
+              "child frames are <frame_prefix><i>"),
+        field("publish_clock", &NodeParameters::publish_clock, FieldKind::Name, nullptr,
+              "publish /clock from sim time"));
+  }
+};
 
 /// Reads every parameter from the (private) node handle, over the defaults.
 /// @throws InvalidInput naming the parameter ("~chain/link_length") and its valid range
 NodeParameters readParameters(const ros::NodeHandle& private_nh);
 
-/// Checks ranges that are the node's own (rates, frames, dt limit, max_particles).
-/// @throws InvalidInput naming the parameter
+/// Checks every setting against its range and the node's own rules (frames, scenario).
+/// @throws InvalidInput naming the parameter ("~dt")
 void validateNodeParameters(const NodeParameters& parameters);
-
-/// Checks a chain against the node's limits, with the given field prefix ("" for a service).
-/// @throws InvalidInput naming the field and its valid range
-void validateChain(const ChainParameters& chain, int max_particles, const std::string& prefix);
 
 }  // namespace constrained_particles

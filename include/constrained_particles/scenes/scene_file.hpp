@@ -1,36 +1,45 @@
 /// @file scene_file.hpp
 /// @brief Scenes as YAML files: the description a file holds, its loader, and the expansion
-/// into a core Scene and initial State. Uses yaml-cpp; no ROS (the core stays Eigen-only).
+/// into a core Scene and initial State (the one place chains are expanded). Uses yaml-cpp; no
+/// ROS (the core stays Eigen-only).
 ///
-/// The format is documented in README.md ("Scene files") and config/scenes/*.yaml.
+/// The format is documented in README.md ("Scenes") and config/scenes/*.yaml. Every key is read
+/// through field descriptors (effect_fields.hpp), so ranges and names are those of limits.hpp.
 #pragma once
 
-#include "constrained_particles/core/dynamics.hpp"
-#include "constrained_particles/core/scenarios.hpp"
+#include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/scene.hpp"
+#include "constrained_particles/core/settings.hpp"
 
-#include <optional>
 #include <string>
 #include <vector>
 
 namespace constrained_particles
 {
-/// Largest scene file read [bytes]: a bigger one is refused before it is read.
-constexpr long MAX_SCENE_FILE_BYTES = 1 << 20;
-
 /// One explicitly listed particle.
 struct ParticleSpec
 {
-  double mass = 1.0;             ///< [kg], > 0
+  double mass = 1.0;             ///< [kg]
   Vec3 position = Vec3::Zero();  ///< initial position [m]
   Vec3 velocity = Vec3::Zero();  ///< initial velocity [m/s]
+
+  static constexpr auto fields()
+  {
+    return std::make_tuple(
+        field("mass", &ParticleSpec::mass, FieldKind::Number, &limits::MASS, "m"),
+        field("position", &ParticleSpec::position, FieldKind::Vector, &limits::COORDINATE,
+              "initial position"),
+        field("velocity", &ParticleSpec::velocity, FieldKind::Vector, &limits::VELOCITY,
+              "initial velocity"));
+  }
 };
 
 /// A generated chain: `particles` particles joined by links, in a straight line.
 struct ChainSpec
 {
-  int particles = 5;                     ///< n, in [1, MAX_PARTICLES]
-  double link_length = 0.5;              ///< l [m], in (0, 1000]
-  double particle_mass = 1.0;            ///< [kg], in (0, 1e6]
+  int particles = 5;                     ///< n
+  double link_length = 0.5;              ///< l [m]
+  double particle_mass = 1.0;            ///< [kg]
   Vec3 start = Vec3::Zero();             ///< first particle [m]
   Vec3 direction{ 1.0, 0.0, 0.0 };       ///< along the chain (normalised), non-zero
   Vec3 velocity = Vec3::Zero();          ///< every particle's initial velocity [m/s]
@@ -38,7 +47,43 @@ struct ChainSpec
   bool pin_first = false;                ///< pin the first particle where it starts
   bool pin_last = false;                 ///< pin the last particle where it starts
   std::string surface;                   ///< if set, the first particle slides on this surface
+
+  static constexpr auto fields()
+  {
+    return std::make_tuple(
+        field("particles", &ChainSpec::particles, FieldKind::Number, &limits::PARTICLES, "n"),
+        field("link_length", &ChainSpec::link_length, FieldKind::Number, &limits::LINK_LENGTH, "l"),
+        field("particle_mass", &ChainSpec::particle_mass, FieldKind::Number, &limits::MASS,
+              "mass of every particle"),
+        field("start", &ChainSpec::start, FieldKind::Vector, &limits::COORDINATE, "first particle"),
+        field("direction", &ChainSpec::direction, FieldKind::Direction, &limits::DIRECTION,
+              "along the chain"),
+        field("velocity", &ChainSpec::velocity, FieldKind::Vector, &limits::VELOCITY,
+              "every particle's initial velocity"),
+        field("angular_velocity", &ChainSpec::angular_velocity, FieldKind::Vector,
+              &limits::ANGULAR_VELOCITY, "spin about the chain's centre, unpinned chains"),
+        field("pin_first", &ChainSpec::pin_first, FieldKind::Name, nullptr,
+              "pin the first particle where it starts"),
+        field("pin_last", &ChainSpec::pin_last, FieldKind::Name, nullptr,
+              "pin the last particle where it starts"),
+        field("surface", &ChainSpec::surface, FieldKind::Surface, nullptr,
+              "the first particle slides on this surface"));
+  }
 };
+
+/// What ~set_chain and ~chain/* change in every chain of a scene.
+struct ChainChange
+{
+  int num_particles = 5;       ///< n, limits::PARTICLES (and the node's ~max_particles)
+  double link_length = 0.5;    ///< l [m], limits::LINK_LENGTH
+  double particle_mass = 1.0;  ///< [kg], limits::MASS
+  bool pin_first = true;       ///< chains not on a surface: pin the first particle
+};
+
+/// @param max_particles largest count accepted (at most limits::PARTICLES.high)
+/// @param prefix field name prefix in messages ("" for a service, "~chain/" for parameters)
+/// @throws InvalidInput naming the field and its valid range
+void validateChainChange(const ChainChange& change, int max_particles, const std::string& prefix);
 
 /// A named height field.
 struct NamedSurface
@@ -47,12 +92,11 @@ struct NamedSurface
   Surface surface;
 };
 
-/// Solver settings a scene may set; unset ones keep the caller's.
+/// Solver settings a scene may set: any field of StepSettings; unset ones keep the caller's.
 struct SolverSpec
 {
-  std::optional<double> dt;                    ///< [s]
-  std::optional<Integrator> integrator;        ///< time integrator
-  std::optional<Stabilization> stabilization;  ///< drift correction
+  StepSettings values;             ///< the settings, the given ones as the file says
+  std::vector<std::string> given;  ///< names (StepSettings::fields()) the file set
   SolveMethod solve_method = SolveMethod::Automatic;
 
   /// `settings` with this scene's choices applied.
@@ -69,12 +113,20 @@ struct SceneDescription
   std::vector<ParticleSpec> particles;
   std::vector<ChainSpec> chains;
   std::vector<Force> forces;
-  std::vector<Constraint> constraints;  ///< surface fields index `surfaces`
-  std::vector<bool> pin_at_start;       ///< per constraint: a pin whose anchor is its start
+  /// surface fields index `surfaces`; fields left unset (a pin's anchor, an angle) are completed
+  /// from the initial state by buildScene
+  std::vector<Constraint> constraints;
   SolverSpec solver;
 
   /// Total particle count: explicit plus every chain's.
   long numParticles() const;
+};
+
+/// A scene and the state it starts from.
+struct BuiltScene
+{
+  Scene scene;
+  State initial_state;
 };
 
 /// Parses a scene from YAML text.
@@ -84,13 +136,14 @@ struct SceneDescription
 SceneDescription parseScene(const std::string& yaml, const std::string& source);
 
 /// Reads and parses a scene file. @throws InvalidInput as parseScene, or if it cannot be read or
-/// is larger than MAX_SCENE_FILE_BYTES
+/// is larger than limits::SCENE_FILE_BYTES
 SceneDescription loadSceneFile(const std::string& path);
 
 /// The scene and initial state a description stands for: chains expanded, particles on surfaces
-/// placed at z = Z(x, y) with their velocity lifted into the tangent plane, pins at their starts.
+/// placed at z = Z(x, y) with their velocity lifted into the tangent plane, unset fields (pins at
+/// their starts, angles as they start) completed by each kind's fillFromStart.
 /// @throws InvalidInput naming the bad field
-Scenario buildScene(const SceneDescription& description);
+BuiltScene buildScene(const SceneDescription& description);
 
 /// Names (file stems) of the *.yaml scene files in a directory, sorted.
 std::vector<std::string> listScenes(const std::string& directory);
@@ -100,9 +153,9 @@ std::vector<std::string> listScenes(const std::string& directory);
 std::string resolveScene(const std::string& name_or_path, const std::string& directory,
                          const std::string& field = "scenario");
 
-/// Applies ~set_chain's change to every chain of the scene (pin_first only to chains not on a
-/// surface). @throws InvalidInput if the scene has no chain
-void setChains(SceneDescription& description, const ChainParameters& chain);
+/// Applies a chain change to every chain of the scene (pin_first only to chains not on a
+/// surface). @throws InvalidInput if the scene has no chain, or names chain particles by index
+void setChains(SceneDescription& description, const ChainChange& change);
 
 /// Replaces the scene's first surface. @throws InvalidInput if it has none
 void setFirstSurface(SceneDescription& description, const Surface& surface);

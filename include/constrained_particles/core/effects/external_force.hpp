@@ -15,11 +15,13 @@ struct ExternalForce
   Vec3 force{ 0.0, 0.0, 0.0 };  ///< F [N]
 
   static constexpr const char* KIND = "external";
+  static constexpr bool CONSERVATIVE = false;  ///< not counted in the potential energy
   static constexpr auto fields()
   {
     return std::make_tuple(
-        field("particle", &ExternalForce::particle, FieldKind::Particle, "", "particle pushed"),
-        field("force", &ExternalForce::force, FieldKind::Vector, "N", "F, constant"));
+        field("particle", &ExternalForce::particle, FieldKind::Particle, nullptr,
+              "particle pushed"),
+        field("force", &ExternalForce::force, FieldKind::Vector, &limits::FORCE, "F, constant"));
   }
 };
 

@@ -14,10 +14,11 @@ struct LinearDampingForce
   double coefficient = 0.0;  ///< c [N s/m], >= 0
 
   static constexpr const char* KIND = "linear_damping";
+  static constexpr bool CONSERVATIVE = false;  ///< not counted in the potential energy
   static constexpr auto fields()
   {
-    return std::make_tuple(field("coefficient", &LinearDampingForce::coefficient,
-                                 FieldKind::NonNegative, "N s/m", "c in f = -c v"));
+    return std::make_tuple(field("coefficient", &LinearDampingForce::coefficient, FieldKind::Number,
+                                 &limits::DAMPING, "c in f = -c v"));
   }
 };
 

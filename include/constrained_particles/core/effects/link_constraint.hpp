@@ -2,9 +2,10 @@
 /// @brief A rigid link between two particles, one constraint row.
 #pragma once
 
-#include "constrained_particles/core/constraint_row.hpp"
 #include "constrained_particles/core/effect_fields.hpp"
+#include "constrained_particles/core/effects/row_block.hpp"
 
+#include <array>
 #include <cmath>
 
 namespace constrained_particles
@@ -16,28 +17,30 @@ struct LinkConstraint
 {
   int first = 0;      ///< particle i
   int second = 1;     ///< particle j, != i
-  double length = 1;  ///< l [m], > 0
+  double length = 1;  ///< l [m]
 
   static constexpr const char* KIND = "link";
-  static constexpr bool ELIMINATED = false;  ///< one row of J
+  static constexpr bool ELIMINATED = false;
+  static constexpr int ROWS = 1;       ///< one row of J
+  static constexpr int PARTICLES = 2;  ///< touching i and j
   static constexpr auto fields()
   {
     return std::make_tuple(
-        field("first", &LinkConstraint::first, FieldKind::Particle, "", "particle i"),
-        field("second", &LinkConstraint::second, FieldKind::Particle, "", "particle j, != i"),
-        field("length", &LinkConstraint::length, FieldKind::Positive, "m", "l"));
+        field("first", &LinkConstraint::first, FieldKind::Particle, nullptr, "particle i"),
+        field("second", &LinkConstraint::second, FieldKind::Particle, nullptr, "particle j, != i"),
+        field("length", &LinkConstraint::length, FieldKind::Number, &limits::LINK_LENGTH, "l"));
   }
 };
 
-/// Particles the row touches.
+/// Particles the row touches, in block order.
 inline std::array<int, 2> rowParticles(const LinkConstraint& constraint)
 {
   return { { constraint.first, constraint.second } };
 }
 
-/// Evaluates C, J and Jdot v at positions p [m] and velocities v [m/s] into `row`. Stateless.
-inline void evaluateRow(const LinkConstraint& constraint, const Surfaces& /*surfaces*/,
-                        const Points& positions, const Points& velocities, ConstraintRow& row)
+/// C, J, Jdot v and |(|p_i - p_j| - l)| [m] at positions p [m], velocities v [m/s]. Stateless.
+inline void evaluateRows(const LinkConstraint& constraint, const EffectContext& /*context*/,
+                         const Points& positions, const Points& velocities, RowBlock out)
 {
   const int i = constraint.first, j = constraint.second;
   const double* pi = positions.data() + 3 * i;
@@ -47,36 +50,29 @@ inline void evaluateRow(const LinkConstraint& constraint, const Surfaces& /*surf
   const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
   const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
   const double squared = dx * dx + dy * dy + dz * dz;
-  row.particle = { { i, j } };
-  row.gradient = Vec3(dx, dy, dz);
-  row.value = 0.5 * (squared - constraint.length * constraint.length);
-  row.jdot_v = ux * ux + uy * uy + uz * uz;
-  row.metric_error = std::abs(std::sqrt(squared) - constraint.length);
-}
-
-/// C alone [m^2], for finite-difference checks.
-inline double constraintValue(const LinkConstraint& constraint, const Surfaces& /*surfaces*/,
-                              const Points& positions)
-{
-  const Vec3 d = positions.col(constraint.first) - positions.col(constraint.second);
-  return 0.5 * (d.squaredNorm() - constraint.length * constraint.length);
+  out.jacobian[0] = Vec3(dx, dy, dz);
+  out.jacobian[1] = Vec3(-dx, -dy, -dz);
+  out.value[0] = 0.5 * (squared - constraint.length * constraint.length);
+  out.jdot_v[0] = ux * ux + uy * uy + uz * uz;
+  out.violation[0] = std::abs(std::sqrt(squared) - constraint.length);
 }
 
 /// Rate of change of the distance |d.dv|/|d| [m/s] (the relative speed if the particles
 /// coincide, which have no defined direction).
-inline double metricRate(const LinkConstraint& constraint, const ConstraintRow& row,
-                         const Points& velocities)
+inline void violationRates(const LinkConstraint& constraint, const EffectContext& /*context*/,
+                           const Points& positions, const Points& velocities, double* rates)
 {
+  const Vec3 d = positions.col(constraint.first) - positions.col(constraint.second);
   const Vec3 relative = velocities.col(constraint.first) - velocities.col(constraint.second);
-  const double distance = row.gradient.norm();
-  return distance > 0.0 ? std::abs(row.gradient.dot(relative)) / distance : relative.norm();
+  const double distance = d.norm();
+  rates[0] = distance > 0.0 ? std::abs(d.dot(relative)) / distance : relative.norm();
 }
 
 /// @throws InvalidInput naming the bad field
 inline void validate(const LinkConstraint& constraint, int num_particles, int num_surfaces,
-                     const std::string& prefix)
+                     const std::string& prefix, bool allow_unset = false)
 {
-  validateFields(constraint, num_particles, num_surfaces, prefix);
+  validateFields(constraint, num_particles, num_surfaces, prefix, allow_unset);
   requireDistinctParticles(constraint.first, constraint.second, prefix);
 }
 

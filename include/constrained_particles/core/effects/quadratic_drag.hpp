@@ -14,10 +14,11 @@ struct QuadraticDragForce
   double coefficient = 0.0;  ///< c [N s^2/m^2] = [kg/m], >= 0
 
   static constexpr const char* KIND = "quadratic_drag";
+  static constexpr bool CONSERVATIVE = false;  ///< not counted in the potential energy
   static constexpr auto fields()
   {
-    return std::make_tuple(field("coefficient", &QuadraticDragForce::coefficient,
-                                 FieldKind::NonNegative, "kg/m", "c in f = -c |v| v"));
+    return std::make_tuple(field("coefficient", &QuadraticDragForce::coefficient, FieldKind::Number,
+                                 &limits::DRAG, "c in f = -c |v| v"));
   }
 };
 

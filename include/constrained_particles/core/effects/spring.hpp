@@ -20,13 +20,15 @@ struct SpringForce
   double rest_length = 0.0;  ///< L [m], >= 0
 
   static constexpr const char* KIND = "spring";
+  static constexpr bool CONSERVATIVE = true;  ///< f = -grad U, U its potentialEnergy()
   static constexpr auto fields()
   {
     return std::make_tuple(
-        field("first", &SpringForce::first, FieldKind::Particle, "", "particle i"),
-        field("second", &SpringForce::second, FieldKind::Particle, "", "particle j, != i"),
-        field("stiffness", &SpringForce::stiffness, FieldKind::NonNegative, "N/m", "k"),
-        field("rest_length", &SpringForce::rest_length, FieldKind::NonNegative, "m", "L"));
+        field("first", &SpringForce::first, FieldKind::Particle, nullptr, "particle i"),
+        field("second", &SpringForce::second, FieldKind::Particle, nullptr, "particle j, != i"),
+        field("stiffness", &SpringForce::stiffness, FieldKind::Number, &limits::STIFFNESS, "k"),
+        field("rest_length", &SpringForce::rest_length, FieldKind::Number, &limits::REST_LENGTH,
+              "L"));
   }
 };
 

@@ -2,9 +2,10 @@
 /// @brief A particle on a height field, one constraint row.
 #pragma once
 
-#include "constrained_particles/core/constraint_row.hpp"
 #include "constrained_particles/core/effect_fields.hpp"
+#include "constrained_particles/core/effects/row_block.hpp"
 
+#include <array>
 #include <cmath>
 
 namespace constrained_particles
@@ -17,57 +18,63 @@ struct SurfaceConstraint
   int surface = 0;   ///< index into Scene::surfaces
 
   static constexpr const char* KIND = "surface";
-  static constexpr bool ELIMINATED = false;  ///< one row of J
+  static constexpr bool ELIMINATED = false;
+  static constexpr int ROWS = 1;       ///< one row of J
+  static constexpr int PARTICLES = 1;  ///< touching i
   static constexpr auto fields()
   {
     return std::make_tuple(
-        field("particle", &SurfaceConstraint::particle, FieldKind::Particle, "", "particle i"),
-        field("surface", &SurfaceConstraint::surface, FieldKind::Surface, "",
+        field("particle", &SurfaceConstraint::particle, FieldKind::Particle, nullptr, "particle i"),
+        field("surface", &SurfaceConstraint::surface, FieldKind::Surface, nullptr,
               "the height field it slides on"));
   }
 };
 
-/// Particles the row touches (-1 = unused slot).
-inline std::array<int, 2> rowParticles(const SurfaceConstraint& constraint)
+/// Particles the row touches.
+inline std::array<int, 1> rowParticles(const SurfaceConstraint& constraint)
 {
-  return { { constraint.particle, -1 } };
+  return { { constraint.particle } };
 }
 
-/// Evaluates C, J and Jdot v at positions p [m] and velocities v [m/s] into `row`. Stateless.
-inline void evaluateRow(const SurfaceConstraint& constraint, const Surfaces& surfaces,
-                        const Points& positions, const Points& velocities, ConstraintRow& row)
+/// C, J, Jdot v and |Z - z| [m] at positions p [m], velocities v [m/s]. Stateless.
+inline void evaluateRows(const SurfaceConstraint& constraint, const EffectContext& context,
+                         const Points& positions, const Points& velocities, RowBlock out)
 {
-  const int i = constraint.particle;
-  const double* p = positions.data() + 3 * i;
-  const double* v = velocities.data() + 3 * i;
-  const SurfaceSample s = evaluateSurface(surfaces[constraint.surface], p[0], p[1]);
-  row.particle = { { i, -1 } };
-  row.gradient = Vec3(s.zx, s.zy, -1.0);
-  row.value = s.z - p[2];
-  row.jdot_v = s.zxx * v[0] * v[0] + 2.0 * s.zxy * v[0] * v[1] + s.zyy * v[1] * v[1];
-  row.metric_error = std::abs(row.value);
+  const double* p = positions.data() + 3 * constraint.particle;
+  const double* v = velocities.data() + 3 * constraint.particle;
+  const SurfaceSample s = evaluateSurface(context.surfaces[constraint.surface], p[0], p[1]);
+  out.jacobian[0] = Vec3(s.zx, s.zy, -1.0);
+  out.value[0] = s.z - p[2];
+  out.jdot_v[0] = s.zxx * v[0] * v[0] + 2.0 * s.zxy * v[0] * v[1] + s.zyy * v[1] * v[1];
+  out.violation[0] = std::abs(out.value[0]);
 }
 
-/// C alone [m], for finite-difference checks.
-inline double constraintValue(const SurfaceConstraint& constraint, const Surfaces& surfaces,
-                              const Points& positions)
+/// |dC/dt| [m/s].
+inline void violationRates(const SurfaceConstraint& constraint, const EffectContext& context,
+                           const Points& positions, const Points& velocities, double* rates)
 {
   const Vec3 p = positions.col(constraint.particle);
-  return evaluateSurface(surfaces[constraint.surface], p.x(), p.y()).z - p.z();
+  const SurfaceSample s = evaluateSurface(context.surfaces[constraint.surface], p.x(), p.y());
+  rates[0] = std::abs(Vec3(s.zx, s.zy, -1.0).dot(velocities.col(constraint.particle)));
 }
 
-/// |dC/dt| [m/s] of an evaluated row.
-inline double metricRate(const SurfaceConstraint& constraint, const ConstraintRow& row,
-                         const Points& velocities)
+/// Puts the particle on the surface at its (x, y) and its velocity in the tangent plane
+/// (vz = Z_x vx + Z_y vy): how scene files place particles they constrain to a surface.
+inline void fillFromStart(SurfaceConstraint& constraint, const std::vector<Surface>& surfaces,
+                          Points& positions, Points& velocities)
 {
-  return std::abs(row.gradient.dot(velocities.col(constraint.particle)));
+  auto p = positions.col(constraint.particle);
+  auto v = velocities.col(constraint.particle);
+  const SurfaceSample s = evaluateSurface(surfaces[constraint.surface], p.x(), p.y());
+  p.z() = s.z;
+  v.z() = s.zx * v.x() + s.zy * v.y();
 }
 
 /// @throws InvalidInput naming the bad field
 inline void validate(const SurfaceConstraint& constraint, int num_particles, int num_surfaces,
-                     const std::string& prefix)
+                     const std::string& prefix, bool allow_unset = false)
 {
-  validateFields(constraint, num_particles, num_surfaces, prefix);
+  validateFields(constraint, num_particles, num_surfaces, prefix, allow_unset);
 }
 
 }  // namespace constrained_particles

@@ -1,0 +1,86 @@
+/// @file data.hpp
+/// @brief Data: everything that changes while a Model runs (MuJoCo's mjData), allocated once
+/// when it is made so that a step allocates nothing. Shapes: n particles, m rows, b Jacobian
+/// blocks, e eliminated records (model.hpp).
+#pragma once
+
+#include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/statistics.hpp"
+
+#include <Eigen/Core>
+
+#include <memory>
+#include <vector>
+
+namespace constrained_particles
+{
+class ConstraintSolver;  // src/core/solvers/solver.hpp: the factorisation of J W J^T
+struct Dopri5Workspace;  // src/core/integrators/dopri5.cpp: Boost.Odeint's stepper and state
+
+/// Constraint rows evaluated at one state.
+struct RowData
+{
+  Eigen::VectorXd value;       ///< C (m): [m] surface, line, plane; [m^2] link; [rad] angle
+  Eigen::VectorXd jdot_v;      ///< Jdot v (m)
+  Eigen::VectorXd violation;   ///< metric position error of each row (m) [m]
+  Eigen::VectorXd velocity;    ///< Cdot = J v (m)
+  Eigen::VectorXd bias;        ///< Baumgarte term 2 zeta omega Cdot + omega^2 C (m)
+  std::vector<Vec3> jacobian;  ///< dC/dp blocks (b), row r's from model.rowStart()[r]
+  double max_violation = 0.0;  ///< largest violation [m], infinite if any is NaN
+
+  /// Sized for the model's rows and blocks, zeroed.
+  void resize(const Model& model);
+};
+
+/// Stage buffers of the integrators, by name, each 3 x n: what a stage computes is named for it.
+struct StageBuffers
+{
+  Points a1, a2, a3, a4;  ///< accelerations of stages 1 to 4 [m/s^2]
+  Points v2, v3, v4;      ///< velocities of stages 2 to 4 [m/s]
+  Points p_stage;         ///< positions of the stage being evaluated [m]
+  Points v_stage;         ///< velocities of the stage being evaluated [m/s]
+  Points p_start;         ///< positions at the start of the step [m] (SHAKE's reference)
+  Points correction;      ///< displacement SHAKE applied in this step [m]
+  Points change;          ///< velocity change of a projection [m/s]
+  Points zero;            ///< zeros: the velocities of position-only evaluations
+};
+
+/// Everything that changes. Made for one model (Data(model)); valid while that model lives.
+class Data
+{
+public:
+  explicit Data(const Model& model);
+  ~Data();
+  Data(Data&&) noexcept;
+  Data& operator=(Data&&) noexcept;
+
+  State state;                         ///< positions, velocities (3 x n), time, steps
+  RowData rows;                        ///< rows at the last evaluated stage
+  RowData trial_rows;                  ///< rows at SHAKE's trial positions
+  Points applied_forces;               ///< f at the last stage [N] (3 x n)
+  Points unconstrained_accelerations;  ///< a0 = W f, or the imposed acceleration (3 x n)
+  Points constraint_forces;            ///< J^T lambda plus eliminated reactions [N] (3 x n)
+  Points accelerations;                ///< a = a0 + W J^T lambda [m/s^2] (3 x n)
+  Eigen::VectorXd multipliers;         ///< lambda (m), then each eliminated reaction [N] (3 e)
+  Eigen::VectorXd rhs;                 ///< right-hand side and solution of a solve (m)
+  StageBuffers stages;                 ///< the integrators' buffers
+  EffectCounters counters;             ///< evaluations since this data was made
+  StepStatistics statistics;           ///< of the batch being stepped
+
+  /// The factorisation of J W J^T (src/core/solvers).
+  ConstraintSolver& solver()
+  {
+    return *solver_;
+  }
+  /// dopri5's workspace, made on its first use (src/core/integrators/dopri5.cpp).
+  std::unique_ptr<Dopri5Workspace>& dopri5()
+  {
+    return dopri5_;
+  }
+
+private:
+  std::unique_ptr<ConstraintSolver> solver_;
+  std::unique_ptr<Dopri5Workspace> dopri5_;
+};
+
+}  // namespace constrained_particles

@@ -1,0 +1,41 @@
+/// @file integrators.hpp
+/// @brief The table of time integrators: name, order, whether it holds the constraints itself,
+/// and its step function. Names, parsing, the dynamic_reconfigure enum (checked by a test), the
+/// benchmark's theoretical orders and the order tests read it. Each integrator is one file in
+/// src/core/integrators/; adding one is that file plus its row in integrator_table.cpp.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace constrained_particles
+{
+class Model;
+class Data;
+struct StepSettings;
+
+/// Advances data.state's positions and velocities from data.state.time by settings.dt (the
+/// caller then imposes eliminated motion, projects if asked, and advances time and steps).
+using IntegratorStep = void (*)(const Model& model, Data& data, const StepSettings& settings);
+
+/// One row of the table.
+struct IntegratorInfo
+{
+  const char* name;         ///< as in parameters, scene files and dynamic_reconfigure
+  int order;                ///< global order of accuracy in dt
+  bool holds_constraints;   ///< projects onto the constraints itself: `stabilization` is ignored
+  const char* description;  ///< one line, for help texts and dynamic_reconfigure
+  IntegratorStep step;      ///< the step function
+};
+
+/// Every integrator, in the order they are documented.
+const std::vector<const IntegratorInfo*>& integratorTable();
+
+/// The integrator called `name`. @throws InvalidInput naming `field` and the valid names
+const IntegratorInfo& findIntegrator(const std::string& name,
+                                     const std::string& field = "integrator");
+
+/// Every integrator's name, in table order.
+std::vector<std::string> integratorNames();
+
+}  // namespace constrained_particles

@@ -1,0 +1,115 @@
+/// @file limits.hpp
+/// @brief Every range the package accepts, written once with its unit. Core validation, scene
+/// files, the node's parameters, its services and dynamic_reconfigure read these; the tests
+/// check cfg/Simulator.cfg, config/default.yaml, srv/ and README's tables against them
+/// (`constrained_particles_limits` prints them as JSON).
+#pragma once
+
+#include "constrained_particles/core/types.hpp"
+
+#include <string>
+#include <vector>
+
+namespace constrained_particles
+{
+/// A closed or half-open interval of valid values with its unit, e.g. (0, 1e6] [kg].
+struct Range
+{
+  double low;        ///< lower bound
+  bool low_open;     ///< true: low itself is refused
+  double high;       ///< upper bound, always included
+  const char* unit;  ///< SI unit as written in messages ("kg", "m/s^2", "1" for pure numbers)
+  bool integer;      ///< whole numbers only (counts, iterations)
+
+  /// True if value is finite, inside the interval and (if integer) whole.
+  bool contains(double value) const;
+  /// "(0, 1e+06] [kg]": how messages, README and default.yaml write the range.
+  std::string text() const;
+};
+
+/// Throws InvalidInput naming `field` ("= <value>, must be in <range>") unless range contains it.
+void requireInRange(const std::string& field, double value, const Range& range);
+
+/// Throws InvalidInput naming `field.x`, `field.y` or `field.z` unless each is in range.
+void requireInRange(const std::string& field, const Vec3& value, const Range& range);
+
+namespace limits
+{
+// --- particles and scenes ---
+/// Particle mass m [kg].
+constexpr Range MASS{ 0.0, true, 1e6, "kg", false };
+/// Particles in one scene, all chains and explicit particles together.
+constexpr Range PARTICLES{ 1.0, false, 1e6, "1", true };
+/// A position or anchor coordinate [m]: a teleport to 1e300 m would overflow on the first step.
+constexpr Range COORDINATE{ -1e6, false, 1e6, "m", false };
+/// A velocity component [m/s].
+constexpr Range VELOCITY{ -1e6, false, 1e6, "m/s", false };
+/// A chain's or a link's length l [m].
+constexpr Range LINK_LENGTH{ 0.0, true, 1e3, "m", false };
+/// A rotation rate component [rad/s] (a chain's initial spin).
+constexpr Range ANGULAR_VELOCITY{ -1e4, false, 1e4, "rad/s", false };
+/// A direction or normal component (normalised after reading; all zero is refused) [1].
+constexpr Range DIRECTION{ -1e6, false, 1e6, "1", false };
+/// Largest scene file read [bytes]: a bigger one is refused before it is read.
+constexpr long SCENE_FILE_BYTES = 1 << 20;
+/// Longest surface formula [characters]: bounds parse depth and time.
+constexpr std::size_t FORMULA_LENGTH = 1000;
+
+// --- forces ---
+/// A gravity component g [m/s^2] (1,000 g).
+constexpr Range GRAVITY{ -1e4, false, 1e4, "m/s^2", false };
+/// Linear damping c [N s/m] in f = -c v.
+constexpr Range DAMPING{ 0.0, false, 1e6, "N s/m", false };
+/// Quadratic drag c [kg/m] in f = -c |v| v.
+constexpr Range DRAG{ 0.0, false, 1e6, "kg/m", false };
+/// A constant force component [N].
+constexpr Range FORCE{ -1e9, false, 1e9, "N", false };
+/// Spring stiffness k [N/m].
+constexpr Range STIFFNESS{ 0.0, false, 1e9, "N/m", false };
+/// Spring rest length L [m].
+constexpr Range REST_LENGTH{ 0.0, false, 1e3, "m", false };
+
+// --- constraints ---
+/// The angle an angle constraint holds at its vertex [rad]. Straight (pi) and folded (0) are
+/// refused: there the angle has no gradient (a straight joint bends two ways; one row holds one).
+constexpr Range ANGLE{ 1e-3, false, 3.14, "rad", false };
+/// A driven anchor's amplitude component [m].
+constexpr Range AMPLITUDE{ -1e3, false, 1e3, "m", false };
+/// A driven anchor's frequency f [Hz].
+constexpr Range FREQUENCY{ 0.0, false, 1e3, "Hz", false };
+/// A driven anchor's phase [rad].
+constexpr Range PHASE{ -1e3, false, 1e3, "rad", false };
+
+// --- stepping (StepSettings) ---
+/// Physics time step dt [s].
+constexpr Range DT{ 1e-6, false, 1.0, "s", false };
+/// Baumgarte frequency f [Hz], omega = 2 pi f.
+constexpr Range BAUMGARTE_FREQUENCY{ 0.01, false, 1e4, "Hz", false };
+/// Baumgarte damping ratio zeta [1].
+constexpr Range BAUMGARTE_DAMPING_RATIO{ 0.0, false, 100.0, "1", false };
+/// Largest position error projection leaves [m]; below 1e-15 m round-off decides.
+constexpr Range PROJECTION_TOLERANCE{ 1e-15, false, 1.0, "m", false };
+/// Newton iterations per projection.
+constexpr Range PROJECTION_MAX_ITERATIONS{ 1.0, false, 1000.0, "1", true };
+/// dopri5's error per internal step [1]; tighter than 1e-14 asks for more than double gives.
+constexpr Range ADAPTIVE_TOLERANCE{ 1e-14, false, 1.0, "1", false };
+
+// --- the node ---
+/// Simulated seconds per wall second [1].
+constexpr Range REAL_TIME_FACTOR{ 0.001, false, 100.0, "1", false };
+/// tf, ~state and marker rate [Hz].
+constexpr Range PUBLISH_RATE{ 0.1, false, 1000.0, "Hz", false };
+/// One-line status log period [s], 0 = off.
+constexpr Range STATUS_PERIOD{ 0.0, false, 3600.0, "s", false };
+/// Constraint-force arrow length per newton [m/N].
+constexpr Range FORCE_SCALE{ 0.0, true, 1e3, "m/N", false };
+/// Constraint error beyond which the node stops stepping [m].
+constexpr Range MAX_CONSTRAINT_ERROR{ 0.0, true, 1e3, "m", false };
+/// Surface mesh cells per side in ~scene (2 triangles each).
+constexpr Range MESH_CELLS{ 2.0, false, 200.0, "1", true };
+/// Steps one ~step call may ask for.
+constexpr Range STEPS_PER_CALL{ 1.0, false, 1e6, "1", true };
+
+}  // namespace limits
+
+}  // namespace constrained_particles

@@ -1,0 +1,39 @@
+/// @file scene.hpp
+/// @brief Scene (what a user describes) and State (what changes each step).
+#pragma once
+
+#include "constrained_particles/core/constraints.hpp"
+#include "constrained_particles/core/forces.hpp"
+#include "constrained_particles/core/surface.hpp"
+#include "constrained_particles/core/types.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace constrained_particles
+{
+/// A scene: the particles and the forces and constraints acting on them — and nothing else is
+/// evaluated. Plain data; Model::compile() validates it.
+struct Scene
+{
+  std::string name;                     ///< scene name, for messages
+  std::vector<double> masses;           ///< one per particle [kg], limits::MASS
+  std::vector<Surface> surfaces;        ///< height fields referred to by SurfaceConstraint
+  std::vector<Force> forces;            ///< applied forces
+  std::vector<Constraint> constraints;  ///< rows are ordered as listed (eliminated kinds aside)
+};
+
+/// Everything that changes while simulating.
+struct State
+{
+  Points positions;         ///< [m], 3 x n
+  Points velocities;        ///< [m/s], 3 x n
+  double time = 0.0;        ///< simulated time [s]
+  std::uint64_t steps = 0;  ///< physics steps taken since reset
+};
+
+/// True if every position, velocity and the time are finite.
+bool isFinite(const State& state);
+
+}  // namespace constrained_particles

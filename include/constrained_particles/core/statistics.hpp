@@ -1,0 +1,109 @@
+/// @file statistics.hpp
+/// @brief What the stepper reports: per factorisation, per projection, per effect, and merged
+/// over a batch of steps (MuJoCo keeps its warnings and solver statistics in mjData likewise).
+#pragma once
+
+#include "constrained_particles/core/model.hpp"
+
+#include <array>
+#include <cstdint>
+
+namespace constrained_particles
+{
+/// Pivots below this fraction of their diagonal entry mark J W J^T as singular.
+constexpr double SINGULAR_PIVOT_RATIO = 1e-12;
+/// Regularization added when singular, relative to the largest diagonal entry.
+constexpr double SINGULAR_REGULARIZATION = 1e-9;
+
+/// Outcome of one factorisation of J W J^T.
+struct SolveReport
+{
+  SolveMethod method = SolveMethod::None;
+  bool singular = false;         ///< (near) singular: solved with regularization added
+  double min_pivot_ratio = 1.0;  ///< smallest pivot relative to its diagonal entry
+  double regularization = 0.0;   ///< delta added to the diagonal (0 unless singular)
+};
+
+/// Outcome of a projection of a state onto the constraints.
+struct ProjectionReport
+{
+  int iterations = 0;              ///< Newton (or SHAKE) iterations taken
+  bool converged = true;           ///< max position error <= tolerance
+  double max_position_error = 0;   ///< after projection [m]
+  double max_displacement = 0;     ///< largest distance a particle moved [m]
+  double max_velocity_change = 0;  ///< largest velocity change of a particle [m/s]
+  bool singular = false;           ///< J W J^T was singular during the projection
+};
+
+/// How often each effect and each solve was evaluated: proof that a scene pays only for what it
+/// lists. Counted where the work is dispatched, not derived from the scene.
+struct EffectCounters
+{
+  std::array<std::uint64_t, NUM_FORCE_KINDS> forces{};  ///< force records accumulated, by kind
+  /// constraint records evaluated, by kind: records for row kinds, applications of the imposed
+  /// motion for eliminated kinds
+  std::array<std::uint64_t, NUM_CONSTRAINT_KINDS> constraints{};
+  std::array<std::uint64_t, NUM_SOLVE_METHODS> factorizations{};  ///< by SolveMethod
+
+  /// Evaluations of the force kind `Kind` (e.g. QuadraticDragForce).
+  template <typename Kind>
+  std::uint64_t forceCount() const
+  {
+    return forces[Force(Kind{}).index()];
+  }
+  /// Evaluations of the constraint kind `Kind` (e.g. SurfaceConstraint).
+  template <typename Kind>
+  std::uint64_t constraintCount() const
+  {
+    return constraints[Constraint(Kind{}).index()];
+  }
+  /// Factorizations by `method`.
+  std::uint64_t factorizationCount(SolveMethod method) const
+  {
+    return factorizations[static_cast<int>(method)];
+  }
+  /// Counts since `earlier` (a copy taken before).
+  EffectCounters since(const EffectCounters& earlier) const;
+};
+
+/// The worst and the totals over factorisations.
+struct SolveStatistics
+{
+  SolveMethod method = SolveMethod::None;  ///< the model's method
+  long factorizations = 0;                 ///< how many
+  long singular_count = 0;                 ///< how many were singular
+  bool singular = false;                   ///< any was
+  double min_pivot_ratio = 1.0;            ///< the smallest pivot ratio of any
+  double regularization = 0.0;             ///< the largest delta added
+
+  void merge(const SolveReport& report);
+};
+
+/// The worst and the totals over projections (and velocity Verlet's SHAKE/RATTLE).
+struct ProjectionStatistics
+{
+  long projections = 0;            ///< position projections taken
+  long iterations = 0;             ///< Newton or SHAKE iterations, in all
+  int max_iterations = 0;          ///< the most any one projection took
+  bool converged = true;           ///< every projection reached its tolerance
+  double max_position_error = 0;   ///< largest error any projection left [m]
+  double max_velocity_change = 0;  ///< largest velocity change of a particle [m/s]
+  bool singular = false;           ///< any was singular
+
+  void merge(const ProjectionReport& report);
+};
+
+/// Statistics of a batch of steps (Simulator::step(count)): the worst and the totals over all of
+/// them, not only the last.
+struct StepStatistics
+{
+  long steps = 0;                    ///< steps taken
+  SolveStatistics solve;             ///< every constraint-force and projection factorisation
+  ProjectionStatistics projection;   ///< every projection
+  long internal_steps = 0;           ///< dopri5: accepted internal steps (fixed-step: 1 per step)
+  long rejected_internal_steps = 0;  ///< dopri5: internal steps rejected and retaken smaller
+  long forced_internal_steps = 0;    ///< dopri5: dt ends taken unchecked after 1e6 attempts
+  EffectCounters effects;            ///< evaluations during the batch
+};
+
+}  // namespace constrained_particles

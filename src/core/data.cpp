@@ -1,0 +1,44 @@
+#include "constrained_particles/core/data.hpp"
+
+#include "integrators/dopri5.hpp"
+#include "solvers/solver.hpp"
+
+namespace constrained_particles
+{
+void RowData::resize(const Model& model)
+{
+  const int m = model.numRows();
+  value.setZero(m);
+  jdot_v.setZero(m);
+  violation.setZero(m);
+  velocity.setZero(m);
+  bias.setZero(m);
+  jacobian.assign(model.numBlocks(), Vec3::Zero());
+  max_violation = 0.0;
+}
+
+Data::Data(const Model& model) : solver_(makeSolver(model))
+{
+  const int n = model.numParticles();
+  state.positions.setZero(3, n);
+  state.velocities.setZero(3, n);
+  rows.resize(model);
+  trial_rows.resize(model);
+  applied_forces.setZero(3, n);
+  unconstrained_accelerations.setZero(3, n);
+  constraint_forces.setZero(3, n);
+  accelerations.setZero(3, n);
+  multipliers.setZero(model.numMultipliers());
+  rhs.setZero(model.numRows());
+  for (Points* buffer : { &stages.a1, &stages.a2, &stages.a3, &stages.a4, &stages.v2, &stages.v3,
+                          &stages.v4, &stages.p_stage, &stages.v_stage, &stages.p_start,
+                          &stages.correction, &stages.change, &stages.zero })
+    buffer->setZero(3, n);
+  statistics.solve.method = model.solveMethod();
+}
+
+Data::~Data() = default;
+Data::Data(Data&&) noexcept = default;
+Data& Data::operator=(Data&&) noexcept = default;
+
+}  // namespace constrained_particles

@@ -1,0 +1,43 @@
+#include "solver.hpp"
+
+namespace constrained_particles
+{
+SolveReport ConstraintSolver::factorize(const Model& model, const RowData& rows,
+                                        EffectCounters& counters)
+{
+  ++counters.factorizations[static_cast<int>(method())];
+  SolveReport report;
+  report.method = method();
+  const double max_diagonal = assemble(model, rows);
+  const Pivots first = factorizeShifted(0.0);
+  report.min_pivot_ratio = first.min_pivot_ratio;
+  if (!first.singular)
+    return report;
+  report.singular = true;
+  report.regularization = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
+  factorizeShifted(report.regularization);
+  return report;
+}
+
+std::unique_ptr<ConstraintSolver> makeSolver(const Model& model)
+{
+  switch (model.solveMethod())
+  {
+    case SolveMethod::Single:
+      return makeSingleRowSolver(model);
+    case SolveMethod::Tridiagonal:
+      return makeTridiagonalSolver(model);
+    case SolveMethod::Tree:
+      return makeTreeSolver(model);
+    case SolveMethod::Sparse:
+      return makeSparseSolver(model);
+    case SolveMethod::Dense:
+      return makeDenseSolver(model);
+    case SolveMethod::None:
+    case SolveMethod::Automatic:
+      break;
+  }
+  return nullptr;
+}
+
+}  // namespace constrained_particles

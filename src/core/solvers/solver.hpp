@@ -1,0 +1,77 @@
+/// @file solver.hpp
+/// @brief The interface every solve of (J W J^T) x = b implements, one strategy per file:
+/// single_row.cpp, tridiagonal.cpp, tree.cpp, sparse.cpp, dense.cpp. Each assembles J W J^T (or
+/// what it needs of it) from the rows' Jacobian blocks and factorises it; the regularise-and-
+/// retry loop is written once, in factorize(). Private to the core.
+#pragma once
+
+#include "constrained_particles/core/data.hpp"
+#include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/statistics.hpp"
+
+#include <Eigen/Core>
+
+#include <memory>
+
+namespace constrained_particles
+{
+/// Factorisation of J W J^T for one model. Allocates when made; the single-row, tridiagonal and
+/// tree solves allocate nothing after that.
+class ConstraintSolver
+{
+public:
+  virtual ~ConstraintSolver() = default;
+
+  /// Assembles J W J^T from the evaluated rows and factorises it. A (near) singular matrix, a
+  /// pivot below SINGULAR_PIVOT_RATIO of its diagonal entry, is factorised again as
+  /// J W J^T + delta I, delta = SINGULAR_REGULARIZATION max(diag) (1 if the diagonal is zero),
+  /// so the solution stays finite; the report keeps the unregularised pivot ratio.
+  SolveReport factorize(const Model& model, const RowData& rows, EffectCounters& counters);
+
+  /// Solves (J W J^T) x = b in place (m), with the last factorisation.
+  virtual void solveInPlace(Eigen::VectorXd& b) const = 0;
+
+protected:
+  /// Outcome of one attempt.
+  struct Pivots
+  {
+    bool singular;           ///< a pivot at or below SINGULAR_PIVOT_RATIO of its diagonal
+    double min_pivot_ratio;  ///< the smallest pivot relative to its diagonal entry
+  };
+
+  /// The method this strategy implements.
+  virtual SolveMethod method() const = 0;
+  /// Assembles what the factorisation needs from the rows; returns the largest diagonal entry.
+  virtual double assemble(const Model& model, const RowData& rows) = 0;
+  /// Factorises J W J^T + delta I. With delta = 0 it may stop at the first singular pivot; with
+  /// delta > 0 it must leave a usable factorisation.
+  virtual Pivots factorizeShifted(double delta) = 0;
+
+  /// True if `pivot` is too small against its diagonal entry `diagonal`.
+  static bool isSingularPivot(double pivot, double diagonal)
+  {
+    return !(diagonal > 0.0) || !(pivot > SINGULAR_PIVOT_RATIO * diagonal);
+  }
+};
+
+/// b = F^-1 b with an Eigen factorisation F (sparse, dense); a failed factorisation gives no
+/// force (b = 0) rather than NaN.
+template <typename Factorization>
+void solveWith(const Factorization& factorization, Eigen::VectorXd& b)
+{
+  if (factorization.info() == Eigen::Success)
+    b = factorization.solve(b);
+  else
+    b.setZero();
+}
+
+/// The strategy for model.solveMethod() (nullptr for SolveMethod::None).
+std::unique_ptr<ConstraintSolver> makeSolver(const Model& model);
+
+std::unique_ptr<ConstraintSolver> makeSingleRowSolver(const Model& model);
+std::unique_ptr<ConstraintSolver> makeTridiagonalSolver(const Model& model);
+std::unique_ptr<ConstraintSolver> makeTreeSolver(const Model& model);
+std::unique_ptr<ConstraintSolver> makeSparseSolver(const Model& model);
+std::unique_ptr<ConstraintSolver> makeDenseSolver(const Model& model);
+
+}  // namespace constrained_particles

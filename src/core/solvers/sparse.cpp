@@ -1,0 +1,124 @@
+// Any structure (rings, meshes, anything with a cycle): Eigen's SimplicialLDLT, a sparse LDL^T
+// with a fill-reducing ordering. Eigen does the factorisation (a well-kept library beats ours);
+// the pattern of J W J^T is fixed by the model, so it is built and analysed once, and each step
+// only writes the values into it.
+#include "solver.hpp"
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+#include <algorithm>
+#include <vector>
+
+namespace constrained_particles
+{
+namespace
+{
+class SparseSolver : public ConstraintSolver
+{
+public:
+  explicit SparseSolver(const Model& model)
+  {
+    // the lower triangle of J W J^T: (r, r) for every row, and (s, r), s > r, for every pair
+    // of rows sharing a free particle
+    const int m = model.numRows();
+    const auto& start = model.incidenceStart();
+    const auto& incidence = model.incidence();
+    std::vector<Eigen::Triplet<double>> pattern;
+    for (int r = 0; r < m; ++r)
+      pattern.emplace_back(r, r, 0.0);
+    for (int i = 0; i < model.numParticles(); ++i)
+      for (int a = start[i]; a < start[i + 1]; ++a)
+        for (int b = start[i]; b < start[i + 1]; ++b)
+          if (incidence[b].row > incidence[a].row)
+            pattern.emplace_back(incidence[b].row, incidence[a].row, 0.0);
+    matrix_.resize(m, m);
+    matrix_.setFromTriplets(pattern.begin(), pattern.end());
+    matrix_.makeCompressed();
+    // where each contribution w_i J_a . J_b lands in the matrix's values
+    auto slot = [this](int row, int column)
+    {
+      const int* first = matrix_.innerIndexPtr() + matrix_.outerIndexPtr()[column];
+      const int* last = matrix_.innerIndexPtr() + matrix_.outerIndexPtr()[column + 1];
+      return static_cast<int>(std::lower_bound(first, last, row) - matrix_.innerIndexPtr());
+    };
+    for (int i = 0; i < model.numParticles(); ++i)
+      for (int a = start[i]; a < start[i + 1]; ++a)
+        for (int b = start[i]; b < start[i + 1]; ++b)
+          if (incidence[b].row >= incidence[a].row)
+            terms_.push_back(Term{ slot(incidence[b].row, incidence[a].row), i, incidence[a].block,
+                                   incidence[b].block });
+    diagonal_slot_.resize(m);
+    for (int r = 0; r < m; ++r)
+      diagonal_slot_[r] = slot(r, r);
+    diagonal_.setZero(m);
+    permuted_diagonal_.setZero(m);
+    ldlt_.analyzePattern(matrix_);
+  }
+
+  void solveInPlace(Eigen::VectorXd& b) const override
+  {
+    solveWith(ldlt_, b);
+  }
+
+protected:
+  SolveMethod method() const override
+  {
+    return SolveMethod::Sparse;
+  }
+
+  double assemble(const Model& model, const RowData& rows) override
+  {
+    const auto& w = model.inverseMasses();
+    double* values = matrix_.valuePtr();
+    std::fill(values, values + matrix_.nonZeros(), 0.0);
+    for (const Term& t : terms_)
+      values[t.slot] += w[t.particle] * rows.jacobian[t.block_a].dot(rows.jacobian[t.block_b]);
+    for (int r = 0; r < diagonal_.size(); ++r)
+      diagonal_[r] = values[diagonal_slot_[r]];
+    // the factor's pivots come in the ordering's sequence: compare each with its own diagonal
+    for (int r = 0; r < diagonal_.size(); ++r)
+      permuted_diagonal_[ldlt_.permutationP().indices()[r]] = diagonal_[r];
+    return diagonal_.size() > 0 ? diagonal_.maxCoeff() : 0.0;
+  }
+
+  Pivots factorizeShifted(double delta) override
+  {
+    double* values = matrix_.valuePtr();
+    for (int r = 0; r < diagonal_.size(); ++r)
+      values[diagonal_slot_[r]] = diagonal_[r] + delta;
+    ldlt_.factorize(matrix_);
+    double min_ratio = ldlt_.info() == Eigen::Success ? 1.0 : 0.0;
+    if (ldlt_.info() == Eigen::Success)
+    {
+      const Eigen::VectorXd& pivots = ldlt_.vectorD();
+      for (int k = 0; k < pivots.size(); ++k)
+      {
+        const double d = permuted_diagonal_[k] + delta;
+        min_ratio = std::min(min_ratio, d > 0.0 ? pivots[k] / d : 0.0);
+      }
+    }
+    return { !(min_ratio > SINGULAR_PIVOT_RATIO), min_ratio };
+  }
+
+private:
+  /// One contribution w_i J_a . J_b of particle i to the entry at values[slot].
+  struct Term
+  {
+    int slot, particle, block_a, block_b;
+  };
+  Eigen::SparseMatrix<double> matrix_;  // lower triangle, pattern fixed at construction
+  std::vector<Term> terms_;
+  std::vector<int> diagonal_slot_;
+  Eigen::VectorXd diagonal_, permuted_diagonal_;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt_;
+};
+
+}  // namespace
+
+std::unique_ptr<ConstraintSolver> makeSparseSolver(const Model& model)
+{
+  return std::make_unique<SparseSolver>(model);
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,108 @@
+#include "stabilization.hpp"
+
+#include "solvers/solver.hpp"
+#include "stages.hpp"
+
+#include <cmath>
+
+namespace constrained_particles
+{
+void baumgarteBias(const StepSettings& settings, RowData& rows)
+{
+  const double omega = 2.0 * M_PI * settings.baumgarte_frequency;
+  const double damping = 2.0 * settings.baumgarte_damping_ratio * omega;
+  rows.bias = damping * rows.velocity + (omega * omega) * rows.value;
+}
+
+ProjectionReport projectPositions(const Model& model, Data& data, double time, Points& positions,
+                                  double tolerance, int max_iterations)
+{
+  ProjectionReport report;
+  imposeEliminated(model, data, time, &positions, nullptr);
+  const int m = model.numRows();
+  for (int iteration = 0; m > 0; ++iteration)
+  {
+    rowStage(model, data, time, positions, data.stages.zero, data.rows);
+    report.max_position_error = data.rows.max_violation;
+    report.converged = report.max_position_error <= tolerance;
+    if (report.converged || iteration >= max_iterations ||
+        !std::isfinite(report.max_position_error))
+      break;
+    // dp = -W J^T (J W J^T)^-1 C
+    report.singular |= factorizeRows(model, data).singular;
+    data.rhs = data.rows.value;
+    data.solver().solveInPlace(data.rhs);
+    addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, positions);
+    report.iterations = iteration + 1;
+  }
+  return report;
+}
+
+double projectVelocities(const Model& model, Data& data, double time, const Points& positions,
+                         Points& velocities, bool rows_current, bool measure_change, bool* singular)
+{
+  imposeEliminated(model, data, time, nullptr, &velocities);
+  if (model.numRows() == 0)
+    return 0.0;
+  // dv = -W J^T (J W J^T)^-1 J v; only J is needed, not Jdot v
+  if (!rows_current)
+    rowStage(model, data, time, positions, velocities, data.rows);
+  const bool was_singular = factorizeRows(model, data).singular;
+  if (singular)
+    *singular = was_singular;
+  multiplyJacobian(model, data.rows, velocities, data.rhs);
+  data.solver().solveInPlace(data.rhs);
+  if (!measure_change)
+  {
+    addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, velocities);
+    return 0.0;
+  }
+  // the change is J^T-shaped: track its size separately, not as a difference of velocities
+  Points& change = data.stages.change;
+  change.setZero();
+  addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, change);
+  velocities += change;
+  return change.colwise().norm().maxCoeff();
+}
+
+ProjectionReport shakePositions(const Model& model, Data& data, double time,
+                                const Points& reference, Points& positions, double tolerance,
+                                int max_iterations, Points* corrections)
+{
+  ProjectionReport report;
+  imposeEliminated(model, data, time, &positions, nullptr);
+  if (model.numRows() == 0)
+    return report;
+  // directions W J(reference)^T stay fixed; J W J^T at the reference approximates the Jacobian
+  rowStage(model, data, time, reference, data.stages.zero, data.rows);
+  report.singular = factorizeRows(model, data).singular;
+  for (int iteration = 0;; ++iteration)
+  {
+    rowStage(model, data, time, positions, data.stages.zero, data.trial_rows);
+    report.max_position_error = data.trial_rows.max_violation;
+    report.converged = report.max_position_error <= tolerance;
+    if (report.converged || iteration >= max_iterations ||
+        !std::isfinite(report.max_position_error))
+      break;
+    data.rhs = data.trial_rows.value;
+    data.solver().solveInPlace(data.rhs);
+    addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, positions);
+    if (corrections)
+      addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, *corrections);
+    report.iterations = iteration + 1;
+  }
+  if (!report.converged && std::isfinite(report.max_position_error))
+  {
+    const int shake_iterations = report.iterations;
+    Points& before = data.stages.change;
+    if (corrections)
+      before = positions;
+    report = projectPositions(model, data, time, positions, tolerance, max_iterations);
+    report.iterations += shake_iterations;
+    if (corrections)
+      *corrections += positions - before;
+  }
+  return report;
+}
+
+}  // namespace constrained_particles

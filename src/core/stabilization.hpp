@@ -1,0 +1,42 @@
+/// @file stabilization.hpp
+/// @brief Constraint drift correction, all in one place: the Baumgarte bias that enters the
+/// constraint-force stage, Newton projection of positions and velocities after a step, and the
+/// SHAKE/RATTLE projections velocity Verlet makes inside its step. Private to the core.
+#pragma once
+
+#include "constrained_particles/core/data.hpp"
+#include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/settings.hpp"
+
+namespace constrained_particles
+{
+/// rows.bias = 2 zeta omega Cdot + omega^2 C, omega = 2 pi f (Baumgarte 1972): with it the rows
+/// obey Cddot + 2 zeta omega Cdot + omega^2 C = 0 instead of Cddot = 0. Reads rows.value and
+/// rows.velocity (rowVelocityStage).
+void baumgarteBias(const StepSettings& settings, RowData& rows);
+
+/// Moves positions onto C = 0 by Newton steps dp = -W J^T (J W J^T)^-1 C until the largest
+/// metric error is below `tolerance` [m] or after `max_iterations`; eliminated particles are put
+/// where their kinds hold them at `time`. On return data.rows are evaluated at the result.
+ProjectionReport projectPositions(const Model& model, Data& data, double time, Points& positions,
+                                  double tolerance, int max_iterations);
+
+/// Removes the constraint-violating velocity, dv = -W J^T (J W J^T)^-1 J v; eliminated particles
+/// get their imposed velocity at `time`.
+/// @param rows_current data.rows were last evaluated at these positions (as projectPositions
+/// leaves them): skip evaluating them again
+/// @param measure_change compute the largest velocity change [m/s] (else return 0)
+double projectVelocities(const Model& model, Data& data, double time, const Points& positions,
+                         Points& velocities, bool rows_current, bool measure_change,
+                         bool* singular = nullptr);
+
+/// SHAKE (Ryckaert, Ciccotti, Berendsen 1977): moves positions onto C = 0 along the fixed
+/// directions W J(reference)^T, the directions of the constraint forces of a step that started
+/// at `reference`; falls back to projectPositions() if that does not converge in max_iterations.
+/// @param corrections if given, the displacement applied is added to it, summed from the small
+/// corrections themselves (no cancellation against the positions)
+ProjectionReport shakePositions(const Model& model, Data& data, double time,
+                                const Points& reference, Points& positions, double tolerance,
+                                int max_iterations, Points* corrections);
+
+}  // namespace constrained_particles

@@ -1,0 +1,76 @@
+/// @file stages.hpp
+/// @brief The named stages of one evaluation, in MuJoCo's shape (engine_forward.c):
+///   rowStage -> appliedForceStage -> rowVelocityStage -> constraintForceStage -> accelerationStage
+/// and forward(), which calls them in order. Witkin's formulation: with W = M^-1, applied forces
+/// f and a0 = W f (an eliminated particle: its imposed acceleration),
+///   (J W J^T) lambda = -(Jdot v + J a0) - bias,   f_c = J^T lambda,   a = a0 + W f_c,
+/// bias = 2 zeta omega Cdot + omega^2 C under Baumgarte (stabilization.hpp), else 0.
+/// Also the Jacobian products the stages and the stabilisation share. Private to the core.
+#pragma once
+
+#include "constrained_particles/core/data.hpp"
+#include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/settings.hpp"
+
+namespace constrained_particles
+{
+/// Evaluates every row record at (p, v) and time t into `rows`: C, J, Jdot v, the metric
+/// violations and their max. Counts each record in `counters` if given. Stateless otherwise.
+void evaluateRowRecords(const Model& model, double time, const Points& positions,
+                        const Points& velocities, RowData& rows, EffectCounters* counters);
+
+/// Stage 1, rows at positions: evaluateRowRecords into `rows`, counted in data.counters.
+void rowStage(const Model& model, Data& data, double time, const Points& positions,
+              const Points& velocities, RowData& rows);
+
+/// Stage 2, applied forces: data.applied_forces = f(p, v) [N], only the forces the scene lists.
+void appliedForceStage(const Model& model, Data& data, const Points& positions,
+                       const Points& velocities);
+
+/// Stage 3, row velocities: data.rows.velocity = Cdot = J v. Only Baumgarte reads it.
+void rowVelocityStage(const Model& model, Data& data, const Points& velocities);
+
+/// Stage 4, constraint forces: a0 from the applied forces and the imposed motion at `time`,
+/// factorises J W J^T (data.rows), solves for lambda with the optional bias (m) and fills
+/// data.multipliers and data.constraint_forces, eliminated reactions included.
+SolveReport constraintForceStage(const Model& model, Data& data, double time,
+                                 const Eigen::VectorXd* bias);
+
+/// Stage 5, accelerations: a = a0 + W f_c into `accelerations` [m/s^2] (3 x n); an eliminated
+/// particle's is its imposed acceleration.
+void accelerationStage(const Model& model, Data& data, Points& accelerations);
+
+/// Every stage at (t, p, v): positions and velocities of eliminated particles are first set to
+/// their imposed motion at t (the stage buffers are the integrator's), then rows, forces, row
+/// velocities and bias (Baumgarte only), constraint forces and accelerations.
+/// Merges the solve report into data.statistics.
+SolveReport forward(const Model& model, Data& data, const StepSettings& settings, double time,
+                    Points& positions, Points& velocities, Points& accelerations);
+
+/// Sets every eliminated particle's position and velocity (each if given) to its imposed motion
+/// at `time`. Counts each application.
+void imposeEliminated(const Model& model, Data& data, double time, Points* positions,
+                      Points* velocities);
+
+/// Assembles and factorises J W J^T from data.rows (data.solver()), merging the report into
+/// data.statistics.
+SolveReport factorizeRows(const Model& model, Data& data);
+
+// --- Jacobian products over the rows' blocks (J is m x 3n, blocks per model.rowStart()) ---
+
+/// y = J x (m), x one 3-vector per particle.
+void multiplyJacobian(const Model& model, const RowData& rows, const Points& x, Eigen::VectorXd& y);
+/// y = J W x (m): eliminated particles contribute nothing.
+void multiplyJacobianInverseMass(const Model& model, const RowData& rows, const Points& x,
+                                 Eigen::VectorXd& y);
+/// out += scale J^T lambda, on every particle a row touches.
+void addJacobianTranspose(const Model& model, const RowData& rows, const Eigen::VectorXd& lambda,
+                          double scale, Points& out);
+/// out += scale W J^T lambda (zero on eliminated particles).
+void addInverseMassJacobianTranspose(const Model& model, const RowData& rows,
+                                     const Eigen::VectorXd& lambda, double scale, Points& out);
+/// y = (J W J^T) x (m), straight from the blocks (residuals in tests).
+void multiplyJWJt(const Model& model, const RowData& rows, const Eigen::VectorXd& x,
+                  Eigen::VectorXd& y);
+
+}  // namespace constrained_particles
