@@ -2,6 +2,8 @@
 #include "constrained_particles/core/simulator.hpp"
 #include "test_helpers.hpp"
 
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 using namespace constrained_particles;
@@ -184,4 +186,163 @@ TEST(Analytic, EnergyErrorOrderingOfIntegrators)
                      std::to_string(rk4) + " < " + std::to_string(symplectic) + " < " +
                          std::to_string(explicit_euler));
     }
+}
+
+// A bead on a straight wire along d: it slides with a = (g.d^) d^, and the wire's force is the
+// rest of its weight, m (a - g).
+TEST(Analytic, BeadSlidesAlongTiltedWire)
+{
+  const Vec3 d = Vec3(1.0, 0.5, 0.3).normalized();
+  const Vec3 g(0.0, 0.0, -G), start(0.2, -0.1, 1.0);
+  const double m = 1.5, speed = 0.4;
+  Scene scene;
+  scene.masses = { m };
+  scene.forces = { GravityForce{ g } };
+  scene.constraints = { PointOnLineConstraint{ 0, start, Vec3(2.0, 1.0, 0.6) } };
+  StepSettings settings;
+  settings.dt = 1e-3;
+  Simulator simulator(scene, stateOf(start, speed * d), settings);
+  const Vec3 a = g.dot(d) * d;
+  Points forces;
+  Eigen::VectorXd multipliers;
+  simulator.constraintForces(forces, multipliers);
+  EXPECT_LE((Vec3(forces.col(0)) - m * (a - g)).norm(), 1e-12);
+  simulator.step(1000);
+  const double t = simulator.state().time;
+  const Vec3 expected = start + speed * t * d + 0.5 * t * t * a;
+  EXPECT_LE((Vec3(simulator.state().positions.col(0)) - expected).norm(), 1e-9);
+  EXPECT_LE(simulator.diagnostics().max_position_error, 1e-10);
+}
+
+// A particle on an inclined plane with normal n slides with a = g - (g.n^) n^.
+TEST(Analytic, ParticleSlidesOnInclinedPlane)
+{
+  const Vec3 n = Vec3(0.3, -0.2, 1.0).normalized();
+  const Vec3 g(0.0, 0.0, -G), point(0.0, 0.0, 0.5);
+  Scene scene;
+  scene.masses = { 0.7 };
+  scene.forces = { GravityForce{ g } };
+  scene.constraints = { PointOnPlaneConstraint{ 0, point, Vec3(0.3, -0.2, 1.0) } };
+  const Vec3 v0 = Vec3(0.5, 0.4, 0.0) - Vec3(0.5, 0.4, 0.0).dot(n) * n;  // in the plane
+  StepSettings settings;
+  settings.dt = 1e-3;
+  Simulator simulator(scene, stateOf(point, v0), settings);
+  simulator.step(1000);
+  const double t = simulator.state().time;
+  const Vec3 a = g - g.dot(n) * n;
+  EXPECT_LE((Vec3(simulator.state().positions.col(0)) - (point + v0 * t + 0.5 * t * t * a)).norm(),
+            1e-9);
+}
+
+// An L of two equal masses on arms of length l, its vertex pinned and its angle theta_0 held:
+// a compound pendulum, T = 2 pi sqrt(I / (M g d)) = 2 pi sqrt(l / (g cos(theta_0 / 2))) for
+// small swings (with the theta^2 / 16 correction of its amplitude).
+TEST(Analytic, AngleConstraintMakesARigidCompoundPendulum)
+{
+  const double l = 0.5, opening = M_PI / 2, swing = 0.05;
+  Scene scene;
+  scene.masses = { 1.0, 0.8, 0.8 };  // the vertex's mass plays no part: it is pinned
+  scene.forces = { GravityForce{} };
+  scene.constraints = { PinConstraint{ 0, Vec3::Zero() }, LinkConstraint{ 0, 1, l },
+                        LinkConstraint{ 0, 2, l }, AngleConstraint{ { { 1, 0, 2 } }, opening } };
+  Points p = Points::Zero(3, 3);
+  for (int side : { 1, 2 })
+  {
+    const double angle = swing + (side == 1 ? -0.5 : 0.5) * opening;  // from -z, in x-z
+    p.col(side) = l * Vec3(std::sin(angle), 0.0, -std::cos(angle));
+  }
+  StepSettings settings;
+  settings.dt = 1e-4;
+  Simulator simulator(scene, stateOf(p, Points::Zero(3, 3)), settings);
+  EXPECT_EQ(simulator.model().solveMethod(), SolveMethod::Tree);
+  // the centre of mass crosses x = 0 every half period
+  auto centre = [&]
+  { return 0.5 * (simulator.state().positions(0, 1) + simulator.state().positions(0, 2)); };
+  double previous_x = centre(), previous_t = 0, period = 0;
+  int crossings = 0;
+  double worst_angle = 0.0;
+  while (crossings < 2 && simulator.state().time < 5.0)
+  {
+    simulator.step();
+    const Vec3 a = simulator.state().positions.col(1), b = simulator.state().positions.col(2);
+    worst_angle =
+        std::max(worst_angle, std::abs(std::acos(a.dot(b) / (a.norm() * b.norm())) - opening));
+    const double x = centre(), t = simulator.state().time;
+    if ((x > 0) != (previous_x > 0))
+    {
+      ++crossings;
+      const double crossing = previous_t + (t - previous_t) * previous_x / (previous_x - x);
+      period += crossings == 1 ? -crossing : crossing;
+    }
+    previous_x = x;
+    previous_t = t;
+  }
+  ASSERT_EQ(crossings, 2);
+  period *= 2.0;
+  const double expected =
+      2 * M_PI * std::sqrt(l / (G * std::cos(opening / 2))) * (1 + swing * swing / 16);
+  EXPECT_NEAR(period, expected, 1e-5 * expected);
+  EXPECT_LE(worst_angle, 1e-9);
+}
+
+// A moving anchor with no amplitude is a pin: the same motion to the last bit.
+TEST(Analytic, MovingAnchorAtRestIsAPin)
+{
+  Scene pinned = constrained_particles::testing::pinnedChain({ 1.0, 0.5, 2.0, 1.0 }, 0.4);
+  Scene driven = pinned;
+  driven.constraints.back() = MovingAnchorConstraint{ 0, Vec3::Zero(), Vec3::Zero(), 2.0, 0.3 };
+  Points p(3, 4);
+  for (int i = 0; i < 4; ++i)
+    p.col(i) = 0.4 * i * Vec3(std::sin(0.8), 0.0, -std::cos(0.8));
+  StepSettings settings;
+  Simulator a(pinned, stateOf(p, Points::Zero(3, 4)), settings);
+  Simulator b(driven, stateOf(p, Points::Zero(3, 4)), settings);
+  a.step(500);
+  b.step(500);
+  EXPECT_EQ(a.state().positions, b.state().positions);
+  EXPECT_EQ(a.state().velocities, b.state().velocities);
+}
+
+// A driven pivot moves exactly as prescribed, the chain stays on its constraints, and the
+// energy the chain gains is the work the driver's reaction does: dE = R . v_pivot dt.
+TEST(Analytic, MovingAnchorDrivesExactlyAndItsWorkIsTheEnergyGained)
+{
+  const Vec3 amplitude(0.15, 0.0, 0.05);
+  const double frequency = 1.2, phase = 0.4;
+  Scene scene = constrained_particles::testing::pinnedChain({ 0.5, 0.3, 0.3, 0.3 }, 0.3);
+  const MovingAnchorConstraint anchor{ 0, Vec3(0.0, 0.0, 1.0), amplitude, frequency, phase };
+  scene.constraints.back() = anchor;
+  Points p(3, 4);
+  for (int i = 0; i < 4; ++i)
+    p.col(i) = imposedMotion(anchor, 0.0).position + 0.3 * i * Vec3(0.3, 0.0, -1.0).normalized();
+  StepSettings settings;
+  settings.dt = 1e-4;
+  Simulator simulator(scene, stateOf(p, Points::Zero(3, 4)), settings);
+  const double e0 = simulator.diagnostics().totalEnergy();
+  Points forces;
+  Eigen::VectorXd multipliers;
+  auto power = [&]
+  {
+    // the driver's reaction (the last three multipliers), not the links' pull on the pivot:
+    // links are internal and do no net work
+    simulator.constraintForces(forces, multipliers);
+    return Vec3(multipliers.tail<3>()).dot(simulator.state().velocities.col(0));
+  };
+  double work = 0.0, previous = power(), worst_drive = 0.0;
+  for (int k = 0; k < 10000; ++k)
+  {
+    simulator.step();
+    const ImposedMotion motion = imposedMotion(anchor, simulator.state().time);
+    worst_drive = std::max(
+        worst_drive, (Vec3(simulator.state().positions.col(0)) - motion.position).norm() +
+                         (Vec3(simulator.state().velocities.col(0)) - motion.velocity).norm());
+    const double now = power();
+    work += 0.5 * settings.dt * (previous + now);
+    previous = now;
+  }
+  EXPECT_EQ(worst_drive, 0.0);
+  EXPECT_LE(simulator.diagnostics().max_position_error, 1e-10);
+  const double gained = simulator.diagnostics().totalEnergy() - e0;
+  EXPECT_GT(std::abs(gained), 1e-3);                         // the driver does work
+  EXPECT_NEAR(gained, work, 1e-7 * (std::abs(work) + 1.0));  // measured 3e-9
 }

@@ -133,6 +133,29 @@ TEST(SceneFiles, SolveFollowsStructure)
   EXPECT_EQ(method("chain"), SolveMethod::Tridiagonal);
   EXPECT_EQ(method("two_chains_on_surface"), SolveMethod::Tridiagonal);
   EXPECT_EQ(method("mobile"), SolveMethod::Tree);
+  EXPECT_EQ(method("bead_on_wire"), SolveMethod::Tree);  // two rows inside the bead's block
+  EXPECT_EQ(method("sled_on_ramp"), SolveMethod::Tree);
+  EXPECT_EQ(method("shaken_chain"), SolveMethod::Tridiagonal);  // the driven top is eliminated
+  EXPECT_EQ(method("zigzag_chain"), SolveMethod::Sparse);       // links and angles close cycles
+}
+
+// Every force and constraint kind of the registries is shown in some shipped scene.
+TEST(SceneFiles, EveryKindIsInAShippedScene)
+{
+  std::vector<int> forces(NUM_FORCE_KINDS, 0), constraints(NUM_CONSTRAINT_KINDS, 0);
+  for (const std::string& name : listScenes(DIRECTORY))
+  {
+    const BuiltScene s = buildScene(loadSceneFile(resolveScene(name, DIRECTORY)));
+    const std::vector<int> f = kindsListed(s.scene, true), c = kindsListed(s.scene, false);
+    for (int k = 0; k < NUM_FORCE_KINDS; ++k)
+      forces[k] += f[k];
+    for (int k = 0; k < NUM_CONSTRAINT_KINDS; ++k)
+      constraints[k] += c[k];
+  }
+  for (int k = 0; k < NUM_FORCE_KINDS; ++k)
+    EXPECT_GT(forces[k], 0) << "force " << KindNames<Force>::value[k];
+  for (int k = 0; k < NUM_CONSTRAINT_KINDS; ++k)
+    EXPECT_GT(constraints[k], 0) << "constraint " << KindNames<Constraint>::value[k];
 }
 
 TEST(SceneFiles, ChangesApplyToTheScene)

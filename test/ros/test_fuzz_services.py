@@ -34,8 +34,10 @@ SURFACE_TYPES = {"plane": 3, "bowl": 2, "saddle": 2, "waves": 3, "gaussian": 4}
 # scenes with chains and their particles per chain; those naming chain particles by index keep
 # their counts (config/scenes)
 CHAIN_COUNTS = {"chain": 5, "surface_chain": 5, "pinned_pendulum": 4, "two_chains_on_surface": 4,
-                "mobile": 3}
-FIXED_COUNT = {"two_chains_on_surface", "mobile"}
+                "mobile": 3, "shaken_chain": 6}
+FIXED_COUNT = {"two_chains_on_surface", "mobile", "shaken_chain"}
+# pinning these chains' first particles over-constrains them (the hub; the driven top): refused
+NO_PIN_FIRST = {"mobile", "shaken_chain"}
 WITH_SURFACE = {"bead", "surface_chain", "bead_with_drag", "two_chains_on_surface"}
 
 
@@ -145,9 +147,9 @@ class FuzzServicesTest(unittest.TestCase):
                 valid = rng.random() < 0.4
                 if scene in FIXED_COUNT and rng.random() < 0.5:
                     request[0] = chain_count
-                if scene == "mobile":
-                    # pinning the chains' first particles would over-constrain the hub: refused
-                    # as infeasible (tested below), so valid requests leave them free
+                if scene in NO_PIN_FIRST:
+                    # pinning the chains' first particles would over-constrain them: refused as
+                    # infeasible, so valid requests leave them free
                     request[3] = False
                 if not valid:  # one field out of range
                     field = rng.randrange(3)
