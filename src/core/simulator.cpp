@@ -46,6 +46,7 @@ Simulator::Simulator(const Scene& scene, const State& initial_state, const StepS
   settings_ = settings;
   integrator_ = &findIntegrator(settings.integrator);
   diagnostic_rows_.resize(*model_);
+  diagnostic_rates_.setZero(model_->numRows());
   reset();
 }
 
@@ -127,6 +128,7 @@ void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMe
   data_ = std::move(compiled.data);
   initial_state_ = compiled.initial_state;
   diagnostic_rows_.resize(*model_);
+  diagnostic_rates_.setZero(model_->numRows());
   reset();
 }
 

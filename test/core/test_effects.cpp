@@ -223,3 +223,57 @@ TEST(SolveSelection, TreeSolveHandlesLargeStarsAndStaysFiniteWhenSingular)
   EXPECT_TRUE(regularised.report.singular);
   EXPECT_TRUE(regularised.multipliers.allFinite());
 }
+
+// step(count) reports the worst and the totals over all its steps, not only the last: the same
+// as merging count single steps.
+TEST(StepStatistics, BatchIsTheMergeOfItsSteps)
+{
+  const BuiltScene chain = constrained_particles::testing::shippedScene(
+      "chain", constrained_particles::testing::chainOf(12, 0.1, 0.1));
+  for (const char* integrator : { "rk4", "velocity_verlet", "dopri5" })
+  {
+    StepSettings settings;
+    settings.integrator = integrator;
+    settings.dt = 2e-3;
+    Simulator batch(chain.scene, chain.initial_state, settings);
+    Simulator single(chain.scene, chain.initial_state, settings);
+    const StepStatistics merged = batch.step(40);
+    StepStatistics sum;
+    double worst_pivot = 1.0;
+    int worst_iterations = 0;
+    bool all_converged = true;
+    for (int k = 0; k < 40; ++k)
+    {
+      const StepStatistics one = single.step();
+      sum.steps += one.steps;
+      sum.solve.factorizations += one.solve.factorizations;
+      sum.solve.singular_count += one.solve.singular_count;
+      sum.projection.projections += one.projection.projections;
+      sum.projection.iterations += one.projection.iterations;
+      sum.internal_steps += one.internal_steps;
+      sum.rejected_internal_steps += one.rejected_internal_steps;
+      for (int f = 0; f < NUM_FORCE_KINDS; ++f)
+        sum.effects.forces[f] += one.effects.forces[f];
+      for (int c = 0; c < NUM_CONSTRAINT_KINDS; ++c)
+        sum.effects.constraints[c] += one.effects.constraints[c];
+      worst_pivot = std::min(worst_pivot, one.solve.min_pivot_ratio);
+      worst_iterations = std::max(worst_iterations, one.projection.max_iterations);
+      all_converged = all_converged && one.projection.converged;
+    }
+    EXPECT_EQ(batch.state().positions, single.state().positions) << integrator;
+    EXPECT_EQ(merged.steps, 40) << integrator;
+    EXPECT_EQ(merged.solve.factorizations, sum.solve.factorizations) << integrator;
+    EXPECT_GT(merged.solve.factorizations, 40) << integrator;
+    EXPECT_EQ(merged.solve.singular_count, sum.solve.singular_count) << integrator;
+    EXPECT_EQ(merged.solve.min_pivot_ratio, worst_pivot) << integrator;
+    EXPECT_LT(merged.solve.min_pivot_ratio, 1.0) << integrator;
+    EXPECT_EQ(merged.projection.projections, sum.projection.projections) << integrator;
+    EXPECT_EQ(merged.projection.iterations, sum.projection.iterations) << integrator;
+    EXPECT_EQ(merged.projection.max_iterations, worst_iterations) << integrator;
+    EXPECT_EQ(merged.projection.converged, all_converged) << integrator;
+    EXPECT_EQ(merged.internal_steps, sum.internal_steps) << integrator;
+    EXPECT_EQ(merged.rejected_internal_steps, sum.rejected_internal_steps) << integrator;
+    EXPECT_EQ(merged.effects.forces, sum.effects.forces) << integrator;
+    EXPECT_EQ(merged.effects.constraints, sum.effects.constraints) << integrator;
+  }
+}

@@ -1,0 +1,224 @@
+// A steady-state step touches no heap on the single-row, tridiagonal and tree paths, with every
+// integrator and stabilisation; the sparse path allocates only what Eigen's factorisation needs,
+// the same number every step. Counted by interposing malloc (sanitizer builds: their hooks).
+#include "constrained_particles/core/integrators.hpp"
+#include "constrained_particles/core/simulator.hpp"
+#include "test_helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstddef>
+#include <cerrno>
+#include <cstdlib>
+
+namespace
+{
+std::atomic<bool> counting{ false };
+std::atomic<long> allocations{ 0 };
+
+void noteAllocation()
+{
+  if (counting.load(std::memory_order_relaxed))
+    allocations.fetch_add(1, std::memory_order_relaxed);
+}
+
+}  // namespace
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+// the sanitizers own malloc: count through the hooks they offer
+#include <sanitizer/allocator_interface.h>
+
+namespace
+{
+void onMalloc(const volatile void* /*pointer*/, std::size_t /*size*/)
+{
+  noteAllocation();
+}
+void onFree(const volatile void* /*pointer*/)
+{
+}
+const int HOOKS_INSTALLED = __sanitizer_install_malloc_and_free_hooks(onMalloc, onFree);
+
+}  // namespace
+#else
+// glibc's own allocator under its internal names: every malloc of the process (operator new,
+// Eigen, Boost) comes through these
+extern "C"
+{
+  void* __libc_malloc(std::size_t size);
+  void* __libc_calloc(std::size_t count, std::size_t size);
+  void* __libc_realloc(void* pointer, std::size_t size);
+  void* __libc_memalign(std::size_t alignment, std::size_t size);
+
+  void* malloc(std::size_t size)
+  {
+    noteAllocation();
+    return __libc_malloc(size);
+  }
+  void* calloc(std::size_t count, std::size_t size)
+  {
+    noteAllocation();
+    return __libc_calloc(count, size);
+  }
+  void* realloc(void* pointer, std::size_t size)
+  {
+    noteAllocation();
+    return __libc_realloc(pointer, size);
+  }
+  void* memalign(std::size_t alignment, std::size_t size)
+  {
+    noteAllocation();
+    return __libc_memalign(alignment, size);
+  }
+  void* aligned_alloc(std::size_t alignment, std::size_t size)
+  {
+    noteAllocation();
+    return __libc_memalign(alignment, size);
+  }
+  int posix_memalign(void** pointer, std::size_t alignment, std::size_t size)
+  {
+    noteAllocation();
+    *pointer = __libc_memalign(alignment, size);
+    return *pointer ? 0 : ENOMEM;
+  }
+}
+namespace
+{
+const int HOOKS_INSTALLED = 1;
+}
+#endif
+
+using namespace constrained_particles;
+using constrained_particles::testing::shippedScene;
+
+namespace
+{
+// heap allocations made by fn
+template <typename Fn>
+long allocationsIn(Fn fn)
+{
+  allocations = 0;
+  counting = true;
+  fn();
+  counting = false;
+  return allocations.load();
+}
+
+StepSettings settingsOf(const std::string& integrator, Stabilization stabilization)
+{
+  StepSettings settings;
+  settings.integrator = integrator;
+  settings.stabilization = stabilization;
+  settings.dt = 1e-3;
+  return settings;
+}
+
+// a random tree whose every particle hangs from an earlier one, with two rows (a wire) inside
+// some particles' blocks: the tree solve's multi-row path
+BuiltScene treeWithWires()
+{
+  constrained_particles::testing::Random random(77);
+  BuiltScene s;
+  const int n = 30;
+  s.initial_state.positions.resize(3, n);
+  s.initial_state.velocities.setZero(3, n);
+  s.initial_state.positions.col(0).setZero();
+  s.scene.masses.assign(n, 0.2);
+  for (int k = 1; k < n; ++k)
+  {
+    const int parent = static_cast<int>(random.uniform(0.0, k - 1e-9));
+    s.initial_state.positions.col(k) =
+        s.initial_state.positions.col(parent) + 0.3 * random.unitVector();
+    s.scene.constraints.push_back(LinkConstraint{ parent, k, 0.3 });
+  }
+  for (int k = 3; k < n; k += 9)
+    s.scene.constraints.push_back(
+        PointOnLineConstraint{ k, Vec3(s.initial_state.positions.col(k)), Vec3(1.0, 0.2, 0.1) });
+  s.scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  s.scene.forces = { GravityForce{} };
+  return s;
+}
+
+}  // namespace
+
+TEST(Allocations, TheCounterSeesAllocations)
+{
+  ASSERT_EQ(HOOKS_INSTALLED, 1);
+  EXPECT_GT(allocationsIn(
+                []
+                {
+                  Eigen::VectorXd v(1000);
+                  v.setZero();
+                }),
+            0);
+  EXPECT_GT(allocationsIn(
+                []
+                {
+                  std::vector<int> v(10);
+                  v[0] = 1;
+                }),
+            0);
+  EXPECT_EQ(allocationsIn([] {}), 0);
+}
+
+// single row (bead), tridiagonal (chain, surface chain, driven chain) and tree (mobile, a bead on
+// a wire, random trees with two-row blocks): nothing after warm-up, whatever the method
+TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
+{
+  std::vector<std::pair<std::string, BuiltScene>> scenes;
+  for (const char* name : { "bead", "chain", "surface_chain", "shaken_chain", "mobile",
+                            "bead_on_wire", "sled_on_ramp" })
+    scenes.emplace_back(name, shippedScene(name));
+  scenes.emplace_back("tree with wires", treeWithWires());
+  int checked = 0;
+  for (const auto& [name, built] : scenes)
+    for (const IntegratorInfo* integrator : integratorTable())
+      for (Stabilization stabilization :
+           { Stabilization::None, Stabilization::Baumgarte, Stabilization::Projection })
+      {
+        Simulator simulator(built.scene, built.initial_state,
+                            settingsOf(integrator->name, stabilization));
+        const SolveMethod method = simulator.model().solveMethod();
+        ASSERT_TRUE(method == SolveMethod::Single || method == SolveMethod::Tridiagonal ||
+                    method == SolveMethod::Tree)
+            << name;
+        simulator.step(100);  // warm-up: dopri5 makes its workspace on its first step
+        const long count = allocationsIn([&] { simulator.step(100); });
+        EXPECT_EQ(count, 0) << name << ", " << integrator->name << " + "
+                            << stabilizationName(stabilization) << ", " << solveMethodName(method);
+        EXPECT_EQ(allocationsIn([&] { (void)simulator.diagnostics(); }), 0) << name;
+        ++checked;
+      }
+  EXPECT_EQ(checked, 8 * static_cast<int>(integratorTable().size()) * 3);
+}
+
+// the sparse path (cycles: a zig-zag of links and angles) keeps Eigen's factorisation, whose
+// allocations per factorisation are fixed: the count per 100 steps does not grow
+TEST(Allocations, SparseStepsAllocateTheSameEveryStep)
+{
+  const BuiltScene zigzag = shippedScene("zigzag_chain");
+  for (const IntegratorInfo* integrator : integratorTable())
+  {
+    Simulator simulator(zigzag.scene, zigzag.initial_state,
+                        settingsOf(integrator->name, Stabilization::Projection));
+    ASSERT_EQ(simulator.model().solveMethod(), SolveMethod::Sparse);
+    simulator.step(100);
+    long counts[3];
+    long factorizations[3];
+    for (int k = 0; k < 3; ++k)
+    {
+      StepStatistics statistics;
+      counts[k] = allocationsIn([&] { statistics = simulator.step(100); });
+      factorizations[k] = statistics.solve.factorizations;
+    }
+    // the same work each batch allocates the same; dopri5's internal steps may differ
+    for (int k = 1; k < 3; ++k)
+    {
+      EXPECT_LE(counts[k] * factorizations[0], counts[0] * factorizations[k])
+          << integrator->name << ": " << counts[0] << ", " << counts[k] << " allocations for "
+          << factorizations[0] << ", " << factorizations[k] << " factorisations";
+    }
+    EXPECT_GT(counts[0], 0) << "the sparse factorisation allocates: the counter must see it";
+  }
+}
