@@ -12,6 +12,6 @@ export BUILD_TYPE=RelWithDebInfo
 export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1"
 export LSAN_OPTIONS="suppressions=$ROOT/scripts/lsan_suppressions.txt:print_suppressions=0"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
-exec bash "$ROOT/scripts/test.sh" -DCMAKE_CXX_FLAGS="$FLAGS" \
+exec bash "$ROOT/scripts/test.sh" -DCP_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS="$FLAGS" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined"

@@ -57,10 +57,14 @@ bool Range::contains(double value) const
   return !integer || value == std::floor(value);
 }
 
+std::string Range::interval() const
+{
+  return std::string(low_open ? "(" : "[") + formatValue(low) + ", " + formatValue(high) + "]";
+}
+
 std::string Range::text() const
 {
-  return std::string(low_open ? "(" : "[") + formatValue(low) + ", " + formatValue(high) + "] [" +
-         unit + "]";
+  return interval() + " [" + unit + "]";
 }
 
 void requireInRange(const std::string& field, double value, const Range& range)

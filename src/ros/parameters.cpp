@@ -31,6 +31,24 @@ bool readParameter(const ros::NodeHandle& nh, const std::string& name, T& value)
     }
     throw InvalidInput("~" + name, "has the wrong type, must be a number");
   }
+  else if constexpr (std::is_same_v<T, int>)
+  {
+    // roscpp's getParam rounds a double to an int silently (1.5 -> 2): read the value as it is
+    XmlRpc::XmlRpcValue raw;
+    nh.getParam(name, raw);
+    if (raw.getType() == XmlRpc::XmlRpcValue::TypeInt)
+      value = static_cast<int>(raw);
+    else if (raw.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+    {
+      const double number = static_cast<double>(raw);
+      if (!(number == std::floor(number) && std::abs(number) < 2e9))
+        throw InvalidInput("~" + name, "= " + formatValue(number) + ", must be a whole number");
+      value = static_cast<int>(number);
+    }
+    else
+      throw InvalidInput("~" + name, "has the wrong type, must be an integer");
+    return true;
+  }
   else if constexpr (std::is_same_v<T, Stabilization>)
   {
     std::string text;
@@ -43,9 +61,7 @@ bool readParameter(const ros::NodeHandle& nh, const std::string& name, T& value)
   {
     if (!nh.getParam(name, value))
       throw InvalidInput("~" + name, std::string("has the wrong type, must be ") +
-                                         (std::is_same_v<T, int>    ? "an integer"
-                                          : std::is_same_v<T, bool> ? "a boolean"
-                                                                    : "a string"));
+                                         (std::is_same_v<T, bool> ? "a boolean" : "a string"));
     return true;
   }
 }
@@ -121,6 +137,29 @@ std::vector<std::string> SceneOverrides::applyTo(SceneDescription& description) 
     setGravityAndDamping(description, gravity.value_or(sceneGravity(description)),
                          damping.value_or(sceneDamping(description)));
   return skipped;
+}
+
+const Range* settingRange(const std::string& name)
+{
+  const Range* found = nullptr;
+  auto look = [&](const auto& spec)
+  {
+    if (name == spec.name && spec.kind == FieldKind::Number)
+      found = spec.range;
+  };
+  forEachField<StepSettings>(look);
+  forEachField<NodeParameters>(look);
+  if (name == "damping")
+    return &limits::DAMPING;
+  if (name == "gravity" || name == "gravity_x" || name == "gravity_y" || name == "gravity_z")
+    return &limits::GRAVITY;
+  if (name == "chain/num_particles")
+    return &limits::PARTICLES;
+  if (name == "chain/link_length")
+    return &limits::LINK_LENGTH;
+  if (name == "chain/particle_mass")
+    return &limits::MASS;
+  return found;
 }
 
 NodeParameters readParameters(const ros::NodeHandle& nh)

@@ -101,12 +101,9 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   services_.push_back(nh_.advertiseService("unpause", &SimulatorNode::unpauseCallback, this));
   services_.push_back(nh_.advertiseService("step", &SimulatorNode::stepCallback, this));
 
-  reconfigure_server_ =
-      std::make_unique<dynamic_reconfigure::Server<SimulatorConfig>>(reconfigure_mutex_, nh_);
-  SimulatorConfig config = configFrom(parameters_, scene_);
-  reconfigure_server_->updateConfig(config);
-  reconfigure_server_->setCallback([this](SimulatorConfig& c, uint32_t level)
-                                   { reconfigureCallback(c, level); });
+  reconfigure_server_ = std::make_unique<ReconfigureServer<SimulatorConfig>>(
+      nh_, configFrom(parameters_, scene_),
+      [this](const SimulatorConfig& config) { return reconfigureCallback(config); });
 
   publish_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / parameters_.publish_rate),
                                        [this](const ros::WallTimerEvent&) { publish(); });
@@ -350,7 +347,7 @@ void SimulatorNode::pushReconfigure()
     std::lock_guard<std::mutex> lock(mutex_);
     config = configFrom(parameters_, scene_);
   }
-  reconfigure_server_->updateConfig(config);
+  reconfigure_server_->update(config);
 }
 
 bool SimulatorNode::resetCallback(Reset::Request& request, Reset::Response& response)
@@ -524,7 +521,7 @@ bool SimulatorNode::stepCallback(Step::Request& request, Step::Response& respons
   return true;
 }
 
-void SimulatorNode::reconfigureCallback(SimulatorConfig& config, uint32_t /*level*/)
+bool SimulatorNode::reconfigureCallback(const SimulatorConfig& config)
 {
   std::lock_guard<std::mutex> lock(mutex_);
   NodeParameters candidate = parameters_;
@@ -551,13 +548,13 @@ void SimulatorNode::reconfigureCallback(SimulatorConfig& config, uint32_t /*leve
   {
     ROS_WARN("dynamic_reconfigure refused: %s; keeping the current settings", e.what());
     simulator_->setStepSettings(parameters_.step);
-    config = configFrom(parameters_, scene_);
-    return;
+    return false;
   }
   if (candidate.publish_rate != parameters_.publish_rate)
     publish_timer_.setPeriod(ros::WallDuration(1.0 / candidate.publish_rate));
   parameters_ = candidate;
   reanchorLocked();
+  return true;
 }
 
 void SimulatorNode::updateRateLocked()

@@ -246,6 +246,25 @@ struct RecordReader
     checkKeys(where, node, known, std::string("a ") + Kind::KIND + " record");
     Kind record;
     readFields(where, node, record, surfaces);
+    // a field that may be left out (from_start) must be a valid value when it is given: NaN
+    // written in the file is refused, not taken as "unset"
+    forEachField<Kind>(
+        [&](const auto& spec)
+        {
+          if constexpr (std::is_same_v<typename std::decay_t<decltype(spec)>::MemberType, double> ||
+                        std::is_same_v<typename std::decay_t<decltype(spec)>::MemberType, Vec3>)
+            if (spec.from_start && node[spec.name])
+            {
+              try
+              {
+                requireInRange(spec.name, record.*(spec.member), *spec.range);
+              }
+              catch (const InvalidInput& e)
+              {
+                failAt(where, node[spec.name], e);
+              }
+            }
+        });
     if (has_particle && node["particles"])
     {
       if (node["particle"])

@@ -223,19 +223,19 @@ TEST(SceneFiles, BadFilesAreRefusedNamingFileKeyAndReason)
       "constraints:\n  - {type: link, first: 0, second: 1, lenght: 2}\n",
       { "test.yaml:3: constraints[0].lenght", "a link record", "length" });
   // invalid values: the key, the value and the range
-  expectRefused("particles:\n  - {mass: -1.0}\n", { "particles[0].mass", "= -1", "(0, 1e+06]" });
+  expectRefused("particles:\n  - {mass: -1.0}\n", { "particles[0].mass", "= -1", "[1e-09, 1e+06]" });
   expectRefused("particles:\n  - {mass: .nan}\n", { "particles[0].mass", "nan" });
   expectRefused("particles:\n  - {position: [1, 2]}\n", { "particles[0].position", "3 numbers" });
   expectRefused("particles:\n  - {mass: heavy}\n", { "particles[0].mass", "must be a number" });
   expectRefused("chains:\n  - {particles: 0}\n", { "chains[0].particles", "= 0, must be in [1, " });
   expectRefused("chains:\n  - {particles: 3, link_length: -0.5}\n",
-                { "chains[0].link_length", "= -0.5, must be in (0, " });
+                { "chains[0].link_length", "= -0.5, must be in [1e-06, " });
   expectRefused("chains:\n  - {particles: 3, direction: [0, 0, 0]}\n",
                 { "chains[0].direction", "non-zero" });
   expectRefused(
       "particles: [{mass: 1}, {mass: 1}]\n"
       "constraints:\n  - {type: link, first: 0, second: 1, length: -2}\n",
-      { "constraints[0]", "length", "(0, 1000]" });
+      { "constraints[0]", "length", "[1e-06, 1000]" });
   expectRefused(
       "particles: [{mass: 1}, {mass: 1}]\n"
       "constraints:\n  - {type: link, first: 0, second: 5}\n",

@@ -54,13 +54,13 @@ TEST(Validation, SceneFieldsAreNamed)
   {
     s = validChain();
     s.masses[1] = bad;
-    expectRefused([&] { Model::compile(s); }, "masses[1]", "(0, 1e+06] [kg]");
+    expectRefused([&] { Model::compile(s); }, "masses[1]", "[1e-09, 1e+06] [kg]");
   }
   for (double bad : { 0.0, -2.0, NaN, INF })
   {
     s = validChain();
     std::get<LinkConstraint>(s.constraints[1]).length = bad;
-    expectRefused([&] { Model::compile(s); }, "constraints[1].length", "(0, 1000] [m]");
+    expectRefused([&] { Model::compile(s); }, "constraints[1].length", "[1e-06, 1000] [m]");
   }
   s = validChain();
   std::get<LinkConstraint>(s.constraints[0]).second = 7;

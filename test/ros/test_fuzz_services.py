@@ -27,8 +27,8 @@ CALLS = 10000
 SEED = 20261122
 MAX_PARTICLES = 500  # as fuzz_services.test sets ~max_particles
 NAN, INF = float("nan"), float("inf")
-BAD_LINKS = [NAN, INF, -INF, -1.0, 0.0, 1e4, 1e300, -1e300]        # valid: (0, 1000] m
-BAD_MASSES = [NAN, INF, -INF, -1.0, 0.0, 1e7, 1e300]               # valid: (0, 1e6] kg
+BAD_LINKS = [NAN, INF, -INF, -1.0, 0.0, 1e4, 1e300, -1e300]        # valid: [1e-06, 1000] m
+BAD_MASSES = [NAN, INF, -INF, -1.0, 0.0, 1e7, 1e300]               # valid: [1e-09, 1e+06] kg
 BAD_COUNTS = [0, MAX_PARTICLES + 1, 10**6, 2**32 - 1]             # valid: [1, max_particles]
 SURFACE_TYPES = {"plane": 3, "bowl": 2, "saddle": 2, "waves": 3, "gaussian": 4}
 # scenes with chains and their particles per chain; those naming chain particles by index keep

@@ -27,10 +27,16 @@ enum class FieldKind
   Name,       ///< one of a table of names (an integrator, a stabilisation), or a flag
 };
 
+/// Shortest vector a Direction field takes: shorter ones lose their direction to round-off.
+constexpr double MIN_DIRECTION_LENGTH = 1e-6;
+
 /// One field of an effect record: `record.*member`.
 template <typename Record, typename Member>
 struct FieldSpec
 {
+  using RecordType = Record;  ///< the record it belongs to
+  using MemberType = Member;  ///< the member's type
+
   const char* name;         ///< key in scene files and in error messages
   Member Record::*member;   ///< the record's member
   FieldKind kind;           ///< how it is read and validated
@@ -114,8 +120,11 @@ void validateFields(const Record& record, int num_particles, int num_surfaces,
             return;
           requireInRange(name, value, *spec.range);
           if constexpr (std::is_same_v<Member, Vec3>)
-            if (spec.kind == FieldKind::Direction && value.isZero(0.0))
-              throw InvalidInput(name, "= [0, 0, 0], must be a non-zero vector");
+            if (spec.kind == FieldKind::Direction && !(value.norm() >= MIN_DIRECTION_LENGTH))
+              throw InvalidInput(name, "= [" + formatValue(value.x()) + ", " +
+                                           formatValue(value.y()) + ", " + formatValue(value.z()) +
+                                           "], must be a non-zero direction, of length at least " +
+                                           formatValue(MIN_DIRECTION_LENGTH));
         }
         else
         {

@@ -23,7 +23,9 @@ struct Range
 
   /// True if value is finite, inside the interval and (if integer) whole.
   bool contains(double value) const;
-  /// "(0, 1e+06] [kg]": how messages, README and default.yaml write the range.
+  /// "(0, 1e+06]": the interval alone, as README's and default.yaml's range columns write it.
+  std::string interval() const;
+  /// "(0, 1e+06] [kg]": how messages write the range.
   std::string text() const;
 };
 
@@ -36,16 +38,16 @@ void requireInRange(const std::string& field, const Vec3& value, const Range& ra
 namespace limits
 {
 // --- particles and scenes ---
-/// Particle mass m [kg].
-constexpr Range MASS{ 0.0, true, 1e6, "kg", false };
+/// Particle mass m [kg]: 1 microgram to 1,000 t (the inverse mass 1/m must stay a number).
+constexpr Range MASS{ 1e-9, false, 1e6, "kg", false };
 /// Particles in one scene, all chains and explicit particles together.
 constexpr Range PARTICLES{ 1.0, false, 1e6, "1", true };
 /// A position or anchor coordinate [m]: a teleport to 1e300 m would overflow on the first step.
 constexpr Range COORDINATE{ -1e6, false, 1e6, "m", false };
 /// A velocity component [m/s].
 constexpr Range VELOCITY{ -1e6, false, 1e6, "m/s", false };
-/// A chain's or a link's length l [m].
-constexpr Range LINK_LENGTH{ 0.0, true, 1e3, "m", false };
+/// A chain's or a link's length l [m] (below a micrometre, l^2 loses the row to round-off).
+constexpr Range LINK_LENGTH{ 1e-6, false, 1e3, "m", false };
 /// A rotation rate component [rad/s] (a chain's initial spin).
 constexpr Range ANGULAR_VELOCITY{ -1e4, false, 1e4, "rad/s", false };
 /// A direction or normal component (normalised after reading; all zero is refused) [1].

@@ -85,6 +85,11 @@ struct NodeParameters
   }
 };
 
+/// The range of a setting by the name users give it: a StepSettings or NodeParameters field, a
+/// scene override (damping, gravity and dynamic_reconfigure's gravity_x, _y, _z, chain/*); nullptr
+/// for names (integrator, frames) and unknown names. dynamic_reconfigure's ranges must be these.
+const Range* settingRange(const std::string& name);
+
 /// Reads every parameter from the (private) node handle, over the defaults.
 /// @throws InvalidInput naming the parameter ("~chain/link_length") and its valid range
 NodeParameters readParameters(const ros::NodeHandle& private_nh);

@@ -7,6 +7,7 @@
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/ros/markers.hpp"
 #include "constrained_particles/ros/parameters.hpp"
+#include "constrained_particles/ros/reconfigure_server.hpp"
 
 #include <constrained_particles/ListScenes.h>
 #include <constrained_particles/Reset.h>
@@ -14,12 +15,9 @@
 #include <constrained_particles/SetState.h>
 #include <constrained_particles/SetSurface.h>
 #include <constrained_particles/Step.h>
-#include <dynamic_reconfigure/server.h>
 #include <ros/ros.h>
 #include <std_srvs/Empty.h>
 #include <tf2_ros/transform_broadcaster.h>
-
-#include <boost/thread/recursive_mutex.hpp>
 
 #include <atomic>
 #include <chrono>
@@ -90,7 +88,8 @@ private:
   bool pauseCallback(std_srvs::Empty::Request& request, std_srvs::Empty::Response& response);
   bool unpauseCallback(std_srvs::Empty::Request& request, std_srvs::Empty::Response& response);
   bool stepCallback(Step::Request& request, Step::Response& response);
-  void reconfigureCallback(SimulatorConfig& config, uint32_t level);
+  /// Applies a dynamic_reconfigure request; false (and nothing changed) if any value is bad.
+  bool reconfigureCallback(const SimulatorConfig& config);
   void statusCallback(const ros::WallTimerEvent& event);
   /// Publishes the node's health on /diagnostics, after updating the achieved real-time factor.
   void diagnosticsCallback(const ros::WallTimerEvent& event);
@@ -133,8 +132,7 @@ private:
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   std::vector<ros::ServiceServer> services_;
   ros::WallTimer publish_timer_, status_timer_, diagnostics_timer_;
-  boost::recursive_mutex reconfigure_mutex_;
-  std::unique_ptr<dynamic_reconfigure::Server<SimulatorConfig>> reconfigure_server_;
+  std::unique_ptr<ReconfigureServer<SimulatorConfig>> reconfigure_server_;
 };
 
 }  // namespace constrained_particles

@@ -1,0 +1,414 @@
+// Every numeric setting through the node's entry points: start-up parameters (read as the node
+// reads them, readParameters), services (~set_chain, ~step, ~set_state) and dynamic_reconfigure
+// (~set_parameters) of the running node. NaN, +-Inf, just below and just above the range in
+// limits.hpp are refused naming the field, and nothing changes (reconfigure: the old value
+// stays); values on the edges of the range are taken exactly as given. The core's own entry
+// points (a core call, a scene file) are test/core/test_entry_points.cpp.
+#include "constrained_particles/SimState.h"
+#include "constrained_particles/SimulatorConfig.h"
+#include "constrained_particles/ros/parameters.hpp"
+
+#include <constrained_particles/Reset.h>
+#include <constrained_particles/SetChain.h>
+#include <constrained_particles/SetState.h>
+#include <constrained_particles/Step.h>
+#include <dynamic_reconfigure/Reconfigure.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <std_srvs/Empty.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <mutex>
+#include <thread>
+
+using namespace constrained_particles;
+
+namespace
+{
+constexpr double INF = std::numeric_limits<double>::infinity();
+const std::string NODE = "/simulator";
+
+// values a range must refuse: NaN, infinities, just outside each end, a fraction for counts
+std::vector<double> badValues(const Range& range)
+{
+  std::vector<double> bad{ NAN, INF, -INF };
+  if (range.integer)
+  {
+    bad.push_back(range.low - 1);
+    bad.push_back(range.high + 1);
+    bad.push_back(range.low + 0.5);
+  }
+  else
+  {
+    bad.push_back(range.low_open ? range.low : std::nextafter(range.low, -INF));
+    bad.push_back(std::nextafter(range.high, INF));
+  }
+  return bad;
+}
+
+// values a range must take as they are: its edges and its middle
+std::vector<double> goodValues(const Range& range)
+{
+  const double low = range.low_open ? std::nextafter(range.low, INF) : range.low;
+  double middle = 0.5 * (low + range.high);
+  if (range.integer)
+    middle = std::floor(middle);
+  return { low, middle, range.high };
+}
+
+std::string show(double value)
+{
+  char text[40];
+  std::snprintf(text, sizeof(text), "%.17g", value);
+  return text;
+}
+
+template <typename Service>
+typename Service::Response call(const std::string& name, typename Service::Request request)
+{
+  Service service;
+  service.request = request;
+  EXPECT_TRUE(ros::service::call(NODE + "/" + name, service)) << name;
+  return service.response;
+}
+
+void callEmpty(const std::string& name)
+{
+  std_srvs::Empty empty;
+  EXPECT_TRUE(ros::service::call(NODE + "/" + name, empty)) << name;
+}
+
+class EntryPoints : public ::testing::Test
+{
+protected:
+  static void SetUpTestSuite()
+  {
+    ros::NodeHandle nh;
+    for (const char* service :
+         { "reset", "pause", "step", "set_chain", "set_state", "set_parameters" })
+      ASSERT_TRUE(ros::service::waitForService(NODE + "/" + service, ros::Duration(60.0)));
+  }
+
+  void SetUp() override
+  {
+    subscriber_ = nh_.subscribe(NODE + "/state", 10, &EntryPoints::onState, this);
+    callEmpty("pause");
+    Reset::Request reset;
+    reset.scenario = "chain";
+    ASSERT_TRUE(call<Reset>("reset", reset).success);
+  }
+
+  void onState(const SimState& state)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    latest_ = state;
+    ++received_;
+  }
+
+  // a ~state published after this call (waits against the wall clock)
+  SimState freshState()
+  {
+    long seen;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      seen = received_;
+    }
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (std::chrono::steady_clock::now() < deadline)
+    {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        // two more: the first may have been on its way already
+        if (received_ >= seen + 2)
+          return latest_;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ADD_FAILURE() << "no fresh ~state";
+    return latest_;
+  }
+
+  static void expectSameState(const SimState& before, const SimState& after,
+                              const std::string& what)
+  {
+    EXPECT_EQ(after.scenario, before.scenario) << what;
+    EXPECT_EQ(after.steps, before.steps) << what;
+    EXPECT_EQ(after.sim_time, before.sim_time) << what;
+    ASSERT_EQ(after.positions.size(), before.positions.size()) << what;
+    for (std::size_t i = 0; i < before.positions.size(); ++i)
+      EXPECT_EQ(after.positions[i], before.positions[i]) << what;
+  }
+
+  ros::NodeHandle nh_;
+  ros::Subscriber subscriber_;
+  std::mutex mutex_;
+  SimState latest_;
+  long received_ = 0;
+};
+
+// a parameter set as a double, or as an int when the range holds counts and the value is whole
+void setParameter(ros::NodeHandle& nh, const std::string& name, double value, const Range& range)
+{
+  if (range.integer && std::isfinite(value) && value == std::floor(value) && std::abs(value) < 2e9)
+    nh.setParam(name, static_cast<int>(value));
+  else
+    nh.setParam(name, value);
+}
+
+}  // namespace
+
+// Start-up parameters, read by the node's own readParameters from a namespace of their own.
+TEST_F(EntryPoints, StartupParameters)
+{
+  ros::NodeHandle scratch("/entry_points_startup");
+  std::vector<std::string> names;
+  forEachField<StepSettings>([&](const auto& spec) { names.push_back(spec.name); });
+  forEachField<NodeParameters>([&](const auto& spec) { names.push_back(spec.name); });
+  for (const char* name : { "damping", "chain/link_length", "chain/particle_mass" })
+    names.push_back(name);
+  int checked = 0;
+  for (const std::string& name : names)
+  {
+    const Range* range = settingRange(name);
+    if (range == nullptr)
+      continue;
+    for (double bad : badValues(*range))
+    {
+      scratch.deleteParam("");
+      setParameter(scratch, name, bad, *range);
+      try
+      {
+        readParameters(scratch);
+        ADD_FAILURE() << "~" << name << " = " << show(bad) << " accepted";
+      }
+      catch (const InvalidInput& e)
+      {
+        EXPECT_EQ(e.field(), "~" + name) << e.what();
+      }
+      ++checked;
+    }
+    for (double good : goodValues(*range))
+    {
+      scratch.deleteParam("");
+      setParameter(scratch, name, good, *range);
+      NodeParameters read;
+      try
+      {
+        read = readParameters(scratch);
+      }
+      catch (const InvalidInput& e)
+      {
+        ADD_FAILURE() << "~" << name << " = " << show(good) << " refused: " << e.what();
+        continue;
+      }
+      // what was read is what was set, to the last bit
+      double value = NAN;
+      auto find = [&](const auto& record)
+      {
+        return [&](const auto& spec)
+        {
+          using Member = typename std::decay_t<decltype(spec)>::MemberType;
+          if constexpr (std::is_same_v<Member, double> || std::is_same_v<Member, int>)
+            if (name == spec.name)
+              value = record.*(spec.member);
+        };
+      };
+      forEachField<StepSettings>(find(read.step));
+      forEachField<NodeParameters>(find(read));
+      if (name == "damping")
+        value = *read.overrides.damping;
+      if (name == "chain/link_length")
+        value = *read.overrides.link_length;
+      if (name == "chain/particle_mass")
+        value = *read.overrides.particle_mass;
+      EXPECT_EQ(value, good) << "~" << name;
+      ++checked;
+    }
+  }
+  // gravity is a vector: each component
+  for (int axis = 0; axis < 3; ++axis)
+    for (double bad : badValues(limits::GRAVITY))
+    {
+      scratch.deleteParam("");
+      std::vector<double> gravity{ 0.0, 0.0, -9.81 };
+      gravity[axis] = bad;
+      scratch.setParam("gravity", gravity);
+      try
+      {
+        readParameters(scratch);
+        ADD_FAILURE() << "~gravity[" << axis << "] = " << show(bad) << " accepted";
+      }
+      catch (const InvalidInput& e)
+      {
+        EXPECT_EQ(e.field().rfind("~gravity", 0), 0u) << e.what();
+      }
+      ++checked;
+    }
+  scratch.deleteParam("");
+  EXPECT_GT(checked, 100);
+}
+
+// ~set_chain, ~step and ~set_state: refused naming the field, the state untouched; edges taken.
+TEST_F(EntryPoints, Services)
+{
+  const SimState before = freshState();
+  const std::vector<std::pair<std::string, const Range*>> chain_fields = {
+    { "link_length", &limits::LINK_LENGTH }, { "particle_mass", &limits::MASS }
+  };
+  for (const auto& [field, range] : chain_fields)
+    for (double bad : badValues(*range))
+    {
+      SetChain::Request request;
+      request.num_particles = 5;
+      request.link_length = 0.5;
+      request.particle_mass = 1.0;
+      request.pin_first = true;
+      (field == "link_length" ? request.link_length : request.particle_mass) = bad;
+      const SetChain::Response response = call<SetChain>("set_chain", request);
+      EXPECT_FALSE(response.success) << field << " = " << show(bad);
+      EXPECT_NE(response.message.find(field), std::string::npos) << response.message;
+    }
+  for (std::uint32_t bad : { 0u, 100001u, 4294967295u })  // ~max_particles is 100000
+  {
+    SetChain::Request request;
+    request.num_particles = bad;
+    request.link_length = 0.5;
+    request.particle_mass = 1.0;
+    const SetChain::Response response = call<SetChain>("set_chain", request);
+    EXPECT_FALSE(response.success) << bad;
+    EXPECT_NE(response.message.find("num_particles"), std::string::npos) << response.message;
+  }
+  for (std::uint32_t bad : { 0u, static_cast<std::uint32_t>(limits::STEPS_PER_CALL.high + 1) })
+  {
+    Step::Request request;
+    request.steps = bad;
+    const Step::Response response = call<Step>("step", request);
+    EXPECT_FALSE(response.success) << bad;
+    EXPECT_NE(response.message.find("steps"), std::string::npos) << response.message;
+  }
+  for (const bool velocity : { false, true })
+    for (double bad : badValues(velocity ? limits::VELOCITY : limits::COORDINATE))
+    {
+      SetState::Request request;
+      request.positions = before.positions;
+      request.velocities.resize(before.positions.size());
+      if (velocity)
+        request.velocities[2].y = bad;
+      else
+        request.positions[2].y = bad;
+      const SetState::Response response = call<SetState>("set_state", request);
+      EXPECT_FALSE(response.success) << show(bad);
+      EXPECT_NE(response.message.find(velocity ? "velocities[2].y" : "positions[2].y"),
+                std::string::npos)
+          << response.message;
+    }
+  expectSameState(before, freshState(), "after refused requests");
+
+  // the edges of each range, taken as given
+  for (const auto& [field, range] : chain_fields)
+    for (double good : goodValues(*range))
+    {
+      SetChain::Request request;
+      request.num_particles = 3;
+      request.link_length = 0.5;
+      request.particle_mass = 1.0;
+      request.pin_first = true;
+      (field == "link_length" ? request.link_length : request.particle_mass) = good;
+      const SetChain::Response response = call<SetChain>("set_chain", request);
+      EXPECT_TRUE(response.success) << field << " = " << show(good) << ": " << response.message;
+      if (field == "link_length")
+      {
+        const SimState state = freshState();
+        ASSERT_EQ(state.positions.size(), 3u);
+        EXPECT_EQ(state.positions[1].x - state.positions[0].x, good);
+      }
+    }
+  Step::Request one;
+  one.steps = static_cast<std::uint32_t>(limits::STEPS_PER_CALL.low);
+  EXPECT_TRUE(call<Step>("step", one).success);
+
+  // a free particle: any coordinate and velocity in range is kept exactly
+  const std::string path = "/tmp/constrained_particles_entry_points.yaml";
+  std::ofstream(path) << "particles: [{mass: 1}]\n";
+  Reset::Request reset;
+  reset.scenario = path;
+  ASSERT_TRUE(call<Reset>("reset", reset).success);
+  for (double good : goodValues(limits::COORDINATE))
+  {
+    SetState::Request request;
+    request.positions.resize(1);
+    request.velocities.resize(1);
+    request.positions[0].x = good;
+    request.velocities[0].z = goodValues(limits::VELOCITY)[0];
+    const SetState::Response response = call<SetState>("set_state", request);
+    EXPECT_TRUE(response.success) << show(good) << ": " << response.message;
+    const SimState state = freshState();
+    EXPECT_EQ(state.positions[0].x, good);
+    EXPECT_EQ(state.velocities[0].z, limits::VELOCITY.low);
+  }
+  std::remove(path.c_str());
+}
+
+// dynamic_reconfigure: every reconfigurable number, through ~set_parameters as dynparam sends it
+TEST_F(EntryPoints, Reconfigure)
+{
+  auto reconfigure = [](const std::string& name, double value) -> double
+  {
+    dynamic_reconfigure::Reconfigure service;
+    dynamic_reconfigure::DoubleParameter parameter;
+    parameter.name = name;
+    parameter.value = value;
+    service.request.config.doubles.push_back(parameter);
+    EXPECT_TRUE(ros::service::call(NODE + "/set_parameters", service));
+    for (const auto& p : service.response.config.doubles)
+      if (p.name == name)
+        return p.value;
+    ADD_FAILURE() << name << " missing from the answer";
+    return NAN;
+  };
+  const dynamic_reconfigure::ConfigDescription description =
+      SimulatorConfig::__getDescriptionMessage__();
+  int checked = 0;
+  for (const auto& parameter : description.dflt.doubles)
+  {
+    const std::string& name = parameter.name;
+    const Range* range = settingRange(name);
+    ASSERT_NE(range, nullptr) << name;
+    const double kept = reconfigure(name, parameter.value);  // a known value first
+    EXPECT_EQ(kept, parameter.value) << name;
+    for (double bad : badValues(*range))
+    {
+      const double answer = reconfigure(name, bad);
+      EXPECT_EQ(answer, kept) << name << " = " << show(bad) << " was not refused";
+      ++checked;
+    }
+    for (double good : goodValues(*range))
+    {
+      EXPECT_EQ(reconfigure(name, good), good) << name << " = " << show(good) << " was rewritten";
+      ++checked;
+    }
+    reconfigure(name, parameter.value);
+  }
+  // a new dt is the step the node takes, to the last bit
+  const double dt = goodValues(limits::DT)[0];
+  ASSERT_EQ(reconfigure("dt", dt), dt);
+  Step::Request three;
+  three.steps = 3;
+  const Step::Response stepped = call<Step>("step", three);
+  EXPECT_EQ(stepped.sim_time, dt + dt + dt);
+  reconfigure("dt", 0.001);
+  EXPECT_GT(checked, 50);
+}
+
+int main(int argc, char** argv)
+{
+  ::testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "entry_points_test");
+  ros::AsyncSpinner spinner(1);
+  spinner.start();
+  return RUN_ALL_TESTS();
+}
