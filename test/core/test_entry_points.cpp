@@ -6,6 +6,8 @@
 #include "constrained_particles/core/simulator.hpp"
 #include "test_helpers.hpp"
 
+#include "../range_values.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,38 +15,12 @@
 #include <limits>
 
 using namespace constrained_particles;
+using constrained_particles::testing::badValues;
+using constrained_particles::testing::goodValues;
 
 namespace
 {
-constexpr double INF = std::numeric_limits<double>::infinity();
 
-// values a range must refuse: NaN, infinities, just outside each end, a fraction for counts
-std::vector<double> badValues(const Range& range)
-{
-  std::vector<double> bad{ NAN, INF, -INF };
-  if (range.integer)
-  {
-    bad.push_back(range.low - 1);
-    bad.push_back(range.high + 1);
-    bad.push_back(range.low + 0.5);
-  }
-  else
-  {
-    bad.push_back(range.low_open ? range.low : std::nextafter(range.low, -INF));
-    bad.push_back(std::nextafter(range.high, INF));
-  }
-  return bad;
-}
-
-// values a range must take as they are: its edges and its middle
-std::vector<double> goodValues(const Range& range)
-{
-  const double low = range.low_open ? std::nextafter(range.low, INF) : range.low;
-  double middle = 0.5 * (low + range.high);
-  if (range.integer)
-    middle = std::floor(middle);
-  return { low, middle, range.high };
-}
 
 // a double as YAML writes it, exactly
 std::string yaml(double value)

@@ -13,6 +13,8 @@
 #include <constrained_particles/SetState.h>
 #include <constrained_particles/Step.h>
 #include <dynamic_reconfigure/Reconfigure.h>
+#include "../range_values.hpp"
+
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <std_srvs/Empty.h>
@@ -26,39 +28,13 @@
 #include <thread>
 
 using namespace constrained_particles;
+using constrained_particles::testing::badValues;
+using constrained_particles::testing::goodValues;
 
 namespace
 {
-constexpr double INF = std::numeric_limits<double>::infinity();
 const std::string NODE = "/simulator";
 
-// values a range must refuse: NaN, infinities, just outside each end, a fraction for counts
-std::vector<double> badValues(const Range& range)
-{
-  std::vector<double> bad{ NAN, INF, -INF };
-  if (range.integer)
-  {
-    bad.push_back(range.low - 1);
-    bad.push_back(range.high + 1);
-    bad.push_back(range.low + 0.5);
-  }
-  else
-  {
-    bad.push_back(range.low_open ? range.low : std::nextafter(range.low, -INF));
-    bad.push_back(std::nextafter(range.high, INF));
-  }
-  return bad;
-}
-
-// values a range must take as they are: its edges and its middle
-std::vector<double> goodValues(const Range& range)
-{
-  const double low = range.low_open ? std::nextafter(range.low, INF) : range.low;
-  double middle = 0.5 * (low + range.high);
-  if (range.integer)
-    middle = std::floor(middle);
-  return { low, middle, range.high };
-}
 
 std::string show(double value)
 {
