@@ -11,6 +11,7 @@ void RowData::resize(const Model& model)
   value.setZero(m);
   jdot_v.setZero(m);
   violation.setZero(m);
+  diagonal.setZero(m);
   velocity.setZero(m);
   bias.setZero(m);
   jacobian.assign(model.numBlocks(), Vec3::Zero());
@@ -25,7 +26,8 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   rows.resize(model);
   trial_rows.resize(model);
   applied_forces.setZero(3, n);
-  unconstrained_accelerations.setZero(3, n);
+  imposed.assign(model.eliminated().size(),
+                 ImposedMotion{ Vec3::Zero(), Vec3::Zero(), Vec3::Zero() });
   constraint_forces.setZero(3, n);
   accelerations.setZero(3, n);
   multipliers.setZero(model.numMultipliers());

@@ -91,20 +91,34 @@ Model Model::compile(const Scene& scene, SolveMethod method)
                                                     kindOf(scene.constraints[held_by[i]]) + ")");
       held_by[i] = static_cast<int>(k);
       model.inverse_masses_[i] = 0.0;
+      model.addToKindTable(c, static_cast<int>(k), static_cast<int>(model.eliminated_.size()), i);
       model.eliminated_.push_back(static_cast<int>(k));
+      model.eliminated_particles_.push_back(i);
       continue;
     }
     int particles[MAX_ROW_PARTICLES];
     const int count = rowParticles(c, particles);
     RowRecord record{ static_cast<int>(k), model.numRows(), rowCount(c), model.numBlocks(), count };
+    model.addToKindTable(c, record.constraint, record.first_row, record.first_block);
     for (int r = 0; r < record.rows; ++r)
     {
       for (int p = 0; p < count; ++p)
+      {
         model.block_particle_.push_back(particles[p]);
+        model.block_row_.push_back(record.first_row + r);
+      }
       model.row_start_.push_back(model.numBlocks());
     }
     model.row_records_.push_back(record);
   }
+  // blocks on held particles: their imposed accelerations enter the right-hand side
+  std::vector<int> eliminated_index(n, -1);
+  for (std::size_t e = 0; e < model.eliminated_particles_.size(); ++e)
+    eliminated_index[model.eliminated_particles_[e]] = static_cast<int>(e);
+  for (int b = 0; b < model.numBlocks(); ++b)
+    if (eliminated_index[model.block_particle_[b]] >= 0)
+      model.eliminated_blocks_.push_back(
+          EliminatedBlock{ b, eliminated_index[model.block_particle_[b]] });
 
   // incidence of rows on free particles, in CSR form
   const std::vector<double>& w = model.inverse_masses_;
@@ -155,6 +169,18 @@ Model Model::compile(const Scene& scene, SolveMethod method)
   else
     model.method_ = method;
   return model;
+}
+
+void Model::addToKindTable(const Constraint& constraint, int index, int first_row, int first_block)
+{
+  std::visit(
+      [&](const auto& record)
+      {
+        using Kind = std::decay_t<decltype(record)>;
+        std::get<std::vector<KindRecord<Kind>>>(kind_tables_)
+            .push_back(KindRecord<Kind>{ record, index, first_row, first_block });
+      },
+      constraint);
 }
 
 bool isTridiagonal(const Model& model)

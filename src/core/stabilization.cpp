@@ -78,7 +78,9 @@ ProjectionReport shakePositions(const Model& model, Data& data, double time,
   report.singular = factorizeRows(model, data).singular;
   for (int iteration = 0;; ++iteration)
   {
-    rowStage(model, data, time, positions, data.stages.zero, data.trial_rows);
+    // the trial rows give C only; the directions stay those of the reference
+    evaluateRowRecords(model, time, positions, data.stages.zero, data.trial_rows, &data.counters,
+                       false);
     report.max_position_error = data.trial_rows.max_violation;
     report.converged = report.max_position_error <= tolerance;
     if (report.converged || iteration >= max_iterations ||

@@ -5,25 +5,80 @@
 
 namespace constrained_particles
 {
-void evaluateRowRecords(const Model& model, double time, const Points& positions,
-                        const Points& velocities, RowData& rows, EffectCounters* counters)
+namespace
 {
-  const Scene& scene = model.scene();
-  const EffectContext context{ scene.surfaces, time };
-  double max_violation = 0.0;
-  for (const RowRecord& record : model.rowRecords())
+// One kind's records, with its rows' evaluation inlined: no dispatch per record.
+template <typename Kind>
+void evaluateKind(const std::vector<KindRecord<Kind>>& table, const Model& model,
+                  const EffectContext& context, const Points& positions, const Points& velocities,
+                  RowData& rows, bool diagonals, double& max_violation, EffectCounters* counters)
+{
+  if constexpr (!Kind::ELIMINATED)
   {
-    const Constraint& constraint = scene.constraints[record.constraint];
-    evaluateRows(
-        constraint, context, positions, velocities,
-        RowBlock{ rows.value.data() + record.first_row, rows.jdot_v.data() + record.first_row,
-                  rows.violation.data() + record.first_row,
-                  rows.jacobian.data() + record.first_block });
+    const auto& w = model.inverseMasses();
+    const auto& particle = model.blockParticle();
+    for (const KindRecord<Kind>& entry : table)
+    {
+      evaluateRows(
+          entry.record, context, positions, velocities,
+          RowBlock{ rows.value.data() + entry.first_row, rows.jdot_v.data() + entry.first_row,
+                    rows.violation.data() + entry.first_row,
+                    rows.jacobian.data() + entry.first_block });
+      for (int r = 0; r < Kind::ROWS; ++r)
+      {
+        const int row = entry.first_row + r, first = entry.first_block + r * Kind::PARTICLES;
+        max_violation = worseError(max_violation, rows.violation[row]);
+        if (!diagonals)
+          continue;
+        // the row's diagonal entry of J W J^T, while its blocks are in cache
+        double diagonal = 0.0;
+        for (int k = 0; k < Kind::PARTICLES; ++k)
+          diagonal += w[particle[first + k]] * rows.jacobian[first + k].squaredNorm();
+        rows.diagonal[row] = diagonal;
+      }
+    }
     if (counters)
-      ++counters->constraints[constraint.index()];
-    for (int r = record.first_row; r < record.first_row + record.rows; ++r)
-      max_violation = worseError(max_violation, rows.violation[r]);
+      counters->constraints[constraintKindIndex<Kind>()] += table.size();
   }
+}
+
+// One eliminated kind's records: their motion at `time`, onto the particles they hold.
+template <typename Kind>
+void imposeKind(const std::vector<KindRecord<Kind>>& table, double time,
+                std::vector<ImposedMotion>& imposed, Points* positions, Points* velocities,
+                EffectCounters& counters)
+{
+  if constexpr (Kind::ELIMINATED)
+  {
+    for (const KindRecord<Kind>& entry : table)
+    {
+      // eliminated kinds keep their index in first_row and their particle in first_block
+      const ImposedMotion& motion = imposed[entry.first_row] = imposedMotion(entry.record, time);
+      if (positions)
+        positions->col(entry.first_block) = motion.position;
+      if (velocities)
+        velocities->col(entry.first_block) = motion.velocity;
+    }
+    counters.constraints[constraintKindIndex<Kind>()] += table.size();
+  }
+}
+
+}  // namespace
+
+void evaluateRowRecords(const Model& model, double time, const Points& positions,
+                        const Points& velocities, RowData& rows, EffectCounters* counters,
+                        bool diagonals)
+{
+  const EffectContext context{ model.scene().surfaces, time };
+  double max_violation = 0.0;
+  std::apply(
+      [&](const auto&... tables)
+      {
+        (evaluateKind(tables, model, context, positions, velocities, rows, diagonals, max_violation,
+                      counters),
+         ...);
+      },
+      model.kindTables());
   rows.max_violation = max_violation;
 }
 
@@ -57,47 +112,50 @@ SolveReport factorizeRows(const Model& model, Data& data)
   return report;
 }
 
-SolveReport constraintForceStage(const Model& model, Data& data, double time,
+SolveReport constraintForceStage(const Model& model, Data& data, double /*time*/,
                                  const Eigen::VectorXd* bias)
 {
   const Scene& scene = model.scene();
-  const auto& w = model.inverseMasses();
-  const int n = model.numParticles();
   const int m = model.numRows();
-  // a0: what each particle would do without the rows
-  Points& a0 = data.unconstrained_accelerations;
-  for (int i = 0; i < n; ++i)
-    a0.col(i) = w[i] * data.applied_forces.col(i);
-  for (int k : model.eliminated())
-  {
-    const Constraint& constraint = scene.constraints[k];
-    a0.col(eliminatedParticle(constraint)) = imposedMotion(constraint, time).acceleration;
-    ++data.counters.constraints[constraint.index()];
-  }
-
-  // (J W J^T) lambda = -(Jdot v + J a0) - bias
+  // (J W J^T) lambda = -(Jdot v + J a0) - bias, J a0 = J W f + the eliminated particles' imposed
+  // accelerations through their blocks (data.imposed, set by imposeEliminated at this time)
   SolveReport report;
   report.method = model.solveMethod();
   data.constraint_forces.setZero();
   if (m > 0)
   {
     report = factorizeRows(model, data);
-    multiplyJacobian(model, data.rows, a0, data.rhs);
-    data.rhs = -(data.rows.jdot_v + data.rhs);
-    if (bias)
-      data.rhs -= *bias;
+    // one sweep: rhs_r = -(Jdot v + J W f)_r - bias_r
+    const auto& particle = model.blockParticle();
+    const auto& w = model.inverseMasses();
+    const RowData& rows = data.rows;
+    const Points& f = data.applied_forces;
+    Eigen::VectorXd& rhs = data.rhs;
+    forEachRow(model,
+               [&](int r, int b, auto width)
+               {
+                 double sum = rows.jdot_v[r] + (bias ? (*bias)[r] : 0.0);
+                 for (int k = 0; k < width; ++k)
+                   sum += w[particle[b + k]] * rows.jacobian[b + k].dot(f.col(particle[b + k]));
+                 rhs[r] = -sum;
+               });
+    // the eliminated particles' imposed accelerations, through their blocks
+    const auto& block_row = model.blockRow();
+    for (const EliminatedBlock& held : model.eliminatedBlocks())
+      rhs[block_row[held.block]] -=
+          rows.jacobian[held.block].dot(data.imposed[held.eliminated].acceleration);
     data.solver().solveInPlace(data.rhs);
     data.multipliers.head(m) = data.rhs;
     addJacobianTranspose(model, data.rows, data.rhs, 1.0, data.constraint_forces);
   }
 
   // an eliminated particle's reaction makes it follow its imposed motion: m a - f - J^T lambda
-  const auto& eliminated = model.eliminated();
-  for (std::size_t k = 0; k < eliminated.size(); ++k)
+  const auto& held = model.eliminatedParticles();
+  for (std::size_t k = 0; k < held.size(); ++k)
   {
-    const int i = eliminatedParticle(scene.constraints[eliminated[k]]);
-    const Vec3 reaction =
-        scene.masses[i] * a0.col(i) - data.applied_forces.col(i) - data.constraint_forces.col(i);
+    const int i = held[k];
+    const Vec3 reaction = scene.masses[i] * data.imposed[k].acceleration -
+                          data.applied_forces.col(i) - data.constraint_forces.col(i);
     data.constraint_forces.col(i) += reaction;
     data.multipliers.segment<3>(m + 3 * static_cast<int>(k)) = reaction;
   }
@@ -106,10 +164,13 @@ SolveReport constraintForceStage(const Model& model, Data& data, double time,
 
 void accelerationStage(const Model& model, Data& data, Points& accelerations)
 {
+  // a = W (f + f_c); W = 0 on held particles, which take their imposed acceleration
   const auto& w = model.inverseMasses();
-  const Points& a0 = data.unconstrained_accelerations;
   for (int i = 0; i < model.numParticles(); ++i)
-    accelerations.col(i) = a0.col(i) + w[i] * data.constraint_forces.col(i);
+    accelerations.col(i) = w[i] * (data.applied_forces.col(i) + data.constraint_forces.col(i));
+  const auto& held = model.eliminatedParticles();
+  for (std::size_t k = 0; k < held.size(); ++k)
+    accelerations.col(held[k]) = data.imposed[k].acceleration;
 }
 
 SolveReport forward(const Model& model, Data& data, const StepSettings& settings, double time,
@@ -133,79 +194,69 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
 void imposeEliminated(const Model& model, Data& data, double time, Points* positions,
                       Points* velocities)
 {
-  const Scene& scene = model.scene();
-  for (int k : model.eliminated())
-  {
-    const Constraint& constraint = scene.constraints[k];
-    const ImposedMotion motion = imposedMotion(constraint, time);
-    const int i = eliminatedParticle(constraint);
-    if (positions)
-      positions->col(i) = motion.position;
-    if (velocities)
-      velocities->col(i) = motion.velocity;
-    ++data.counters.constraints[constraint.index()];
-  }
+  if (model.eliminated().empty())
+    return;
+  std::apply(
+      [&](const auto&... tables)
+      { (imposeKind(tables, time, data.imposed, positions, velocities, data.counters), ...); },
+      model.kindTables());
 }
 
 void multiplyJacobian(const Model& model, const RowData& rows, const Points& x, Eigen::VectorXd& y)
 {
-  const auto& start = model.rowStart();
   const auto& particle = model.blockParticle();
-  const int m = model.numRows();
-  y.resize(m);  // a no-op when it has its size already
-  for (int r = 0; r < m; ++r)
-  {
-    double sum = 0.0;
-    for (int b = start[r]; b < start[r + 1]; ++b)
-      sum += rows.jacobian[b].dot(x.col(particle[b]));
-    y[r] = sum;
-  }
+  y.resize(model.numRows());  // a no-op when it has its size already
+  forEachRow(model,
+             [&](int r, int b, auto width)
+             {
+               double sum = 0.0;
+               for (int k = 0; k < width; ++k)
+                 sum += rows.jacobian[b + k].dot(x.col(particle[b + k]));
+               y[r] = sum;
+             });
 }
 
 void multiplyJacobianInverseMass(const Model& model, const RowData& rows, const Points& x,
                                  Eigen::VectorXd& y)
 {
-  const auto& start = model.rowStart();
   const auto& particle = model.blockParticle();
   const auto& w = model.inverseMasses();
-  const int m = model.numRows();
-  y.resize(m);
-  for (int r = 0; r < m; ++r)
-  {
-    double sum = 0.0;
-    for (int b = start[r]; b < start[r + 1]; ++b)
-      sum += w[particle[b]] * rows.jacobian[b].dot(x.col(particle[b]));
-    y[r] = sum;
-  }
+  y.resize(model.numRows());
+  forEachRow(model,
+             [&](int r, int b, auto width)
+             {
+               double sum = 0.0;
+               for (int k = 0; k < width; ++k)
+                 sum += w[particle[b + k]] * rows.jacobian[b + k].dot(x.col(particle[b + k]));
+               y[r] = sum;
+             });
 }
 
 void addJacobianTranspose(const Model& model, const RowData& rows, const Eigen::VectorXd& lambda,
                           double scale, Points& out)
 {
-  const auto& start = model.rowStart();
   const auto& particle = model.blockParticle();
-  const int m = model.numRows();
-  for (int r = 0; r < m; ++r)
-  {
-    const double s = scale * lambda[r];
-    for (int b = start[r]; b < start[r + 1]; ++b)
-      out.col(particle[b]) += s * rows.jacobian[b];
-  }
+  forEachRow(model,
+             [&](int r, int b, auto width)
+             {
+               const double s = scale * lambda[r];
+               for (int k = 0; k < width; ++k)
+                 out.col(particle[b + k]) += s * rows.jacobian[b + k];
+             });
 }
 
 void addInverseMassJacobianTranspose(const Model& model, const RowData& rows,
                                      const Eigen::VectorXd& lambda, double scale, Points& out)
 {
-  const auto& start = model.rowStart();
   const auto& particle = model.blockParticle();
   const auto& w = model.inverseMasses();
-  const int m = model.numRows();
-  for (int r = 0; r < m; ++r)
-  {
-    const double s = scale * lambda[r];
-    for (int b = start[r]; b < start[r + 1]; ++b)
-      out.col(particle[b]) += (w[particle[b]] * s) * rows.jacobian[b];
-  }
+  forEachRow(model,
+             [&](int r, int b, auto width)
+             {
+               const double s = scale * lambda[r];
+               for (int k = 0; k < width; ++k)
+                 out.col(particle[b + k]) += (w[particle[b + k]] * s) * rows.jacobian[b + k];
+             });
 }
 
 void multiplyJWJt(const Model& model, const RowData& rows, const Eigen::VectorXd& x,

@@ -3,7 +3,7 @@
 ///   rowStage -> appliedForceStage -> rowVelocityStage -> constraintForceStage -> accelerationStage
 /// and forward(), which calls them in order. Witkin's formulation: with W = M^-1, applied forces
 /// f and a0 = W f (an eliminated particle: its imposed acceleration),
-///   (J W J^T) lambda = -(Jdot v + J a0) - bias,   f_c = J^T lambda,   a = a0 + W f_c,
+///   (J W J^T) lambda = -(Jdot v + J a0) - bias,   f_c = J^T lambda,   a = W (f + f_c),
 /// bias = 2 zeta omega Cdot + omega^2 C under Baumgarte (stabilization.hpp), else 0.
 /// Also the Jacobian products the stages and the stabilisation share. Private to the core.
 #pragma once
@@ -12,12 +12,17 @@
 #include "constrained_particles/core/model.hpp"
 #include "constrained_particles/core/settings.hpp"
 
+#include <tuple>
+#include <type_traits>
+
 namespace constrained_particles
 {
 /// Evaluates every row record at (p, v) and time t into `rows`: C, J, Jdot v, the metric
-/// violations and their max. Counts each record in `counters` if given. Stateless otherwise.
+/// violations and their max, and (if `diagonals`) each row's diagonal entry of J W J^T. Counts
+/// each record in `counters` if given. Stateless otherwise.
 void evaluateRowRecords(const Model& model, double time, const Points& positions,
-                        const Points& velocities, RowData& rows, EffectCounters* counters);
+                        const Points& velocities, RowData& rows, EffectCounters* counters,
+                        bool diagonals = true);
 
 /// Stage 1, rows at positions: evaluateRowRecords into `rows`, counted in data.counters.
 void rowStage(const Model& model, Data& data, double time, const Points& positions,
@@ -30,14 +35,14 @@ void appliedForceStage(const Model& model, Data& data, const Points& positions,
 /// Stage 3, row velocities: data.rows.velocity = Cdot = J v. Only Baumgarte reads it.
 void rowVelocityStage(const Model& model, Data& data, const Points& velocities);
 
-/// Stage 4, constraint forces: a0 from the applied forces and the imposed motion at `time`,
-/// factorises J W J^T (data.rows), solves for lambda with the optional bias (m) and fills
-/// data.multipliers and data.constraint_forces, eliminated reactions included.
+/// Stage 4, constraint forces: factorises J W J^T (data.rows), solves for lambda with the
+/// optional bias (m) and fills data.multipliers and data.constraint_forces, eliminated reactions
+/// included. The eliminated particles' accelerations are data.imposed (imposeEliminated).
 SolveReport constraintForceStage(const Model& model, Data& data, double time,
                                  const Eigen::VectorXd* bias);
 
-/// Stage 5, accelerations: a = a0 + W f_c into `accelerations` [m/s^2] (3 x n); an eliminated
-/// particle's is its imposed acceleration.
+/// Stage 5, accelerations: a = W (f + f_c) into `accelerations` [m/s^2] (3 x n); an
+/// eliminated particle's is its imposed acceleration.
 void accelerationStage(const Model& model, Data& data, Points& accelerations);
 
 /// Every stage at (t, p, v): positions and velocities of eliminated particles are first set to
@@ -47,14 +52,38 @@ void accelerationStage(const Model& model, Data& data, Points& accelerations);
 SolveReport forward(const Model& model, Data& data, const StepSettings& settings, double time,
                     Points& positions, Points& velocities, Points& accelerations);
 
-/// Sets every eliminated particle's position and velocity (each if given) to its imposed motion
-/// at `time`. Counts each application.
+/// Evaluates every eliminated record's motion at `time` into data.imposed and sets its particle's
+/// position and velocity (each if given) to it. Counts each application.
 void imposeEliminated(const Model& model, Data& data, double time, Points* positions,
                       Points* velocities);
 
 /// Assembles and factorises J W J^T from data.rows (data.solver()), merging the report into
 /// data.statistics.
 SolveReport factorizeRows(const Model& model, Data& data);
+
+/// Calls fn(row, first_block, width) for every row, kind by kind, with `width` (its blocks) a
+/// std::integral_constant: loops over a row's blocks have a fixed trip count the compiler
+/// unrolls, where one generic loop per row costs more than the arithmetic in it.
+template <typename Fn>
+void forEachRow(const Model& model, Fn&& fn)
+{
+  std::apply(
+      [&](const auto&... tables)
+      {
+        (
+            [&](const auto& table)
+            {
+              using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
+              if constexpr (!Kind::ELIMINATED)
+                for (const auto& entry : table)
+                  for (int r = 0; r < Kind::ROWS; ++r)
+                    fn(entry.first_row + r, entry.first_block + r * Kind::PARTICLES,
+                       std::integral_constant<int, Kind::PARTICLES>{});
+            }(tables),
+            ...);
+      },
+      model.kindTables());
+}
 
 // --- Jacobian products over the rows' blocks (J is m x 3n, blocks per model.rowStart()) ---
 

@@ -19,6 +19,7 @@
 #include "constrained_particles/core/effects/point_on_plane.hpp"
 #include "constrained_particles/core/effects/surface_constraint.hpp"
 
+#include <type_traits>
 #include <variant>
 
 namespace constrained_particles
@@ -30,6 +31,20 @@ using Constraint =
 
 /// Number of constraint kinds.
 constexpr int NUM_CONSTRAINT_KINDS = static_cast<int>(std::variant_size_v<Constraint>);
+
+/// The registry index of a constraint kind (its index in `Constraint`), at compile time.
+template <typename Kind, typename... Kinds>
+constexpr int indexOfKind(std::variant<Kinds...>* /*registry*/)
+{
+  int index = 0, found = -1;
+  ((std::is_same_v<Kind, Kinds> ? (found = index, ++index) : ++index), ...);
+  return found;
+}
+template <typename Kind>
+constexpr int constraintKindIndex()
+{
+  return indexOfKind<Kind>(static_cast<Constraint*>(nullptr));
+}
 
 /// Largest PARTICLES of any row kind (a row's blocks fit in an array of this size).
 constexpr int MAX_ROW_PARTICLES = 3;

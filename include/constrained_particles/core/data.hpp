@@ -23,6 +23,7 @@ struct RowData
   Eigen::VectorXd value;       ///< C (m): [m] surface, line, plane; [m^2] link; [rad] angle
   Eigen::VectorXd jdot_v;      ///< Jdot v (m)
   Eigen::VectorXd violation;   ///< metric position error of each row (m) [m]
+  Eigen::VectorXd diagonal;    ///< (J W J^T)_rr, each row's own mobility (m)
   Eigen::VectorXd velocity;    ///< Cdot = J v (m)
   Eigen::VectorXd bias;        ///< Baumgarte term 2 zeta omega Cdot + omega^2 C (m)
   std::vector<Vec3> jacobian;  ///< dC/dp blocks (b), row r's from model.rowStart()[r]
@@ -58,9 +59,9 @@ public:
   RowData rows;                        ///< rows at the last evaluated stage
   RowData trial_rows;                  ///< rows at SHAKE's trial positions
   Points applied_forces;               ///< f at the last stage [N] (3 x n)
-  Points unconstrained_accelerations;  ///< a0 = W f, or the imposed acceleration (3 x n)
   Points constraint_forces;            ///< J^T lambda plus eliminated reactions [N] (3 x n)
   Points accelerations;                ///< a = a0 + W J^T lambda [m/s^2] (3 x n)
+  std::vector<ImposedMotion> imposed;  ///< each eliminated record's motion at the stage's time (e)
   Eigen::VectorXd multipliers;         ///< lambda (m), then each eliminated reaction [N] (3 e)
   Eigen::VectorXd rhs;                 ///< right-hand side and solution of a solve (m)
   StageBuffers stages;                 ///< the integrators' buffers

@@ -6,6 +6,8 @@
 #include "constrained_particles/core/scene.hpp"
 
 #include <string>
+#include <tuple>
+#include <variant>
 #include <vector>
 
 namespace constrained_particles
@@ -48,6 +50,36 @@ struct RowRecord
   int rows;         ///< its kind's ROWS
   int first_block;  ///< its first Jacobian block
   int particles;    ///< its kind's PARTICLES
+};
+
+/// One record of a constraint kind, with where its rows live: the hot loops run kind by kind
+/// over compact arrays of these (Box2D's joint arrays), with no dispatch per record.
+template <typename Kind>
+struct KindRecord
+{
+  using KindType = Kind;
+  Kind record;      ///< the constraint
+  int constraint;   ///< its index in scene().constraints
+  int first_row;    ///< row kinds: its first row; eliminated kinds: its index in eliminated()
+  int first_block;  ///< row kinds: its first Jacobian block; eliminated kinds: its particle
+};
+
+/// One array of KindRecord per constraint kind, in registry order.
+template <typename Variant>
+struct KindTablesOf;
+template <typename... Kinds>
+struct KindTablesOf<std::variant<Kinds...>>
+{
+  using type = std::tuple<std::vector<KindRecord<Kinds>>...>;
+};
+using KindTables = KindTablesOf<Constraint>::type;
+
+/// A Jacobian block on a particle an eliminated record holds: its imposed acceleration enters the
+/// right-hand side through it.
+struct EliminatedBlock
+{
+  int block;       ///< the block
+  int eliminated;  ///< index in eliminated() of the record holding its particle
 };
 
 /// A validated scene plus the structure the solver needs. Constant during a run.
@@ -111,10 +143,30 @@ public:
   {
     return block_particle_;
   }
-  /// Indices in scene().constraints of the eliminated records (pins, driven anchors).
+  /// Row of each block: numBlocks().
+  const std::vector<int>& blockRow() const
+  {
+    return block_row_;
+  }
+  /// Every record by kind, compact (the stages' loops).
+  const KindTables& kindTables() const
+  {
+    return kind_tables_;
+  }
+  /// Indices in scene().constraints of the eliminated records (pins, driven anchors): e.
   const std::vector<int>& eliminated() const
   {
     return eliminated_;
+  }
+  /// The particle each eliminated record holds: e.
+  const std::vector<int>& eliminatedParticles() const
+  {
+    return eliminated_particles_;
+  }
+  /// The blocks touching a particle an eliminated record holds.
+  const std::vector<EliminatedBlock>& eliminatedBlocks() const
+  {
+    return eliminated_blocks_;
   }
   /// Rows touching free particle i: incidence()[incidenceStart()[i] .. incidenceStart()[i+1]).
   const std::vector<int>& incidenceStart() const
@@ -131,13 +183,19 @@ public:
 
 private:
   Model() = default;
+  /// Appends a record to its kind's table.
+  void addToKindTable(const Constraint& constraint, int index, int first_row, int first_block);
 
   Scene scene_;
   std::vector<double> inverse_masses_;
   std::vector<RowRecord> row_records_;
   std::vector<int> row_start_{ 0 };
   std::vector<int> block_particle_;
+  std::vector<int> block_row_;
+  KindTables kind_tables_;
   std::vector<int> eliminated_;
+  std::vector<int> eliminated_particles_;
+  std::vector<EliminatedBlock> eliminated_blocks_;
   std::vector<int> incidence_start_;
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;

@@ -11,7 +11,7 @@ namespace
 class DenseSolver : public ConstraintSolver
 {
 public:
-  explicit DenseSolver(const Model& model)
+  explicit DenseSolver(const Model& model) : ConstraintSolver(SolveMethod::Dense)
   {
     assembled_.setZero(model.numRows(), model.numRows());
     shifted_.setZero(model.numRows(), model.numRows());
@@ -23,12 +23,7 @@ public:
   }
 
 protected:
-  SolveMethod method() const override
-  {
-    return SolveMethod::Dense;
-  }
-
-  double assemble(const Model& model, const RowData& rows) override
+  void assemble(const Model& model, const RowData& rows) override
   {
     const auto& w = model.inverseMasses();
     const auto& start = model.incidenceStart();
@@ -40,6 +35,10 @@ protected:
           assembled_(incidence[a].row, incidence[b].row) +=
               w[i] * rows.jacobian[incidence[a].block].dot(rows.jacobian[incidence[b].block]);
     max_diagonal_ = assembled_.rows() > 0 ? assembled_.diagonal().maxCoeff() : 0.0;
+  }
+
+  double maxDiagonal() const override
+  {
     return max_diagonal_;
   }
 

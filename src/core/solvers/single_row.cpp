@@ -10,25 +10,24 @@ namespace
 class SingleRowSolver : public ConstraintSolver
 {
 public:
+  SingleRowSolver() : ConstraintSolver(SolveMethod::Single)
+  {
+  }
+
   void solveInPlace(Eigen::VectorXd& b) const override
   {
     b[0] *= inverse_pivot_;
   }
 
 protected:
-  SolveMethod method() const override
+  void assemble(const Model& /*model*/, const RowData& rows) override
   {
-    return SolveMethod::Single;
+    // J W J^T = sum over the row's blocks of w_i |J_i|^2, evaluated with the row
+    diagonal_ = rows.diagonal[0];
   }
 
-  double assemble(const Model& model, const RowData& rows) override
+  double maxDiagonal() const override
   {
-    // J W J^T = sum over the row's blocks of w_i |J_i|^2
-    const auto& w = model.inverseMasses();
-    const auto& particle = model.blockParticle();
-    diagonal_ = 0.0;
-    for (int b = 0; b < model.numBlocks(); ++b)
-      diagonal_ += w[particle[b]] * rows.jacobian[b].squaredNorm();
     return diagonal_;
   }
 

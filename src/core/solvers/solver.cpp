@@ -5,15 +5,16 @@ namespace constrained_particles
 SolveReport ConstraintSolver::factorize(const Model& model, const RowData& rows,
                                         EffectCounters& counters)
 {
-  ++counters.factorizations[static_cast<int>(method())];
+  ++counters.factorizations[static_cast<int>(method_)];
   SolveReport report;
-  report.method = method();
-  const double max_diagonal = assemble(model, rows);
+  report.method = method_;
+  assemble(model, rows);
   const Pivots first = factorizeShifted(0.0);
   report.min_pivot_ratio = first.min_pivot_ratio;
   if (!first.singular)
     return report;
   report.singular = true;
+  const double max_diagonal = maxDiagonal();
   report.regularization = max_diagonal > 0.0 ? SINGULAR_REGULARIZATION * max_diagonal : 1.0;
   factorizeShifted(report.regularization);
   return report;

@@ -39,10 +39,14 @@ protected:
     double min_pivot_ratio;  ///< the smallest pivot relative to its diagonal entry
   };
 
-  /// The method this strategy implements.
-  virtual SolveMethod method() const = 0;
-  /// Assembles what the factorisation needs from the rows; returns the largest diagonal entry.
-  virtual double assemble(const Model& model, const RowData& rows) = 0;
+  explicit ConstraintSolver(SolveMethod method) : method_(method)
+  {
+  }
+
+  /// Takes what the factorisation needs from the rows (it may read them until the next call).
+  virtual void assemble(const Model& model, const RowData& rows) = 0;
+  /// The largest diagonal entry of J W J^T last assembled (asked only when it is singular).
+  virtual double maxDiagonal() const = 0;
   /// Factorises J W J^T + delta I. With delta = 0 it may stop at the first singular pivot; with
   /// delta > 0 it must leave a usable factorisation.
   virtual Pivots factorizeShifted(double delta) = 0;
@@ -52,6 +56,9 @@ protected:
   {
     return !(diagonal > 0.0) || !(pivot > SINGULAR_PIVOT_RATIO * diagonal);
   }
+
+private:
+  SolveMethod method_;  ///< the method this strategy implements
 };
 
 /// b = F^-1 b with an Eigen factorisation F (sparse, dense); a failed factorisation gives no

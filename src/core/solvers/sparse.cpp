@@ -17,7 +17,7 @@ namespace
 class SparseSolver : public ConstraintSolver
 {
 public:
-  explicit SparseSolver(const Model& model)
+  explicit SparseSolver(const Model& model) : ConstraintSolver(SolveMethod::Sparse)
   {
     // the lower triangle of J W J^T: (r, r) for every row, and (s, r), s > r, for every pair
     // of rows sharing a free particle
@@ -62,12 +62,7 @@ public:
   }
 
 protected:
-  SolveMethod method() const override
-  {
-    return SolveMethod::Sparse;
-  }
-
-  double assemble(const Model& model, const RowData& rows) override
+  void assemble(const Model& model, const RowData& rows) override
   {
     const auto& w = model.inverseMasses();
     double* values = matrix_.valuePtr();
@@ -79,6 +74,10 @@ protected:
     // the factor's pivots come in the ordering's sequence: compare each with its own diagonal
     for (int r = 0; r < diagonal_.size(); ++r)
       permuted_diagonal_[ldlt_.permutationP().indices()[r]] = diagonal_[r];
+  }
+
+  double maxDiagonal() const override
+  {
     return diagonal_.size() > 0 ? diagonal_.maxCoeff() : 0.0;
   }
 

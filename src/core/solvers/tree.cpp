@@ -26,11 +26,8 @@ public:
   void solveInPlace(Eigen::VectorXd& b) const override;
 
 protected:
-  SolveMethod method() const override
-  {
-    return SolveMethod::Tree;
-  }
-  double assemble(const Model& model, const RowData& rows) override;
+  void assemble(const Model& model, const RowData& rows) override;
+  double maxDiagonal() const override;
   Pivots factorizeShifted(double delta) override;
 
 private:
@@ -59,7 +56,7 @@ private:
   mutable Eigen::VectorXd inner_result_;
 };
 
-TreeSolver::TreeSolver(const Model& model) : model_(model)
+TreeSolver::TreeSolver(const Model& model) : ConstraintSolver(SolveMethod::Tree), model_(model)
 {
   const int n = model.numParticles();
   const int m = model.numRows();
@@ -153,17 +150,23 @@ TreeSolver::TreeSolver(const Model& model) : model_(model)
   inner_result_.setZero(m);
 }
 
-double TreeSolver::assemble(const Model& model, const RowData& rows)
+void TreeSolver::assemble(const Model& /*model*/, const RowData& rows)
 {
-  // the blocks are read in place; only the largest diagonal entry of J W J^T is needed
+  // the blocks are read in place
   rows_ = &rows;
-  const auto& w = model.inverseMasses();
-  const auto& start = model.incidenceStart();
-  const auto& incidence = model.incidence();
+}
+
+double TreeSolver::maxDiagonal() const
+{
+  // the largest w_i |J_ri|^2 of any row on any free particle
+  const auto& w = model_.inverseMasses();
+  const auto& start = model_.incidenceStart();
+  const auto& incidence = model_.incidence();
   double max_diagonal = 0.0;
-  for (int i = 0; i < model.numParticles(); ++i)
+  for (int i = 0; i < model_.numParticles(); ++i)
     for (int a = start[i]; a < start[i + 1]; ++a)
-      max_diagonal = std::max(max_diagonal, w[i] * rows.jacobian[incidence[a].block].squaredNorm());
+      max_diagonal =
+          std::max(max_diagonal, w[i] * rows_->jacobian[incidence[a].block].squaredNorm());
   return max_diagonal;
 }
 

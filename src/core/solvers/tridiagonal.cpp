@@ -14,11 +14,9 @@ namespace
 class TridiagonalSolver : public ConstraintSolver
 {
 public:
-  explicit TridiagonalSolver(const Model& model)
+  explicit TridiagonalSolver(const Model& model) : ConstraintSolver(SolveMethod::Tridiagonal)
   {
     const int m = model.numRows();
-    diagonal_.setZero(m);
-    off_diagonal_.setZero(std::max(m - 1, 0));
     inverse_pivots_.setZero(m);
     lower_.setZero(std::max(m - 1, 0));
     // a free particle shared by rows r and r + 1 couples them
@@ -34,6 +32,12 @@ public:
       }
     std::stable_sort(couplings_.begin(), couplings_.end(),
                      [](const Coupling& x, const Coupling& y) { return x.upper < y.upper; });
+    // rows k - 1 and k share couplings_[coupling_start_[k - 1] .. coupling_start_[k])
+    coupling_start_.assign(std::max(m, 1), 0);
+    for (const Coupling& c : couplings_)
+      ++coupling_start_[c.upper + 1];
+    for (int k = 1; k < m; ++k)
+      coupling_start_[k] += coupling_start_[k - 1];
   }
 
   void solveInPlace(Eigen::VectorXd& b) const override
@@ -48,47 +52,42 @@ public:
   }
 
 protected:
-  SolveMethod method() const override
+  void assemble(const Model& model, const RowData& rows) override
   {
-    return SolveMethod::Tridiagonal;
+    // the diagonal comes with the rows (RowData::diagonal); the off-diagonal entries are formed
+    // in the factorisation's own sweep, from the particles adjacent rows share
+    rows_ = &rows;
+    w_ = &model.inverseMasses();
   }
 
-  double assemble(const Model& model, const RowData& rows) override
+  double maxDiagonal() const override
   {
-    // diagonal: each row's own touches; off-diagonal: the particles it shares with the next
-    const auto& w = model.inverseMasses();
-    const auto& start = model.rowStart();
-    const auto& particle = model.blockParticle();
-    const int m = model.numRows();
-    double max_diagonal = 0.0;
-    for (int r = 0; r < m; ++r)
-    {
-      double d = 0.0;
-      for (int b = start[r]; b < start[r + 1]; ++b)
-        d += w[particle[b]] * rows.jacobian[b].squaredNorm();
-      diagonal_[r] = d;
-      max_diagonal = std::max(max_diagonal, d);
-    }
-    off_diagonal_.setZero();
-    for (const Coupling& c : couplings_)
-      off_diagonal_[c.upper] +=
-          w[c.particle] * rows.jacobian[c.upper_block].dot(rows.jacobian[c.lower_block]);
-    return max_diagonal;
+    return rows_->diagonal.size() > 0 ? rows_->diagonal.maxCoeff() : 0.0;
   }
 
   Pivots factorizeShifted(double delta) override
   {
-    const int m = static_cast<int>(diagonal_.size());
+    const Eigen::VectorXd& diagonal = rows_->diagonal;
+    const std::vector<Vec3>& jacobian = rows_->jacobian;
+    const std::vector<double>& w = *w_;
+    const int m = static_cast<int>(diagonal.size());
     // the ratio of the unregularised attempt says how singular the system is
     double min_ratio = 1.0;
     for (int k = 0; k < m; ++k)
     {
-      const double d = diagonal_[k] + delta;
+      const double d = diagonal[k] + delta;
       double pivot = d;
       if (k > 0)
       {
-        lower_[k - 1] = off_diagonal_[k - 1] * inverse_pivots_[k - 1];
-        pivot -= lower_[k - 1] * off_diagonal_[k - 1];
+        // (J W J^T)_{k-1,k}: what rows k - 1 and k share through common free particles
+        double off = 0.0;
+        for (int next = coupling_start_[k - 1]; next < coupling_start_[k]; ++next)
+        {
+          const Coupling& c = couplings_[next];
+          off += w[c.particle] * jacobian[c.upper_block].dot(jacobian[c.lower_block]);
+        }
+        lower_[k - 1] = off * inverse_pivots_[k - 1];
+        pivot -= lower_[k - 1] * off;
       }
       if (!(d > 0.0))
         min_ratio = 0.0;
@@ -113,8 +112,10 @@ private:
     int particle, upper, upper_block, lower_block;
   };
   std::vector<Coupling> couplings_;
-  Eigen::VectorXd diagonal_, off_diagonal_;  // of J W J^T
-  Eigen::VectorXd inverse_pivots_, lower_;   // D^-1 and the sub-diagonal of L
+  std::vector<int> coupling_start_;         // couplings_ of rows (k - 1, k) start at [k - 1]
+  const RowData* rows_ = nullptr;           // the rows of the last assembly
+  const std::vector<double>* w_ = nullptr;  // inverse masses
+  Eigen::VectorXd inverse_pivots_, lower_;  // D^-1 and the sub-diagonal of L
 };
 
 }  // namespace
