@@ -8,7 +8,7 @@
 //                   (scenes.csv); the solve per structure against n for trees (trees.csv)
 // Usage: constrained_particles_bench MODE [--out DIR] [--quick]
 #include "bench_common.hpp"
-#include "constrained_particles/core/scenarios.hpp"
+#include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
@@ -64,10 +64,15 @@ Workload beadBowl()
   return w;
 }
 
-Workload fromScenario(const std::string& label, const std::string& scenario,
-                      const ScenarioParameters& parameters)
+// a shipped scene file (config/scenes), as its description
+SceneDescription shipped(const std::string& name)
 {
-  const Scenario built = buildScenario(scenario, parameters);
+  return loadSceneFile(std::string(SCENES_DIR) + "/" + name + ".yaml");
+}
+
+Workload fromDescription(const std::string& label, const SceneDescription& description)
+{
+  const BuiltScene built = buildScene(description);
   Workload w;
   w.name = label;
   w.scene = built.scene;
@@ -75,11 +80,24 @@ Workload fromScenario(const std::string& label, const std::string& scenario,
   return w;
 }
 
+// the shipped `chain` scene with n particles of `mass` on links of `link_length`, first pinned
+SceneDescription chainScene(int n, double link_length, double mass)
+{
+  SceneDescription d = shipped("chain");
+  ChainChange change;
+  change.num_particles = n;
+  change.link_length = link_length;
+  change.particle_mass = mass;
+  change.pin_first = true;
+  setChains(d, change);
+  return d;
+}
+
 Workload beadWaves()
 {
-  ScenarioParameters p;
-  p.surface = makeSurface("waves", { 0.2, 2.0, 1.0 });
-  return fromScenario("bead_waves", "bead", p);
+  SceneDescription d = shipped("bead");
+  setFirstSurface(d, makeSurface("waves", { 0.2, 2.0, 1.0 }));
+  return fromDescription("bead_waves", d);
 }
 
 Workload pendulum()
@@ -98,16 +116,12 @@ Workload pendulum()
 // pinned chain of total length 1 m released horizontally
 Workload chain(int n)
 {
-  ScenarioParameters p;
-  p.chain.num_particles = n;
-  p.chain.link_length = 1.0 / (n - 1);
-  p.chain.particle_mass = 0.1;
-  return fromScenario("chain_" + std::to_string(n), "chain", p);
+  return fromDescription("chain_" + std::to_string(n), chainScene(n, 1.0 / (n - 1), 0.1));
 }
 
 Workload surfaceChain()
 {
-  return fromScenario("surface_chain", "surface_chain", ScenarioParameters{});
+  return fromDescription("surface_chain", shipped("surface_chain"));
 }
 
 struct RunResult
@@ -188,7 +202,7 @@ Points reference(const Workload& w, double& uncertainty)
   {
     StepSettings s;
     s.dt = dt;
-    s.integrator = Integrator::DormandPrince;
+    s.integrator = "dopri5";
     s.stabilization = Stabilization::Projection;
     s.projection_tolerance = 1e-13;
     s.adaptive_tolerance = tolerance;
@@ -199,29 +213,17 @@ Points reference(const Workload& w, double& uncertainty)
   return tight;
 }
 
-const std::vector<Integrator> FIXED_STEP = { Integrator::ExplicitEuler,
-                                             Integrator::SemiImplicitEuler, Integrator::Midpoint,
-                                             Integrator::RK4, Integrator::VelocityVerlet };
+// the fixed-step integrators of the table: every one but the adaptive dopri5
+std::vector<std::string> fixedStepIntegrators()
+{
+  std::vector<std::string> names;
+  for (const IntegratorInfo* integrator : integratorTable())
+    if (std::string(integrator->name) != "dopri5")
+      names.push_back(integrator->name);
+  return names;
+}
 const std::vector<Stabilization> STABILIZATIONS = { Stabilization::None, Stabilization::Baumgarte,
                                                     Stabilization::Projection };
-
-double theoreticalOrder(Integrator integrator)
-{
-  switch (integrator)
-  {
-    case Integrator::ExplicitEuler:
-    case Integrator::SemiImplicitEuler:
-      return 1;
-    case Integrator::Midpoint:
-    case Integrator::VelocityVerlet:
-      return 2;
-    case Integrator::RK4:
-      return 4;
-    case Integrator::DormandPrince:
-      return 5;
-  }
-  return 0;
-}
 
 // slope of log(error) against log(dt), over the points between round-off and saturation
 std::optional<double> observedOrder(const std::vector<std::pair<double, double>>& dt_error,
@@ -268,27 +270,27 @@ int workPrecision(const std::string& out, bool quick)
     std::cerr << "[" << w.name << "] reference..." << std::flush;
     const Points ref = reference(w, uncertainty);
     std::cerr << " converged to " << uncertainty << " m\n";
-    auto record = [&](Integrator integrator, Stabilization stabilization, double dt,
+    auto record = [&](const std::string& integrator, Stabilization stabilization, double dt,
                       double tolerance, const RunResult& r)
     {
       const double error = r.finite ? maxDistance(r.final_state.positions, ref) : NAN;
       char line[512];
       std::snprintf(line, sizeof(line), "%s,%s,%s,%g,%g,%.6e,%.3e,%.6e,%.6e,%.6e,%ld,%d,%d,%d\n",
-                    w.name.c_str(), integratorName(integrator), stabilizationName(stabilization),
-                    dt, tolerance, error, uncertainty, r.max_constraint_error, r.energy_drift,
+                    w.name.c_str(), integrator.c_str(), stabilizationName(stabilization), dt,
+                    tolerance, error, uncertainty, r.max_constraint_error, r.energy_drift,
                     r.cpu_per_sim_second, r.steps, r.internal_steps, r.finite ? 1 : 0, r.runs);
       csv << line;
       csv.flush();
       return error;
     };
 
-    for (Integrator integrator : FIXED_STEP)
+    for (const std::string& integrator : fixedStepIntegrators())
       for (Stabilization stabilization : STABILIZATIONS)
       {
-        // velocity Verlet projects by itself: one sweep stands for all stabilisations
-        if (integrator == Integrator::VelocityVerlet && stabilization != Stabilization::None)
+        // an integrator that projects by itself: one sweep stands for all stabilisations
+        if (findIntegrator(integrator).holds_constraints && stabilization != Stabilization::None)
           continue;
-        std::cerr << "[" << w.name << "] " << integratorName(integrator) << " + "
+        std::cerr << "[" << w.name << "] " << integrator << " + "
                   << stabilizationName(stabilization) << ":";
         std::vector<std::pair<double, double>> dt_error;
         double last_cpu = 0, last_dt = 0;
@@ -319,10 +321,10 @@ int workPrecision(const std::string& out, bool quick)
             floor = std::min(floor, point.second);
         const auto order =
             observedOrder(dt_error, std::max({ 1e-11, 100 * uncertainty, 100 * floor }), 1e-3);
-        orders << w.name << "," << integratorName(integrator) << ","
-               << (integrator == Integrator::VelocityVerlet ? "rattle"
-                                                            : stabilizationName(stabilization))
-               << "," << theoreticalOrder(integrator) << ","
+        orders << w.name << "," << integrator << ","
+               << (findIntegrator(integrator).holds_constraints ? "rattle"
+                                                                : stabilizationName(stabilization))
+               << "," << findIntegrator(integrator).order << ","
                << (order ? std::to_string(*order) : std::string("nan")) << "\n";
       }
 
@@ -333,10 +335,10 @@ int workPrecision(const std::string& out, bool quick)
       {
         StepSettings s;
         s.dt = 1e-2;
-        s.integrator = Integrator::DormandPrince;
+        s.integrator = "dopri5";
         s.stabilization = stabilization;
         s.adaptive_tolerance = tolerance;
-        record(Integrator::DormandPrince, stabilization, s.dt, tolerance, run(w, s));
+        record("dopri5", stabilization, s.dt, tolerance, run(w, s));
         std::cerr << " " << tolerance << std::flush;
       }
       std::cerr << "\n";
@@ -372,22 +374,19 @@ constexpr double SCALING_LINK_LENGTH = 0.01;
 
 // CPU time of one step of a horizontally released pinned chain, from its first steps;
 // `newton_iterations` gets the position projection's iterations in the last step
-double secondsPerStep(int n, SolveMethod method, Integrator integrator, double budget,
+double secondsPerStep(int n, SolveMethod method, const std::string& integrator, double budget,
                       int& newton_iterations)
 {
-  ScenarioParameters p;
-  p.chain.num_particles = n;
-  p.chain.link_length = SCALING_LINK_LENGTH;
-  p.chain.particle_mass = 0.1;
-  const Scenario scenario = buildScenario("chain", p);
+  const BuiltScene scenario = buildScene(chainScene(n, SCALING_LINK_LENGTH, 0.1));
   StepSettings s;
   s.dt = 1e-4;
   s.integrator = integrator;
   s.stabilization = Stabilization::Projection;
   Simulator simulator(scenario.scene, scenario.initial_state, s, method);
   simulator.step();  // with medianSecondsPerCall's own call: two warm-up steps
-  const double seconds = medianSecondsPerCall([&] { simulator.step(); }, budget);
-  newton_iterations = simulator.lastStepReport().projection.iterations;
+  StepStatistics last;
+  const double seconds = medianSecondsPerCall([&] { last = simulator.step(); }, budget);
+  newton_iterations = last.projection.max_iterations;
   return seconds;
 }
 
@@ -401,10 +400,10 @@ int scaling(const std::string& out, bool quick)
   const std::vector<std::pair<SolveMethod, int>> methods = { { SolveMethod::Tridiagonal, 1000000 },
                                                              { SolveMethod::Sparse, 1000000 },
                                                              { SolveMethod::Dense, 1000 } };
-  for (Integrator integrator : { Integrator::SemiImplicitEuler, Integrator::RK4 })
+  for (const std::string integrator : { "semi_implicit_euler", "rk4" })
     for (const auto& [method, max_n] : methods)
     {
-      if (integrator == Integrator::RK4 && method != SolveMethod::Tridiagonal)
+      if (integrator == "rk4" && method != SolveMethod::Tridiagonal)
         continue;
       for (int n : sizes)
       {
@@ -412,11 +411,11 @@ int scaling(const std::string& out, bool quick)
           continue;
         int iterations = 0;
         const double seconds = secondsPerStep(n, method, integrator, quick ? 0.3 : 1.5, iterations);
-        csv << n << "," << solveMethodName(method) << "," << integratorName(integrator) << ","
-            << seconds << "," << n / seconds << "," << iterations << "\n";
+        csv << n << "," << solveMethodName(method) << "," << integrator << "," << seconds << ","
+            << n / seconds << "," << iterations << "\n";
         csv.flush();
-        std::cerr << "[scaling] " << integratorName(integrator) << " " << solveMethodName(method)
-                  << " n = " << n << ": " << seconds * 1e6 << " us/step, " << n / seconds / 1e6
+        std::cerr << "[scaling] " << integrator << " " << solveMethodName(method) << " n = " << n
+                  << ": " << seconds * 1e6 << " us/step, " << n / seconds / 1e6
                   << " M particle-steps/s\n";
       }
     }
@@ -429,11 +428,11 @@ int peers(const std::string& out, bool quick)
   std::ofstream csv(out + "/peers_constrained_particles.csv");
   csv << bench::peerCsvHeader() << "\n";
   // the last variant holds links to round-off, for comparison with reduced coordinates
-  const std::vector<std::pair<Integrator, double>> variants = {
-    { Integrator::SemiImplicitEuler, 1e-10 },
-    { Integrator::VelocityVerlet, 1e-10 },
-    { Integrator::RK4, 1e-10 },
-    { Integrator::RK4, 1e-13 },
+  const std::vector<std::pair<std::string, double>> variants = {
+    { "semi_implicit_euler", 1e-10 },
+    { "velocity_verlet", 1e-10 },
+    { "rk4", 1e-10 },
+    { "rk4", 1e-13 },
   };
   for (int n : bench::peerChainSizes())
     for (const auto& [integrator, tolerance] : variants)
@@ -442,12 +441,9 @@ int peers(const std::string& out, bool quick)
       chain.n = n;
       if (quick)
         chain.duration = 1.0;
-      ScenarioParameters p;
-      p.chain.num_particles = n;
-      p.chain.link_length = chain.link_length;
-      p.chain.particle_mass = chain.particle_mass;
-      p.gravity = Vec3(0, 0, chain.gravity);
-      const Scenario scenario = buildScenario("chain", p);
+      SceneDescription d = chainScene(n, chain.link_length, chain.particle_mass);
+      setGravityAndDamping(d, Vec3(0, 0, chain.gravity), 0.0);
+      const BuiltScene scenario = buildScene(d);
       StepSettings s;
       s.dt = chain.dt;
       s.integrator = integrator;
@@ -456,8 +452,7 @@ int peers(const std::string& out, bool quick)
       Simulator simulator(scenario.scene, scenario.initial_state, s);
       bench::PeerResult r;
       r.engine = "constrained_particles";
-      r.method = std::string(integratorName(integrator)) +
-                 (integrator == Integrator::VelocityVerlet ? "" : "+projection") +
+      r.method = integrator + (findIntegrator(integrator).holds_constraints ? "" : "+projection") +
                  (tolerance < 1e-10 ? "_tol_1e-13" : "");
       bench::runPeerChain(
           chain, r, [&] { simulator.step(); },
@@ -488,9 +483,9 @@ std::string perStep(const std::array<std::uint64_t, N>& counts, double steps)
 
 // A binary tree of n particles (particle k hangs from (k - 1) / 2), the root pinned; or a free
 // star (every particle linked to particle 0).
-Scenario treeScene(int n, bool star)
+BuiltScene treeScene(int n, bool star)
 {
-  Scenario s;
+  BuiltScene s;
   s.scene.masses.assign(n, 0.1);
   s.initial_state.positions.resize(3, n);
   s.initial_state.velocities.setZero(3, n);
@@ -520,7 +515,7 @@ int scenes(const std::string& out, bool quick)
   for (const std::string& name : listScenes(SCENES_DIR))
   {
     const SceneDescription d = loadSceneFile(std::string(SCENES_DIR) + "/" + name + ".yaml");
-    const Scenario built = buildScene(d);
+    const BuiltScene built = buildScene(d);
     const StepSettings settings = d.solver.applyTo(StepSettings{});
     Simulator simulator(built.scene, built.initial_state, settings, d.solver.solve_method);
     const double seconds = medianSecondsPerCall([&] { simulator.step(); }, budget);
@@ -541,10 +536,10 @@ int scenes(const std::string& out, bool quick)
     const std::string forces = perStep<Force>(c.forces, 100.0);
     const std::string constraints = perStep<Constraint>(c.constraints, 100.0);
     csv << name << "," << simulator.model().numParticles() << "," << simulator.model().numRows()
-        << "," << solveMethodName(simulator.model().solveMethod()) << ","
-        << integratorName(settings.integrator) << "," << stabilizationName(settings.stabilization)
-        << "," << seconds << "," << forces << "," << constraints << ","
-        << (factorizations.str().empty() ? "-" : factorizations.str()) << "\n";
+        << "," << solveMethodName(simulator.model().solveMethod()) << "," << settings.integrator
+        << "," << stabilizationName(settings.stabilization) << "," << seconds << "," << forces
+        << "," << constraints << "," << (factorizations.str().empty() ? "-" : factorizations.str())
+        << "\n";
     std::cerr << "[scenes] " << name << ": " << seconds * 1e6 << " us/step, "
               << solveMethodName(simulator.model().solveMethod()) << "; forces " << forces
               << "; constraints " << constraints << "\n";
@@ -564,17 +559,15 @@ int scenes(const std::string& out, bool quick)
         if ((method == SolveMethod::Dense && n > 1000) ||
             (method == SolveMethod::Sparse && star && n > 1000))
           continue;
-        const Scenario s = treeScene(n, star);
-        const Model model = Model::compile(s.scene, method);
-        Dynamics dynamics(model);
-        Points a(3, n);
+        const BuiltScene s = treeScene(n, star);
+        StepSettings settings;
+        settings.stabilization = Stabilization::None;
+        Simulator simulator(s.scene, s.initial_state, settings, method);
+        Points forces;
+        Eigen::VectorXd multipliers;
+        // one evaluation of every stage at the state: rows, forces, assembly, factorisation, solve
         const double seconds = medianSecondsPerCall(
-            [&]
-            {
-              dynamics.computeAccelerations(s.initial_state.positions, s.initial_state.velocities,
-                                            0.0, 0.0, a);
-            },
-            quick ? 0.15 : 1.0);
+            [&] { simulator.constraintForces(forces, multipliers); }, quick ? 0.15 : 1.0);
         const char* shape = star ? "star" : "binary_tree";
         trees << shape << "," << n << "," << solveMethodName(method) << "," << seconds << "\n";
         trees.flush();

@@ -5,6 +5,8 @@
 # Usage: scripts/bench.sh [--quick]   (--quick: a small sweep for a smoke test, into build/bench)
 #        scripts/bench.sh --scenes         (only the per-scene and solve-by-structure part, into
 #                                          docs/bench, then the summary again: about 1 minute)
+#        scripts/bench.sh --cores [BASE]   (only this core's step cost against commit BASE's,
+#                                          scripts/compare_cores.sh, into docs/bench/cores.csv)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 QUICK=()
@@ -15,10 +17,12 @@ if [[ "${1:-}" == "--quick" ]]; then
   OUT="$ROOT/build/bench"
 elif [[ "${1:-}" == "--scenes" ]]; then
   ONLY_SCENES=1
+elif [[ "${1:-}" == "--cores" ]]; then
+  exec bash "$ROOT/scripts/compare_cores.sh" ${2:-} --csv "$OUT/cores.csv"
 fi
 WITH_BENCH=1 bash "$ROOT/scripts/install_deps.sh"
 LOG="$(mktemp)"
-bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1 || { cat "$LOG"; exit 1; }
+CP_BUILD_BENCH=ON bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1 || { cat "$LOG"; exit 1; }
 rm -f "$LOG"
 BIN="$ROOT/build/ws/devel/lib/constrained_particles"
 mkdir -p "$OUT"

@@ -19,4 +19,6 @@ done
 find "$PKG" -maxdepth 1 -xtype l -delete  # entries since removed
 # the system python has catkin_pkg; a pyenv python3 first in PATH does not
 cd "$WS"
-catkin_make -DPYTHON_EXECUTABLE=/usr/bin/python3 -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" "$@"
+# the benchmark and its peers only when asked (CP_BUILD_BENCH=ON, as scripts/bench.sh sets it)
+catkin_make -DPYTHON_EXECUTABLE=/usr/bin/python3 -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" \
+  -DCP_BUILD_BENCH="${CP_BUILD_BENCH:-OFF}" "$@"
