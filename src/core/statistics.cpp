@@ -16,16 +16,6 @@ EffectCounters EffectCounters::since(const EffectCounters& earlier) const
   return delta;
 }
 
-void SolveStatistics::merge(const SolveReport& report)
-{
-  method = report.method;
-  ++factorizations;
-  singular_count += report.singular ? 1 : 0;
-  singular = singular || report.singular;
-  min_pivot_ratio = std::min(min_pivot_ratio, report.min_pivot_ratio);
-  regularization = std::max(regularization, report.regularization);
-}
-
 void ProjectionStatistics::merge(const ProjectionReport& report)
 {
   ++projections;

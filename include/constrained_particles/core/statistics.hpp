@@ -76,7 +76,17 @@ struct SolveStatistics
   double min_pivot_ratio = 1.0;            ///< the smallest pivot ratio of any
   double regularization = 0.0;             ///< the largest delta added
 
-  void merge(const SolveReport& report);
+  void merge(const SolveReport& report)
+  {
+    method = report.method;
+    ++factorizations;
+    singular_count += report.singular ? 1 : 0;
+    singular = singular || report.singular;
+    min_pivot_ratio = report.min_pivot_ratio < min_pivot_ratio ? report.min_pivot_ratio
+                                                                : min_pivot_ratio;
+    regularization = report.regularization > regularization ? report.regularization
+                                                             : regularization;
+  }
 };
 
 /// The worst and the totals over projections (and velocity Verlet's SHAKE/RATTLE).
