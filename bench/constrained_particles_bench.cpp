@@ -213,12 +213,12 @@ Points reference(const Workload& w, double& uncertainty)
   return tight;
 }
 
-// the fixed-step integrators of the table: every one but the adaptive dopri5
-std::vector<std::string> fixedStepIntegrators()
+// the fixed-step integrators of the table, and the adaptive ones (swept by tolerance)
+std::vector<std::string> integratorsWhere(bool adaptive)
 {
   std::vector<std::string> names;
   for (const IntegratorInfo* integrator : integratorTable())
-    if (std::string(integrator->name) != "dopri5")
+    if (integrator->adaptive == adaptive)
       names.push_back(integrator->name);
   return names;
 }
@@ -284,7 +284,7 @@ int workPrecision(const std::string& out, bool quick)
       return error;
     };
 
-    for (const std::string& integrator : fixedStepIntegrators())
+    for (const std::string& integrator : integratorsWhere(false))
       for (Stabilization stabilization : STABILIZATIONS)
       {
         // an integrator that projects by itself: one sweep stands for all stabilisations
@@ -328,21 +328,23 @@ int workPrecision(const std::string& out, bool quick)
                << (order ? std::to_string(*order) : std::string("nan")) << "\n";
       }
 
-    for (Stabilization stabilization : STABILIZATIONS)
-    {
-      std::cerr << "[" << w.name << "] dopri5 + " << stabilizationName(stabilization) << ":";
-      for (double tolerance : tolerances)
+    for (const std::string& integrator : integratorsWhere(true))
+      for (Stabilization stabilization : STABILIZATIONS)
       {
-        StepSettings s;
-        s.dt = 1e-2;
-        s.integrator = "dopri5";
-        s.stabilization = stabilization;
-        s.adaptive_tolerance = tolerance;
-        record("dopri5", stabilization, s.dt, tolerance, run(w, s));
-        std::cerr << " " << tolerance << std::flush;
+        std::cerr << "[" << w.name << "] " << integrator << " + "
+                  << stabilizationName(stabilization) << ":";
+        for (double tolerance : tolerances)
+        {
+          StepSettings s;
+          s.dt = 1e-2;
+          s.integrator = integrator;
+          s.stabilization = stabilization;
+          s.adaptive_tolerance = tolerance;
+          record(integrator, stabilization, s.dt, tolerance, run(w, s));
+          std::cerr << " " << tolerance << std::flush;
+        }
+        std::cerr << "\n";
       }
-      std::cerr << "\n";
-    }
   }
   return 0;
 }

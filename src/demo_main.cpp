@@ -1,32 +1,67 @@
-// Headless run of every shipped scene without ROS: prints sim time, energy and max constraint
-// error. Usage: constrained_particles_demo [seconds] [scene directory]
+// Headless run of every shipped scene (or of the scenes named) without ROS: prints sim time,
+// energy and max constraint error.
+// Usage: constrained_particles_demo [seconds] [scene directory] [scene name or file ...]
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
+#include <memory>
 #include <string>
+#include <vector>
 
 using namespace constrained_particles;
 
 int main(int argc, char** argv)
 {
-  const double duration = argc > 1 ? std::atof(argv[1]) : 5.0;  // simulated seconds
-  const std::string directory = argc > 2 ? argv[2] : SCENES_DIR;
-  bool all_finite = true;
-  for (const std::string& name : listScenes(directory))
+  double duration = 5.0;  // simulated seconds
+  if (argc > 1)
   {
-    const SceneDescription description = loadSceneFile(resolveScene(name, directory));
-    const BuiltScene built = buildScene(description);
-    const StepSettings settings = description.solver.applyTo(StepSettings{});
-    Simulator simulator(built.scene, built.initial_state, settings,
-                        description.solver.solve_method);
+    char* end = nullptr;
+    duration = std::strtod(argv[1], &end);
+    if (end == argv[1] || *end != '\0' || !std::isfinite(duration) || duration < 0.0 ||
+        duration > 1e6)
+    {
+      std::fprintf(stderr,
+                   "usage: constrained_particles_demo [seconds] [scene directory] [scene ...]\n"
+                   "seconds: simulated time per scene, in [0, 1e6] s (got '%s')\n",
+                   argv[1]);
+      return 2;
+    }
+  }
+  const std::string directory = argc > 2 ? argv[2] : SCENES_DIR;
+  std::vector<std::string> names(argv + std::min(argc, 3), argv + argc);
+  if (names.empty())
+    names = listScenes(directory);
+  bool all_finite = true;
+  for (const std::string& name : names)
+  {
+    std::unique_ptr<Simulator> made;
+    StepSettings settings;
+    try  // a bad file is reported by name and the other scenes still run
+    {
+      const SceneDescription description = loadSceneFile(resolveScene(name, directory));
+      const BuiltScene built = buildScene(description);
+      settings = description.solver.applyTo(StepSettings{});
+      made = std::make_unique<Simulator>(built.scene, built.initial_state, settings,
+                                         description.solver.solve_method);
+    }
+    catch (const std::exception& error)
+    {
+      std::fprintf(stderr, "%s: %s\n", name.c_str(), error.what());
+      all_finite = false;
+      continue;
+    }
+    Simulator& simulator = *made;
     std::printf("== %s: %d particles, %s + %s, dt = %g s, solve %s\n", name.c_str(),
                 simulator.model().numParticles(), settings.integrator.c_str(),
                 stabilizationName(settings.stabilization), settings.dt,
                 solveMethodName(simulator.model().solveMethod()));
-    const int steps_per_report = static_cast<int>(1.0 / settings.dt + 0.5);
+    const int steps_per_report = std::max(1, static_cast<int>(1.0 / settings.dt + 0.5));
     const Diagnostics start = simulator.diagnostics();
     const auto wall_start = std::chrono::steady_clock::now();
     while (simulator.state().time < duration - 0.5 * settings.dt)
@@ -40,9 +75,9 @@ int main(int argc, char** argv)
     }
     const double wall =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-    std::printf("   %llu steps in %.3f s wall (%.2f us/step)\n",
-                static_cast<unsigned long long>(simulator.state().steps), wall,
-                1e6 * wall / static_cast<double>(simulator.state().steps));
+    const unsigned long long steps = simulator.state().steps;
+    std::printf("   %llu steps in %.3f s wall (%.2f us/step)\n", steps, wall,
+                steps > 0 ? 1e6 * wall / static_cast<double>(steps) : 0.0);
   }
   return all_finite ? EXIT_SUCCESS : EXIT_FAILURE;
 }

@@ -34,13 +34,11 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   rhs.setZero(model.numRows());
   for (Points* buffer : { &stages.a1, &stages.a2, &stages.a3, &stages.a4, &stages.v2, &stages.v3,
                           &stages.v4, &stages.p_stage, &stages.v_stage, &stages.p_start,
-                          &stages.correction, &stages.change, &stages.zero })
+                          &stages.correction, &stages.change, &stages.p_unprojected, &stages.zero })
     buffer->setZero(3, n);
   statistics.solve.method = model.solveMethod();
 }
 
 Data::~Data() = default;
-Data::Data(Data&&) noexcept = default;
-Data& Data::operator=(Data&&) noexcept = default;
 
 }  // namespace constrained_particles

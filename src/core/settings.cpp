@@ -2,6 +2,8 @@
 
 #include "constrained_particles/core/integrators.hpp"
 
+#include <iterator>
+
 namespace constrained_particles
 {
 namespace
@@ -11,7 +13,10 @@ const char* const STABILIZATION_NAMES[] = { "none", "baumgarte", "projection" };
 
 const char* stabilizationName(Stabilization stabilization)
 {
-  return STABILIZATION_NAMES[static_cast<int>(stabilization)];
+  const int index = static_cast<int>(stabilization);
+  return index >= 0 && index < static_cast<int>(std::size(STABILIZATION_NAMES))
+             ? STABILIZATION_NAMES[index]
+             : "(invalid)";
 }
 
 std::vector<std::string> stabilizationNames()
@@ -41,7 +46,7 @@ void validateStepSettings(const StepSettings& settings)
         if constexpr (std::is_same_v<Member, std::string>)
           findIntegrator(value, spec.name);
         else if constexpr (std::is_same_v<Member, Stabilization>)
-          parseStabilization(stabilizationName(value), spec.name);
+          parseStabilization(stabilizationName(value), spec.name);  // "(invalid)" is refused
         else
           requireInRange(spec.name, static_cast<double>(value), *spec.range);
       });

@@ -40,6 +40,7 @@ Simulator::Simulator(const Scene& scene, const State& initial_state, const StepS
                      SolveMethod method)
 {
   Compiled compiled = compile(scene, initial_state, settings, method);
+  data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(compiled.model);
   data_ = std::move(compiled.data);
   initial_state_ = compiled.initial_state;
@@ -124,6 +125,7 @@ void Simulator::restoreState(const State& state)
 void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
 {
   Compiled compiled = compile(scene, initial_state, settings_, method);
+  data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(compiled.model);
   data_ = std::move(compiled.data);
   initial_state_ = compiled.initial_state;
@@ -146,6 +148,7 @@ void Simulator::setForces(const std::vector<Force>& forces)
   auto model = std::make_unique<Model>(Model::compile(scene, model_->solveMethod()));
   auto data = std::make_unique<Data>(*model);
   data->state = data_->state;
+  data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(model);
   data_ = std::move(data);
 }

@@ -95,12 +95,13 @@ ProjectionReport shakePositions(const Model& model, Data& data, double time,
   }
   if (!report.converged && std::isfinite(report.max_position_error))
   {
-    const int shake_iterations = report.iterations;
-    Points& before = data.stages.change;
+    const ProjectionReport shake = report;
+    Points& before = data.stages.p_unprojected;
     if (corrections)
       before = positions;
     report = projectPositions(model, data, time, positions, tolerance, max_iterations);
-    report.iterations += shake_iterations;
+    report.iterations += shake.iterations;
+    report.singular = report.singular || shake.singular;  // either solve's warning stands
     if (corrections)
       *corrections += positions - before;
   }

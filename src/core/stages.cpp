@@ -112,8 +112,7 @@ SolveReport factorizeRows(const Model& model, Data& data)
   return report;
 }
 
-SolveReport constraintForceStage(const Model& model, Data& data, double /*time*/,
-                                 const Eigen::VectorXd* bias)
+SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::VectorXd* bias)
 {
   const Scene& scene = model.scene();
   const int m = model.numRows();
@@ -186,7 +185,7 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
     baumgarteBias(settings, data.rows);
     bias = &data.rows.bias;
   }
-  const SolveReport report = constraintForceStage(model, data, time, bias);
+  const SolveReport report = constraintForceStage(model, data, bias);
   accelerationStage(model, data, accelerations);
   return report;
 }

@@ -38,8 +38,7 @@ void rowVelocityStage(const Model& model, Data& data, const Points& velocities);
 /// Stage 4, constraint forces: factorises J W J^T (data.rows), solves for lambda with the
 /// optional bias (m) and fills data.multipliers and data.constraint_forces, eliminated reactions
 /// included. The eliminated particles' accelerations are data.imposed (imposeEliminated).
-SolveReport constraintForceStage(const Model& model, Data& data, double time,
-                                 const Eigen::VectorXd* bias);
+SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::VectorXd* bias);
 
 /// Stage 5, accelerations: a = W (f + f_c) into `accelerations` [m/s^2] (3 x n); an
 /// eliminated particle's is its imposed acceleration.

@@ -1,6 +1,7 @@
 #include "constrained_particles/core/surface.hpp"
 
 #include "surface_expression.hpp"
+#include "constrained_particles/core/limits.hpp"
 #include "constrained_particles/core/types.hpp"
 
 #include <cmath>
@@ -110,29 +111,28 @@ SurfaceType parseSurfaceType(const std::string& name, const std::string& field)
 
 const std::vector<CoefficientSpec>& surfaceCoefficientSpecs(SurfaceType type)
 {
-  // bounds keep the constraint well-posed: slopes and curvatures beyond 1e6 are not height fields
-  // a particle can follow, and a zero width or wavenumber would divide by zero or degenerate.
+  // the ranges are limits.hpp's, which says why each is bounded
   static const std::vector<CoefficientSpec> PLANE = {
-    { "slope_x", 0.3, { -1e6, false, 1e6, "1", false } },
-    { "slope_y", 0.0, { -1e6, false, 1e6, "1", false } },
-    { "height", 0.0, { -1e6, false, 1e6, "m", false } },
+    { "slope_x", 0.3, limits::SURFACE_SLOPE },
+    { "slope_y", 0.0, limits::SURFACE_SLOPE },
+    { "height", 0.0, limits::SURFACE_OFFSET },
   };
   static const std::vector<CoefficientSpec> BOWL = {
-    { "curvature_x", 1.0, { 0.0, false, 1e6, "1/m", false } },
-    { "curvature_y", 1.0, { 0.0, false, 1e6, "1/m", false } },
+    { "curvature_x", 1.0, limits::SURFACE_CURVATURE },
+    { "curvature_y", 1.0, limits::SURFACE_CURVATURE },
   };
   static const std::vector<CoefficientSpec> SADDLE = BOWL;
   static const std::vector<CoefficientSpec> WAVES = {
-    { "amplitude", 0.2, { -1e3, false, 1e3, "m", false } },
-    { "wavenumber_x", 2.0, { 0.0, false, 1e3, "rad/m", false } },
-    { "wavenumber_y", 1.0, { 0.0, false, 1e3, "rad/m", false } },
+    { "amplitude", 0.2, limits::SURFACE_AMPLITUDE },
+    { "wavenumber_x", 2.0, limits::SURFACE_WAVENUMBER },
+    { "wavenumber_y", 1.0, limits::SURFACE_WAVENUMBER },
   };
   static const std::vector<CoefficientSpec> NONE = {};
   static const std::vector<CoefficientSpec> GAUSSIAN = {
-    { "height", 0.5, { -1e3, false, 1e3, "m", false } },
-    { "width", 0.5, { 1e-6, false, 1e6, "m", false } },
-    { "center_x", 0.0, { -1e6, false, 1e6, "m", false } },
-    { "center_y", 0.0, { -1e6, false, 1e6, "m", false } },
+    { "height", 0.5, limits::SURFACE_AMPLITUDE },
+    { "width", 0.5, limits::SURFACE_WIDTH },
+    { "center_x", 0.0, limits::SURFACE_OFFSET },
+    { "center_y", 0.0, limits::SURFACE_OFFSET },
   };
   switch (type)
   {

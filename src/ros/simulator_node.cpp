@@ -538,11 +538,18 @@ bool SimulatorNode::reconfigureCallback(const SimulatorConfig& config)
     candidate.overrides.damping = config.damping;
     candidate.overrides.gravity = Vec3(config.gravity_x, config.gravity_y, config.gravity_z);
     validateNodeParameters(candidate);
-    SceneDescription changed = scene_;
-    setGravityAndDamping(changed, *candidate.overrides.gravity, config.damping);
     simulator_->setStepSettings(candidate.step);
-    simulator_->setForces(changed.forces);
-    scene_.forces = changed.forces;
+    // new forces recompile the model (and restart dopri5's step control): only when they change
+    if (candidate.overrides.gravity != parameters_.overrides.gravity ||
+        candidate.overrides.damping != parameters_.overrides.damping)
+    {
+      SceneDescription changed = scene_;
+      setGravityAndDamping(changed, *candidate.overrides.gravity, config.damping);
+      simulator_->setForces(changed.forces);
+      scene_.forces = changed.forces;
+      published_model_ = std::make_shared<const Model>(simulator_->model());
+      scene_changed_ = true;
+    }
   }
   catch (const InvalidInput& e)
   {

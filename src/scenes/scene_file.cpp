@@ -593,9 +593,13 @@ BuiltScene buildScene(const SceneDescription& d)
           PinConstraint{ next - 1, Vec3(start + (chain.particles - 1) * step) });
   }
   // each kind completes itself from the start: places particles on surfaces, anchors pins
-  for (Constraint constraint : d.constraints)
+  for (std::size_t k = 0; k < d.constraints.size(); ++k)
   {
+    Constraint constraint = d.constraints[k];
     fillFromStart(constraint, scene.surfaces, state.positions, state.velocities);
+    // a value taken from the start (an angle) is checked like one written in the file
+    validateConstraint(constraint, n, static_cast<int>(scene.surfaces.size()),
+                       "constraints[" + std::to_string(k) + "]");
     scene.constraints.push_back(constraint);
   }
   scene.forces = d.forces;
@@ -639,6 +643,16 @@ std::string resolveScene(const std::string& name_or_path, const std::string& dir
 
 namespace
 {
+/// Whether a field is a list of indices (std::array<int, N>, any N).
+template <typename T>
+struct IsIndexArray : std::false_type
+{
+};
+template <std::size_t N>
+struct IsIndexArray<std::array<int, N>> : std::true_type
+{
+};
+
 // the largest particle index a force or constraint record of the scene names (-1 if none)
 template <typename Variant>
 int largestParticleIndex(const std::vector<Variant>& records)
@@ -657,10 +671,11 @@ int largestParticleIndex(const std::vector<Variant>& records)
                   if (spec.kind == FieldKind::Particle)
                     largest = std::max(largest, r.*(spec.member));
                 }
-                else if constexpr (std::is_same_v<Member, std::array<int, 3>>)
+                else if constexpr (IsIndexArray<Member>::value)
                 {
-                  for (int index : r.*(spec.member))
-                    largest = std::max(largest, index);
+                  if (spec.kind == FieldKind::Particles)
+                    for (int index : r.*(spec.member))
+                      largest = std::max(largest, index);
                 }
               });
         },

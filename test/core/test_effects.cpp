@@ -277,3 +277,62 @@ TEST(StepStatistics, BatchIsTheMergeOfItsSteps)
     EXPECT_EQ(merged.effects.constraints, sum.effects.constraints) << integrator;
   }
 }
+
+// A particle whose own rows (a wire, a plane) all but lock it along the link to its parent: the
+// tree elimination cannot subtract that mobility without losing its digits, so it hands the solve
+// to the sparse LDL^T (reported as a fallback). Random forests with such rows on any particle,
+// and a wire perpendicular to its link, match the dense solve, and so does their motion.
+TEST(SolveSelection, TreeMatchesDenseWhenParticlesCarryTheirOwnRows)
+{
+  Random random(33);
+  int fallbacks = 0;
+  for (int trial = 0; trial < 40; ++trial)
+  {
+    Points p, v;
+    Scene scene = randomTree(2 + trial % 12, trial % 3 == 0, random, p, v);
+    // wires and planes on random particles, some across the link to their parent
+    for (int k = 1; k < static_cast<int>(scene.masses.size()); k += 1 + trial % 3)
+    {
+      const auto& link = std::get<LinkConstraint>(scene.constraints[k - 1]);
+      const Vec3 along = p.col(link.second) - p.col(link.first);
+      const Vec3 across = along.cross(random.unitVector());
+      if (trial % 2 == 0)
+        scene.constraints.push_back(PointOnLineConstraint{ k, Vec3(p.col(k)), across });
+      else
+        scene.constraints.push_back(PointOnPlaneConstraint{ k, Vec3(p.col(k)), along });
+    }
+    if (!isForest(Model::compile(scene, SolveMethod::Dense)))
+      continue;
+    const Solved tree = solve(scene, SolveMethod::Tree, p, v);
+    const Solved dense = solve(scene, SolveMethod::Dense, p, v);
+    fallbacks += tree.report.fallback ? 1 : 0;
+    EXPECT_EQ(tree.report.singular, dense.report.singular) << trial;
+    if (!dense.report.singular)
+      EXPECT_LE((tree.multipliers - dense.multipliers).norm(),
+                1e-8 * (1.0 + dense.multipliers.norm()))
+          << "trial " << trial;
+  }
+  EXPECT_GT(fallbacks, 0);  // the cases that need it occur
+
+  // a free particle linked to one on a wire: tree (automatic) and dense move alike for 3 s
+  Scene wire;
+  wire.masses = { 0.4, 0.9 };
+  wire.forces = { GravityForce{} };
+  wire.constraints = { PointOnLineConstraint{ 1, Vec3(0.9, 0.2, 1.1), Vec3(1.0, 0.3, 0.2) },
+                       LinkConstraint{ 0, 1, 0.55 } };
+  State start;
+  start.positions.resize(3, 2);
+  start.positions << 0.6, 0.9, -0.1, 0.2, 1.45, 1.1;
+  start.velocities = Points::Zero(3, 2);
+  start.velocities(2, 1) = 0.3;
+  StepSettings settings;
+  settings.stabilization = Stabilization::None;
+  Simulator automatic(wire, start, settings);
+  Simulator dense(wire, start, settings, SolveMethod::Dense);
+  EXPECT_EQ(automatic.model().solveMethod(), SolveMethod::Tree);
+  automatic.step(3000);
+  dense.step(3000);
+  EXPECT_TRUE(isFinite(automatic.state()));
+  EXPECT_LE((automatic.state().positions - dense.state().positions).cwiseAbs().maxCoeff(), 1e-8);
+  EXPECT_LE(automatic.diagnostics().max_position_error, 1e-6);
+}

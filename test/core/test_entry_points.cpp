@@ -21,7 +21,6 @@ using constrained_particles::testing::goodValues;
 namespace
 {
 
-
 // a double as YAML writes it, exactly
 std::string yaml(double value)
 {
@@ -130,9 +129,9 @@ const Constraint& firstRecord<Constraint>(const SceneDescription& d)
   return d.constraints.at(0);
 }
 
-// Every number and vector field of a record kind, through a scene file (key `list` of the scene)
-// and the core (Model::compile or the kind's validation): bad values refused naming the field,
-// edge values kept exactly.
+// Every number and vector field of a record kind, through a scene file (key `list` of the scene,
+// parsed and built): bad values refused naming the field, edge values kept exactly. The core's
+// own validate() of each kind is checked field by field in test_registry.cpp.
 template <typename Kind, typename Variant>
 void checkRecordKind(const std::string& list, int& checked)
 {

@@ -1,6 +1,7 @@
 // Bad input to the core is refused with an error naming the field, and changes nothing.
 #include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/scenes/scene_file.hpp"
 #include "test_helpers.hpp"
 
 #include <gtest/gtest.h>
@@ -89,6 +90,42 @@ TEST(Validation, SceneFieldsAreNamed)
   expectRefused([&] { Model::compile(s); }, "constraints[3].particle", "already pinned");
 }
 
+// an angle left unset takes the angle the particles start with; a straight start is refused
+// with the reason (no gradient at pi), not only the range
+TEST(Validation, StraightAngleStartIsRefusedWithItsReason)
+{
+  const std::string head =
+      "particles: [{position: [0, 0, 1]}, {position: [1, 0, 1]}, "
+      "{position: [2, 0, 1]}]\n"
+      "constraints:\n  - {type: link, first: 0, second: 1}\n"
+      "  - {type: link, first: 1, second: 2}\n";
+  auto refusal = [](const std::string& text) -> std::string
+  {
+    try
+    {
+      buildScene(parseScene(text, "angle.yaml"));
+    }
+    catch (const InvalidInput& e)
+    {
+      return e.what();
+    }
+    return "accepted";
+  };
+  const std::string straight = refusal(head + "  - {type: angle, particles: [0, 1, 2]}\n");
+  EXPECT_NE(straight.find("constraints[2].angle = 3.14159"), std::string::npos) << straight;
+  EXPECT_NE(straight.find("straight (pi)"), std::string::npos) << straight;
+  const std::string folded = refusal(head + "  - {type: angle, particles: [0, 1, 2], angle: 0}\n");
+  // a written angle out of range is refused as it is read, with its range
+  EXPECT_NE(folded.find("constraints[2].angle = 0, must be in [0.001, 3.14] [rad]"),
+            std::string::npos)
+      << folded;
+  // bent a little, it is taken
+  EXPECT_EQ(refusal("particles: [{position: [0, 0, 1]}, {position: [1, 0, 1]}, "
+                    "{position: [2, 0.1, 1]}]\n"
+                    "constraints: [{type: angle, particles: [0, 1, 2]}]\n"),
+            "accepted");
+}
+
 TEST(Validation, SurfacesAreChecked)
 {
   expectRefused([] { makeSurface("cone", {}); }, "surface.type", "bowl");
@@ -149,6 +186,10 @@ TEST(Validation, StepSettingsAreChecked)
   s.integrator = "leapfrog";
   expectRefused([&] { validateStepSettings(s); }, "integrator", "velocity_verlet");
   expectRefused([] { parseStabilization("magic"); }, "stabilization", "projection");
+  // an enum value cast from a bad integer is refused by name, not read out of bounds
+  s = StepSettings{};
+  s.stabilization = static_cast<Stabilization>(7);
+  expectRefused([&] { validateStepSettings(s); }, "stabilization", "baumgarte");
 }
 
 TEST(Validation, RefusedChangesLeaveSimulatorUntouched)

@@ -1,16 +1,18 @@
 // Every numeric setting through the node's entry points: start-up parameters (read as the node
-// reads them, readParameters), services (~set_chain, ~step, ~set_state) and dynamic_reconfigure
-// (~set_parameters) of the running node. NaN, +-Inf, just below and just above the range in
-// limits.hpp are refused naming the field, and nothing changes (reconfigure: the old value
-// stays); values on the edges of the range are taken exactly as given. The core's own entry
+// reads them, readParameters), services (~set_chain, ~set_surface, ~step, ~set_state) and
+// dynamic_reconfigure (~set_parameters) of the running node. NaN, +-Inf, just below and just above
+// the range in limits.hpp are refused naming the field, and nothing changes (reconfigure: the old
+// value stays); values on the edges of the range are taken exactly as given. The core's own entry
 // points (a core call, a scene file) are test/core/test_entry_points.cpp.
 #include "constrained_particles/SimState.h"
 #include "constrained_particles/SimulatorConfig.h"
+#include "constrained_particles/core/surface.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 
 #include <constrained_particles/Reset.h>
 #include <constrained_particles/SetChain.h>
 #include <constrained_particles/SetState.h>
+#include <constrained_particles/SetSurface.h>
 #include <constrained_particles/Step.h>
 #include <dynamic_reconfigure/Reconfigure.h>
 #include "../range_values.hpp"
@@ -34,7 +36,6 @@ using constrained_particles::testing::goodValues;
 namespace
 {
 const std::string NODE = "/simulator";
-
 
 std::string show(double value)
 {
@@ -65,7 +66,7 @@ protected:
   {
     ros::NodeHandle nh;
     for (const char* service :
-         { "reset", "pause", "step", "set_chain", "set_state", "set_parameters" })
+         { "reset", "pause", "step", "set_chain", "set_state", "set_surface", "set_parameters" })
       ASSERT_TRUE(ros::service::waitForService(NODE + "/" + service, ros::Duration(60.0)));
   }
 
@@ -329,6 +330,63 @@ TEST_F(EntryPoints, Services)
   std::remove(path.c_str());
 }
 
+// ~set_surface: every coefficient of every surface type, refused out of range naming its index
+// and name with the state untouched, taken at the edges of its range
+TEST_F(EntryPoints, SetSurface)
+{
+  // a bead at rest at the origin: every coefficient in range gives a height and slope in range
+  const std::string path = "/tmp/constrained_particles_entry_points_surface.yaml";
+  std::ofstream(path) << "surfaces: {ground: {type: plane}}\n"
+                         "particles: [{mass: 1, position: [0, 0, 0]}]\n"
+                         "constraints: [{type: surface, particle: 0, surface: ground}]\n";
+  Reset::Request reset;
+  reset.scenario = path;
+  ASSERT_TRUE(call<Reset>("reset", reset).success);
+  const SimState before = freshState();
+  int checked = 0;
+  for (const std::string& type : surfaceTypeNames())
+  {
+    if (type == "expression")
+      continue;
+    const std::vector<CoefficientSpec>& specs = surfaceCoefficientSpecs(parseSurfaceType(type));
+    for (std::size_t i = 0; i < specs.size(); ++i)
+    {
+      const std::string field = "coefficients[" + std::to_string(i) + "] (" + specs[i].name + ")";
+      SetSurface::Request request;
+      request.type = type;
+      for (const CoefficientSpec& spec : specs)
+        request.coefficients.push_back(spec.default_value);
+      for (double bad : badValues(specs[i].range))
+      {
+        request.coefficients[i] = bad;
+        const SetSurface::Response response = call<SetSurface>("set_surface", request);
+        EXPECT_FALSE(response.success) << type << " " << field << " = " << show(bad);
+        EXPECT_NE(response.message.find(field), std::string::npos) << response.message;
+        ++checked;
+      }
+      expectSameState(before, freshState(), "after refused " + type + " " + field);
+      for (double good : goodValues(specs[i].range))
+      {
+        request.coefficients[i] = good;
+        const SetSurface::Response response = call<SetSurface>("set_surface", request);
+        EXPECT_TRUE(response.success)
+            << type << " " << field << " = " << show(good) << ": " << response.message;
+        ++checked;
+      }
+      ASSERT_TRUE(call<Reset>("reset", reset).success);
+    }
+  }
+  SetSurface::Request formula;
+  formula.type = "expression";
+  formula.expression = "0.3*sin(2*x)*";
+  const SetSurface::Response refused = call<SetSurface>("set_surface", formula);
+  EXPECT_FALSE(refused.success);
+  EXPECT_NE(refused.message.find("expression"), std::string::npos) << refused.message;
+  expectSameState(before, freshState(), "after a refused expression");
+  EXPECT_GT(checked, 50);
+  std::remove(path.c_str());
+}
+
 // dynamic_reconfigure: every reconfigurable number, through ~set_parameters as dynparam sends it
 TEST_F(EntryPoints, Reconfigure)
 {
@@ -378,6 +436,35 @@ TEST_F(EntryPoints, Reconfigure)
   EXPECT_EQ(stepped.sim_time, dt + dt + dt);
   reconfigure("dt", 0.001);
   EXPECT_GT(checked, 50);
+
+  // a request naming an unknown field, or a known one with the wrong type, is refused whole:
+  // the good dt sent with it is not applied either
+  auto dtAfter = [](dynamic_reconfigure::Reconfigure service) -> double
+  {
+    dynamic_reconfigure::DoubleParameter good;
+    good.name = "dt";
+    good.value = 0.002;
+    service.request.config.doubles.push_back(good);
+    EXPECT_TRUE(ros::service::call(NODE + "/set_parameters", service));
+    for (const auto& p : service.response.config.doubles)
+      if (p.name == "dt")
+        return p.value;
+    return NAN;
+  };
+  dynamic_reconfigure::Reconfigure unknown;
+  dynamic_reconfigure::DoubleParameter typo;
+  typo.name = "dtt";
+  typo.value = 0.5;
+  unknown.request.config.doubles.push_back(typo);
+  EXPECT_EQ(dtAfter(unknown), 0.001) << "a request with an unknown field was applied";
+  dynamic_reconfigure::Reconfigure wrong_type;
+  dynamic_reconfigure::StrParameter as_text;
+  as_text.name = "baumgarte_frequency";
+  as_text.value = "10";
+  wrong_type.request.config.strs.push_back(as_text);
+  EXPECT_EQ(dtAfter(wrong_type), 0.001) << "a request with a wrongly typed field was applied";
+  EXPECT_EQ(dtAfter(dynamic_reconfigure::Reconfigure{}), 0.002);  // the same dt alone is applied
+  reconfigure("dt", 0.001);
 }
 
 int main(int argc, char** argv)

@@ -43,6 +43,7 @@ struct StageBuffers
   Points p_start;         ///< positions at the start of the step [m] (SHAKE's reference)
   Points correction;      ///< displacement SHAKE applied in this step [m]
   Points change;          ///< velocity change of a projection [m/s]
+  Points p_unprojected;   ///< positions before SHAKE's fallback to full projection [m]
   Points zero;            ///< zeros: the velocities of position-only evaluations
 };
 
@@ -52,8 +53,9 @@ class Data
 public:
   explicit Data(const Model& model);
   ~Data();
-  Data(Data&&) noexcept;
-  Data& operator=(Data&&) noexcept;
+  // the solver keeps the model and these rows by address: a Data stays where it was made
+  Data(const Data&) = delete;
+  Data& operator=(const Data&) = delete;
 
   State state;                         ///< positions, velocities (3 x n), time, steps
   RowData rows;                        ///< rows at the last evaluated stage

@@ -1,8 +1,9 @@
 /// @file integrators.hpp
 /// @brief The table of time integrators: name, order, whether it holds the constraints itself,
-/// and its step function. Names, parsing, the dynamic_reconfigure enum (checked by a test), the
-/// benchmark's theoretical orders and the order tests read it. Each integrator is one file in
-/// src/core/integrators/; adding one is that file plus its row in integrator_table.cpp.
+/// whether it adapts its step, and its step function. Names, parsing, the dynamic_reconfigure
+/// enum (cfg/Simulator.cfg reads the rows when it is generated), the benchmark's theoretical
+/// orders and the order tests read it. Each integrator is one file in src/core/integrators/;
+/// adding one is that file plus its row in integrator_table.cpp.
 #pragma once
 
 #include <string>
@@ -24,6 +25,7 @@ struct IntegratorInfo
   const char* name;         ///< as in parameters, scene files and dynamic_reconfigure
   int order;                ///< global order of accuracy in dt
   bool holds_constraints;   ///< projects onto the constraints itself: `stabilization` is ignored
+  bool adaptive;            ///< chooses its own internal steps within dt (adaptive_tolerance)
   const char* description;  ///< one line, for help texts and dynamic_reconfigure
   IntegratorStep step;      ///< the step function
 };

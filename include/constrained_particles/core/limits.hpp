@@ -2,7 +2,7 @@
 /// @brief Every range the package accepts, written once with its unit. Core validation, scene
 /// files, the node's parameters, its services and dynamic_reconfigure read these; the tests
 /// check cfg/Simulator.cfg, config/default.yaml, srv/ and README's tables against them
-/// (`constrained_particles_limits` prints them as JSON).
+/// (test/ros/test_documented_ranges.cpp).
 #pragma once
 
 #include "constrained_particles/core/types.hpp"
@@ -70,6 +70,22 @@ constexpr Range FORCE{ -1e9, false, 1e9, "N", false };
 constexpr Range STIFFNESS{ 0.0, false, 1e9, "N/m", false };
 /// Spring rest length L [m].
 constexpr Range REST_LENGTH{ 0.0, false, 1e3, "m", false };
+
+// --- surfaces (coefficients by surface type; see surface.hpp) ---
+// Slopes and curvatures beyond 1e6 are not height fields a particle can follow; a zero width
+// would divide by zero.
+/// A plane's slope dZ/dx or dZ/dy [1].
+constexpr Range SURFACE_SLOPE{ -1e6, false, 1e6, "1", false };
+/// A plane's height at the origin, or a Gaussian bump's centre coordinate [m].
+constexpr Range SURFACE_OFFSET{ -1e6, false, 1e6, "m", false };
+/// A bowl's or saddle's curvature d2Z/dx2 or d2Z/dy2 [1/m].
+constexpr Range SURFACE_CURVATURE{ 0.0, false, 1e6, "1/m", false };
+/// A wave's amplitude or a Gaussian bump's height [m].
+constexpr Range SURFACE_AMPLITUDE{ -1e3, false, 1e3, "m", false };
+/// A wave's wavenumber along x or y [rad/m].
+constexpr Range SURFACE_WAVENUMBER{ 0.0, false, 1e3, "rad/m", false };
+/// A Gaussian bump's width sigma [m].
+constexpr Range SURFACE_WIDTH{ 1e-6, false, 1e6, "m", false };
 
 // --- constraints ---
 /// The angle an angle constraint holds at its vertex [rad]. Straight (pi) and folded (0) are

@@ -22,6 +22,9 @@ struct SolveReport
   bool singular = false;         ///< (near) singular: solved with regularization added
   double min_pivot_ratio = 1.0;  ///< smallest pivot relative to its diagonal entry
   double regularization = 0.0;   ///< delta added to the diagonal (0 unless singular)
+  /// The tree elimination lost its precision (a particle's own rows all but lock it along a row
+  /// to its parent) and the sparse LDL^T of J W J^T gave this solve instead.
+  bool fallback = false;
 };
 
 /// Outcome of a projection of a state onto the constraints.
@@ -75,17 +78,19 @@ struct SolveStatistics
   bool singular = false;                   ///< any was
   double min_pivot_ratio = 1.0;            ///< the smallest pivot ratio of any
   double regularization = 0.0;             ///< the largest delta added
+  long fallbacks = 0;                      ///< how many the tree solve handed to the sparse one
 
   void merge(const SolveReport& report)
   {
     method = report.method;
     ++factorizations;
+    fallbacks += report.fallback ? 1 : 0;
     singular_count += report.singular ? 1 : 0;
     singular = singular || report.singular;
-    min_pivot_ratio = report.min_pivot_ratio < min_pivot_ratio ? report.min_pivot_ratio
-                                                                : min_pivot_ratio;
-    regularization = report.regularization > regularization ? report.regularization
-                                                             : regularization;
+    min_pivot_ratio =
+        report.min_pivot_ratio < min_pivot_ratio ? report.min_pivot_ratio : min_pivot_ratio;
+    regularization =
+        report.regularization > regularization ? report.regularization : regularization;
   }
 };
 

@@ -10,6 +10,7 @@
 #include <dynamic_reconfigure/Config.h>
 #include <dynamic_reconfigure/ConfigDescription.h>
 #include <dynamic_reconfigure/Reconfigure.h>
+#include <ros/console.h>
 #include <ros/node_handle.h>
 
 #include <functional>
@@ -63,8 +64,13 @@ private:
     std::lock_guard<std::mutex> lock(mutex_);
     // unnamed fields keep their values; no __clamp__(): the callback refuses what is out of range
     ConfigType requested = config_;
-    requested.__fromMessage__(request.config);
-    if (callback_(requested))
+    // false when a field is unknown or sent with the wrong type (the generated code logs them):
+    // the whole request is refused rather than applied in part
+    if (!requested.__fromMessage__(request.config))
+      ROS_ERROR_NAMED("reconfigure",
+                      "~set_parameters refused: a field above is not a parameter "
+                      "of this node or has the wrong type; nothing was changed");
+    else if (callback_(requested))
       config_ = requested;
     publishLocked();
     config_.__toMessage__(response.config);

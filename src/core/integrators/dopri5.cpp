@@ -68,7 +68,8 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 }  // namespace
 
 extern const IntegratorInfo DOPRI5_INTEGRATOR = {
-  "dopri5", 5, false, "adaptive Dormand-Prince 5(4), error per internal step <= tolerance", &step
+  "dopri5", 5, false, true, "adaptive Dormand-Prince 5(4), error per internal step <= tolerance",
+  &step
 };
 
 }  // namespace constrained_particles

@@ -19,7 +19,8 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 
 }  // namespace
 
-extern const IntegratorInfo EXPLICIT_EULER_INTEGRATOR = { "explicit_euler", 1, false,
-                                                          "first order, energy grows", &step };
+extern const IntegratorInfo EXPLICIT_EULER_INTEGRATOR = {
+  "explicit_euler", 1, false, false, "first order, energy grows", &step
+};
 
 }  // namespace constrained_particles

@@ -23,8 +23,8 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 
 }  // namespace
 
-extern const IntegratorInfo MIDPOINT_INTEGRATOR = { "midpoint", 2, false,
-                                                    "explicit midpoint (RK2), second order",
-                                                    &step };
+extern const IntegratorInfo MIDPOINT_INTEGRATOR = {
+  "midpoint", 2, false, false, "explicit midpoint (RK2), second order", &step
+};
 
 }  // namespace constrained_particles

@@ -20,7 +20,8 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 
 }  // namespace
 
-extern const IntegratorInfo SEMI_IMPLICIT_EULER_INTEGRATOR = { "semi_implicit_euler", 1, false,
-                                                               "first order, symplectic", &step };
+extern const IntegratorInfo SEMI_IMPLICIT_EULER_INTEGRATOR = {
+  "semi_implicit_euler", 1, false, false, "first order, symplectic", &step
+};
 
 }  // namespace constrained_particles

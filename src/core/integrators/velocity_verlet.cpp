@@ -48,8 +48,8 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 
 }  // namespace
 
-extern const IntegratorInfo VELOCITY_VERLET_INTEGRATOR = { "velocity_verlet", 2, true,
-                                                           "symplectic, SHAKE/RATTLE projections",
-                                                           &step };
+extern const IntegratorInfo VELOCITY_VERLET_INTEGRATOR = {
+  "velocity_verlet", 2, true, false, "symplectic, SHAKE/RATTLE projections", &step
+};
 
 }  // namespace constrained_particles

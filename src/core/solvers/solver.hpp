@@ -26,7 +26,7 @@ public:
   /// pivot below SINGULAR_PIVOT_RATIO of its diagonal entry, is factorised again as
   /// J W J^T + delta I, delta = SINGULAR_REGULARIZATION max(diag) (1 if the diagonal is zero),
   /// so the solution stays finite; the report keeps the unregularised pivot ratio.
-  SolveReport factorize(const Model& model, const RowData& rows, EffectCounters& counters);
+  virtual SolveReport factorize(const Model& model, const RowData& rows, EffectCounters& counters);
 
   /// Solves (J W J^T) x = b in place (m), with the last factorisation.
   virtual void solveInPlace(Eigen::VectorXd& b) const = 0;

@@ -18,11 +18,20 @@ namespace constrained_particles
 {
 namespace
 {
+/// A particle's own rows may remove at most 99% of its mobility along the row to its parent: past
+/// that the subtraction has lost more than 2 digits, and the sparse solve of J W J^T takes over
+/// (the system is not at fault, only this order of elimination).
+constexpr double MOBILITY_KEPT = 1e-2;
+
 class TreeSolver : public ConstraintSolver
 {
 public:
   explicit TreeSolver(const Model& model);
 
+  /// The tree elimination, or the sparse LDL^T of J W J^T when the elimination order breaks down
+  /// (a particle whose own rows lock it along the row to its parent, below the root, gives a
+  /// zero pivot in a system that is not singular).
+  SolveReport factorize(const Model& model, const RowData& rows, EffectCounters& counters) override;
   void solveInPlace(Eigen::VectorXd& b) const override;
 
 protected:
@@ -36,8 +45,11 @@ private:
   Vec3 solveParticle(int i, const Vec3& f, const Eigen::VectorXd& b, bool inner) const;
 
   const Model& model_;
-  const RowData* rows_ = nullptr;   // the rows of the last assembly
-  std::vector<int> order_;          // every node, each after all of its children
+  const RowData* rows_ = nullptr;               // the rows of the last assembly
+  bool broke_down_ = false;                     // the last elimination lost its precision
+  std::unique_ptr<ConstraintSolver> fallback_;  // the sparse solve, made when first needed
+  bool use_fallback_ = false;                   // the last factorisation is the fallback's
+  std::vector<int> order_;                      // every node, each after all of its children
   std::vector<int> parent_;         // parent node, -1 for a root, -2 for a row inside a particle
   std::vector<RowIncidence> edge_;  // the row and the particle's block of the edge to the parent
   std::vector<int> inner_start_;    // rows inside particle i: inner_[inner_start_[i] ..)
@@ -170,6 +182,22 @@ double TreeSolver::maxDiagonal() const
   return max_diagonal;
 }
 
+SolveReport TreeSolver::factorize(const Model& model, const RowData& rows, EffectCounters& counters)
+{
+  broke_down_ = false;
+  use_fallback_ = false;
+  SolveReport report = ConstraintSolver::factorize(model, rows, counters);
+  if (!broke_down_)
+    return report;
+  if (!fallback_)
+    fallback_ = makeSparseSolver(model);
+  use_fallback_ = true;
+  report = fallback_->factorize(model, rows, counters);
+  report.method = SolveMethod::Tree;
+  report.fallback = true;
+  return report;
+}
+
 ConstraintSolver::Pivots TreeSolver::factorizeShifted(double delta)
 {
   const int n = model_.numParticles();
@@ -231,7 +259,8 @@ ConstraintSolver::Pivots TreeSolver::factorizeShifted(double delta)
         // the parent row sees this node's mobility g^T K g, K = A^-1 - A^-1 G S^-1 G^T A^-1
         const Vec3& g = jacobian[e.block];
         const Vec3 u = inverse * g;
-        double mobility = g.dot(u);
+        const double free_mobility = g.dot(u);
+        double mobility = free_mobility;
         if (k == 1)
         {
           const double projected = inner_gradients_[node].col(0).dot(u);
@@ -244,6 +273,13 @@ ConstraintSolver::Pivots TreeSolver::factorizeShifted(double delta)
           projected.noalias() = inner_gradients_[node].transpose() * u;
           solved = inner_ldlt_[node].solve(projected);
           mobility -= projected.dot(solved);
+        }
+        // the particle's own rows cancel nearly all of its mobility along this row: the
+        // difference has lost its digits, and this order of elimination cannot go on
+        if (k > 0 && delta == 0.0 && !(mobility > MOBILITY_KEPT * free_mobility))
+        {
+          broke_down_ = true;
+          return { false, min_ratio };
         }
         row_inverse_[e.row] -= mobility;
       }
@@ -304,6 +340,11 @@ Vec3 TreeSolver::solveParticle(int i, const Vec3& f, const Eigen::VectorXd& b, b
 
 void TreeSolver::solveInPlace(Eigen::VectorXd& b) const
 {
+  if (use_fallback_)
+  {
+    fallback_->solveInPlace(b);
+    return;
+  }
   // [M J^T; J -delta] [y; z] = [0; b] gives (J W J^T + delta) (-z) = b
   const int n = model_.numParticles();
   const std::vector<Vec3>& jacobian = rows_->jacobian;

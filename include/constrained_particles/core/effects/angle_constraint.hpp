@@ -136,6 +136,16 @@ inline void fillFromStart(AngleConstraint& constraint, const std::vector<Surface
 inline void validate(const AngleConstraint& constraint, int num_particles, int num_surfaces,
                      const std::string& prefix, bool allow_unset = false)
 {
+  const double angle = constraint.angle;
+  // straight or folded (often an unset angle taken from a straight start): say why it is refused
+  if (std::isfinite(angle) && angle >= 0.0 && angle <= M_PI + 1e-9 &&
+      !limits::ANGLE.contains(angle))
+    throw InvalidInput(
+        prefix.empty() ? "angle" : prefix + ".angle",
+        "= " + formatValue(angle) + ", must be in " + limits::ANGLE.text() +
+            ": a straight (pi) or folded (0) joint has no angle gradient, and one angle row "
+            "holds one bending direction where a straight joint has two. An unset angle is the "
+            "one the particles start with: start the joint bent, or give an angle in range");
   validateFields(constraint, num_particles, num_surfaces, prefix, allow_unset);
 }
 
