@@ -18,6 +18,9 @@ Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_
   compiled.data = std::make_unique<Data>(model);
   compiled.initial_state = initial_state;
   State& start = compiled.initial_state;
+  // a run starts at t = 0 (reset): driven motion is imposed at that time, not the state's
+  start.time = 0.0;
+  start.steps = 0;
   const ProjectionReport projection =
       projectPositions(model, *compiled.data, start.time, start.positions,
                        settings.projection_tolerance, settings.projection_max_iterations);

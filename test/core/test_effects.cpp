@@ -125,6 +125,26 @@ TEST(EffectCounters, DragSceneEvaluatesDragAndNoConstraints)
     EXPECT_EQ(c.factorizations[k], 0u);
 }
 
+TEST(EffectCounters, BeadCostDoesNotGrowWithChainParameters)
+{
+  // chain parameters cannot reach a scene without chains (the node's ~set_chain is refused)...
+  ChainChange huge;
+  huge.num_particles = 100000;
+  huge.link_length = 3.0;
+  SceneDescription bead_file = constrained_particles::testing::shippedDescription("bead");
+  EXPECT_THROW(setChains(bead_file, huge), InvalidInput);
+  // ...and the bead costs one surface row per evaluation: 100 steps of RK4 + projection
+  const BuiltScene bead = constrained_particles::testing::shippedScene("bead");
+  ASSERT_EQ(bead.scene.masses.size(), 1u);
+  Simulator simulator(bead.scene, bead.initial_state, rk4Projection());
+  simulator.step(100);
+  const EffectCounters& counters = simulator.effectCounters();
+  EXPECT_LT(counters.constraintCount<SurfaceConstraint>(), 100u * 20u);
+  for (SolveMethod matrix :
+       { SolveMethod::Tridiagonal, SolveMethod::Tree, SolveMethod::Sparse, SolveMethod::Dense })
+    EXPECT_EQ(counters.factorizationCount(matrix), 0u);  // a closed form, no matrix
+}
+
 TEST(SolveSelection, ChosenByConstraintStructure)
 {
   Random random(31);

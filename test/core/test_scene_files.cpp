@@ -86,6 +86,36 @@ TEST(SceneFiles, SeedScenesAreTheSeedProblems)
         1e-15);
     EXPECT_LE((Vec3(hanging.initial_state.velocities.col(i)) - Vec3(0.0, 0.8, 0.0)).norm(), 1e-15);
   }
+
+  // the seed's masses (1 kg), gravity (0, 0, -9.81) m/s^2 alone, the bowl with unit curvatures
+  // and links of 0.5 m, in all three
+  for (const BuiltScene* seed : { &bead, &chain, &hanging })
+  {
+    for (double mass : seed->scene.masses)
+      EXPECT_EQ(mass, 1.0);
+    ASSERT_EQ(seed->scene.forces.size(), 1u);
+    ASSERT_TRUE(std::holds_alternative<GravityForce>(seed->scene.forces[0]));
+    EXPECT_EQ(std::get<GravityForce>(seed->scene.forces[0]).acceleration, Vec3(0.0, 0.0, -9.81));
+    int links = 0;
+    for (const Constraint& constraint : seed->scene.constraints)
+      if (const auto* link = std::get_if<LinkConstraint>(&constraint))
+      {
+        EXPECT_EQ(link->length, 0.5);
+        EXPECT_EQ(link->second, link->first + 1);
+        ++links;
+      }
+    EXPECT_EQ(links, seed == &bead ? 0 : 4);
+  }
+  for (const BuiltScene* on_bowl : { &bead, &hanging })
+  {
+    ASSERT_EQ(on_bowl->scene.surfaces.size(), 1u);
+    EXPECT_EQ(on_bowl->scene.surfaces[0].type, SurfaceType::Bowl);
+    EXPECT_EQ(on_bowl->scene.surfaces[0].coefficients[0], 1.0);
+    EXPECT_EQ(on_bowl->scene.surfaces[0].coefficients[1], 1.0);
+    EXPECT_EQ(std::get<SurfaceConstraint>(on_bowl->scene.constraints[0]).particle, 0);
+  }
+  EXPECT_TRUE(chain.scene.surfaces.empty());
+  EXPECT_EQ(std::get<PinConstraint>(chain.scene.constraints[4]).particle, 0);
 }
 
 TEST(SceneFiles, EveryFileRunsAndEvaluatesOnlyWhatItLists)
@@ -223,7 +253,8 @@ TEST(SceneFiles, BadFilesAreRefusedNamingFileKeyAndReason)
       "constraints:\n  - {type: link, first: 0, second: 1, lenght: 2}\n",
       { "test.yaml:3: constraints[0].lenght", "a link record", "length" });
   // invalid values: the key, the value and the range
-  expectRefused("particles:\n  - {mass: -1.0}\n", { "particles[0].mass", "= -1", "[1e-09, 1e+06]" });
+  expectRefused("particles:\n  - {mass: -1.0}\n",
+                { "particles[0].mass", "= -1", "[1e-09, 1e+06]" });
   expectRefused("particles:\n  - {mass: .nan}\n", { "particles[0].mass", "nan" });
   expectRefused("particles:\n  - {position: [1, 2]}\n", { "particles[0].position", "3 numbers" });
   expectRefused("particles:\n  - {mass: heavy}\n", { "particles[0].mass", "must be a number" });
@@ -300,6 +331,20 @@ TEST(SceneFiles, ParticleListsExpandAndPinsDefaultToTheirStart)
   EXPECT_EQ(s.initial_state.positions(2, 2), -1.0);
   EXPECT_EQ(s.initial_state.velocities(2, 2), 0.0);
   EXPECT_EQ(std::get<PinConstraint>(s.scene.constraints[2]).anchor, Vec3(0, 0, 5));
+}
+
+// a driven anchor without a centre starts where its particle is written, whatever its phase
+TEST(SceneFiles, DrivenAnchorsStartWhereTheirParticleIs)
+{
+  const BuiltScene s = buildScene(parseScene(
+      "particles: [{position: [1, 2, 3]}]\n"
+      "constraints: [{type: moving_anchor, particle: 0, amplitude: [0.1, 0, -0.2], frequency: 2,"
+      " phase: 1.2}]\n",
+      "test.yaml"));
+  const auto& driven = std::get<MovingAnchorConstraint>(s.scene.constraints.at(0));
+  EXPECT_LE((driven.anchor - (Vec3(1, 2, 3) - std::sin(1.2) * Vec3(0.1, 0, -0.2))).norm(), 1e-15);
+  Simulator simulator(s.scene, s.initial_state, StepSettings{});
+  EXPECT_LE((Vec3(simulator.state().positions.col(0)) - Vec3(1, 2, 3)).norm(), 1e-15);
 }
 
 TEST(SceneFiles, ReadmeExampleLoadsAndRuns)

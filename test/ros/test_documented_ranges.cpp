@@ -4,6 +4,7 @@
 // definitions in srv/. No ROS master: these read the generated code and the files.
 #include "constrained_particles/SimulatorConfig.h"
 #include "constrained_particles/core/integrators.hpp"
+#include "constrained_particles/core/surface.hpp"
 #include "constrained_particles/core/limits.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 
@@ -176,4 +177,38 @@ TEST(DocumentedRanges, ServiceDefinitionsShowTheLimits)
   const std::string state = readFile(std::string(SRV_DIR) + "/SetState.srv");
   EXPECT_NE(state.find(limits::COORDINATE.interval()), std::string::npos);
   EXPECT_NE(state.find(limits::VELOCITY.interval()), std::string::npos);
+  // every coefficient of every surface type, under its type's line
+  const std::string surface = readFile(std::string(SRV_DIR) + "/SetSurface.srv");
+  int coefficients = 0;
+  for (const std::string& type : surfaceTypeNames())
+  {
+    const std::size_t at = surface.find("#   " + type + ":");
+    ASSERT_NE(at, std::string::npos) << type;
+    std::size_t next = std::string::npos;  // the next type's line
+    for (const std::string& other : surfaceTypeNames())
+    {
+      const std::size_t other_at = surface.find("#   " + other + ":");
+      if (other_at != std::string::npos && other_at > at)
+        next = std::min(next, other_at);
+    }
+    const std::string section = surface.substr(at, next == std::string::npos ? next : next - at);
+    for (const CoefficientSpec& spec : surfaceCoefficientSpecs(parseSurfaceType(type)))
+    {
+      // the section may wrap a coefficient's line: compare with the comment marks removed
+      std::string flat;
+      for (std::size_t k = 0; k < section.size(); ++k)
+        if (section[k] == '\n')
+        {
+          while (k + 1 < section.size() && (section[k + 1] == '#' || section[k + 1] == ' '))
+            ++k;
+          flat += ' ';
+        }
+        else
+          flat += section[k];
+      EXPECT_NE(flat.find(std::string(spec.name) + " " + spec.range.text()), std::string::npos)
+          << type << "." << spec.name << " should read " << spec.range.text();
+      ++coefficients;
+    }
+  }
+  EXPECT_GT(coefficients, 10);
 }

@@ -47,7 +47,22 @@ constexpr int constraintKindIndex()
 }
 
 /// Largest PARTICLES of any row kind (a row's blocks fit in an array of this size).
-constexpr int MAX_ROW_PARTICLES = 3;
+template <typename Kind>
+constexpr int particlesPerRow()
+{
+  if constexpr (Kind::ELIMINATED)
+    return 0;
+  else
+    return Kind::PARTICLES;
+}
+template <typename... Kinds>
+constexpr int maxRowParticles(std::variant<Kinds...>* /*registry*/)
+{
+  int most = 1;
+  ((most = particlesPerRow<Kinds>() > most ? particlesPerRow<Kinds>() : most), ...);
+  return most;
+}
+constexpr int MAX_ROW_PARTICLES = maxRowParticles(static_cast<Constraint*>(nullptr));
 
 /// True for kinds solved by elimination (pins, driven anchors), false for row kinds.
 inline bool isEliminated(const Constraint& constraint)

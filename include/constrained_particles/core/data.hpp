@@ -1,7 +1,8 @@
 /// @file data.hpp
 /// @brief Data: everything that changes while a Model runs (MuJoCo's mjData), allocated once
-/// when it is made so that a step allocates nothing. Shapes: n particles, m rows, b Jacobian
-/// blocks, e eliminated records (model.hpp).
+/// when it is made so that a steady step allocates nothing (but inside Eigen's sparse
+/// factorisation, and dopri5's workspace on its first step). Shapes: n particles, m rows, b
+/// Jacobian blocks, e eliminated records (model.hpp).
 #pragma once
 
 #include "constrained_particles/core/model.hpp"
@@ -20,13 +21,13 @@ struct Dopri5Workspace;  // src/core/integrators/dopri5.cpp: Boost.Odeint's step
 /// Constraint rows evaluated at one state.
 struct RowData
 {
-  Eigen::VectorXd value;       ///< C (m): [m] surface, line, plane; [m^2] link; [rad] angle
-  Eigen::VectorXd jdot_v;      ///< Jdot v (m)
+  Eigen::VectorXd value;       ///< C (m): [C] = [m] surface, line, plane; [m^2] link; [rad] angle
+  Eigen::VectorXd jdot_v;      ///< Jdot v (m), [C]/s^2
   Eigen::VectorXd violation;   ///< metric position error of each row (m) [m]
-  Eigen::VectorXd diagonal;    ///< (J W J^T)_rr, each row's own mobility (m)
-  Eigen::VectorXd velocity;    ///< Cdot = J v (m)
-  Eigen::VectorXd bias;        ///< Baumgarte term 2 zeta omega Cdot + omega^2 C (m)
-  std::vector<Vec3> jacobian;  ///< dC/dp blocks (b), row r's from model.rowStart()[r]
+  Eigen::VectorXd diagonal;    ///< (J W J^T)_rr, each row's own mobility (m), [C]^2/(kg m^2)
+  Eigen::VectorXd velocity;    ///< Cdot = J v (m), [C]/s
+  Eigen::VectorXd bias;        ///< Baumgarte term 2 zeta omega Cdot + omega^2 C (m), [C]/s^2
+  std::vector<Vec3> jacobian;  ///< dC/dp blocks (b), [C]/m, row r's from model.rowStart()[r]
   double max_violation = 0.0;  ///< largest violation [m], infinite if any is NaN
 
   /// Sized for the model's rows and blocks, zeroed.
@@ -65,7 +66,7 @@ public:
   Points accelerations;                ///< a = a0 + W J^T lambda [m/s^2] (3 x n)
   std::vector<ImposedMotion> imposed;  ///< each eliminated record's motion at the stage's time (e)
   Eigen::VectorXd multipliers;         ///< lambda (m), then each eliminated reaction [N] (3 e)
-  Eigen::VectorXd rhs;                 ///< right-hand side and solution of a solve (m)
+  Eigen::VectorXd rhs;                 ///< right-hand side, then solution, of a solve (m)
   StageBuffers stages;                 ///< the integrators' buffers
   EffectCounters counters;             ///< evaluations since this data was made
   StepStatistics statistics;           ///< of the batch being stepped

@@ -27,9 +27,6 @@ enum class FieldKind
   Name,       ///< one of a table of names (an integrator, a stabilisation), or a flag
 };
 
-/// Shortest vector a Direction field takes: shorter ones lose their direction to round-off.
-constexpr double MIN_DIRECTION_LENGTH = 1e-6;
-
 /// One field of an effect record: `record.*member`.
 template <typename Record, typename Member>
 struct FieldSpec
@@ -120,11 +117,12 @@ void validateFields(const Record& record, int num_particles, int num_surfaces,
             return;
           requireInRange(name, value, *spec.range);
           if constexpr (std::is_same_v<Member, Vec3>)
-            if (spec.kind == FieldKind::Direction && !(value.norm() >= MIN_DIRECTION_LENGTH))
+            if (spec.kind == FieldKind::Direction &&
+                !(value.norm() >= limits::MIN_DIRECTION_LENGTH))
               throw InvalidInput(name, "= [" + formatValue(value.x()) + ", " +
                                            formatValue(value.y()) + ", " + formatValue(value.z()) +
                                            "], must be a non-zero direction, of length at least " +
-                                           formatValue(MIN_DIRECTION_LENGTH));
+                                           formatValue(limits::MIN_DIRECTION_LENGTH));
         }
         else
         {

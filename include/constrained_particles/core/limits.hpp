@@ -71,6 +71,10 @@ constexpr Range STIFFNESS{ 0.0, false, 1e9, "N/m", false };
 /// Spring rest length L [m].
 constexpr Range REST_LENGTH{ 0.0, false, 1e3, "m", false };
 
+/// Shortest vector a direction field (a line's direction, a plane's normal) takes [1]: shorter
+/// ones lose their direction to round-off.
+constexpr double MIN_DIRECTION_LENGTH = 1e-6;
+
 // --- surfaces (coefficients by surface type; see surface.hpp) ---
 // Slopes and curvatures beyond 1e6 are not height fields a particle can follow; a zero width
 // would divide by zero.

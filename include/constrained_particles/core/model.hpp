@@ -114,6 +114,7 @@ public:
   {
     return numRows() + 3 * static_cast<int>(eliminated_.size());
   }
+  /// m_i [kg]: n.
   const std::vector<double>& masses() const
   {
     return scene_.masses;
@@ -168,11 +169,14 @@ public:
   {
     return eliminated_blocks_;
   }
-  /// Rows touching free particle i: incidence()[incidenceStart()[i] .. incidenceStart()[i+1]).
+  /// Rows touching free particle i: incidence()[incidenceStart()[i] .. incidenceStart()[i+1]):
+  /// n + 1.
   const std::vector<int>& incidenceStart() const
   {
     return incidence_start_;
   }
+  /// (row, block) of each touch of a free particle by a row, grouped by particle: the total
+  /// number of such touches.
   const std::vector<RowIncidence>& incidence() const
   {
     return incidence_;

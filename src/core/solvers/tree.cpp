@@ -47,7 +47,7 @@ private:
   const Model& model_;
   const RowData* rows_ = nullptr;               // the rows of the last assembly
   bool broke_down_ = false;                     // the last elimination lost its precision
-  std::unique_ptr<ConstraintSolver> fallback_;  // the sparse solve, made when first needed
+  std::unique_ptr<ConstraintSolver> fallback_;  // the sparse solve, made if it may be needed
   bool use_fallback_ = false;                   // the last factorisation is the fallback's
   std::vector<int> order_;                      // every node, each after all of its children
   std::vector<int> parent_;         // parent node, -1 for a root, -2 for a row inside a particle
@@ -160,6 +160,14 @@ TreeSolver::TreeSolver(const Model& model) : ConstraintSolver(SolveMethod::Tree)
   row_inverse_.setZero(m);
   particle_rhs_.setZero(3, n);
   inner_result_.setZero(m);
+  // a particle below the root with rows of its own may break the elimination down (see
+  // factorize): its fallback is made now, so that a step never builds it
+  for (int i = 0; i < n; ++i)
+    if (parent_[i] >= 0 && inner_start_[i + 1] > inner_start_[i])
+    {
+      fallback_ = makeSparseSolver(model);
+      break;
+    }
 }
 
 void TreeSolver::assemble(const Model& /*model*/, const RowData& rows)
@@ -189,7 +197,7 @@ SolveReport TreeSolver::factorize(const Model& model, const RowData& rows, Effec
   SolveReport report = ConstraintSolver::factorize(model, rows, counters);
   if (!broke_down_)
     return report;
-  if (!fallback_)
+  if (!fallback_)  // not reached: only the particles checked at construction can break down
     fallback_ = makeSparseSolver(model);
   use_fallback_ = true;
   report = fallback_->factorize(model, rows, counters);

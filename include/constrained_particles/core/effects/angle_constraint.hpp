@@ -58,11 +58,6 @@ inline double jointAngle(const Vec3& a, const Vec3& b)
   return std::atan2(a.cross(b).norm(), a.dot(b));
 }
 
-inline Dual3 dual3(const Vec3& value, const Vec3& rate)
-{
-  return { { value.x(), rate.x() }, { value.y(), rate.y() }, { value.z(), rate.z() } };
-}
-
 }  // namespace detail
 
 /// C, J, Jdot v and the metric error at positions p [m], velocities v [m/s]. Stateless.
@@ -77,11 +72,11 @@ inline void evaluateRows(const AngleConstraint& constraint, const EffectContext&
   out.value[0] = theta - constraint.angle;
   out.violation[0] = std::abs(out.value[0]) * std::min(a.norm(), b.norm());
   // the gradient on dual numbers: value parts are J, derivative parts d/dt J along v
-  const Dual3 da = detail::dual3(a, va), db = detail::dual3(b, vb);
-  const Dual aa = dot(da, da), bb = dot(db, db), ab = dot(da, db);
-  const Dual3 b_perp = db - (ab / aa) * da;
-  const Dual3 a_perp = da - (ab / bb) * db;
-  const Dual b_perp_norm = sqrt(dot(b_perp, b_perp)), a_perp_norm = sqrt(dot(a_perp, a_perp));
+  const dual::Dual3 da = dual::moving(a, va), db = dual::moving(b, vb);
+  const dual::Dual aa = dot(da, da), bb = dot(db, db), ab = dot(da, db);
+  const dual::Dual3 b_perp = db - (ab / aa) * da;
+  const dual::Dual3 a_perp = da - (ab / bb) * db;
+  const dual::Dual b_perp_norm = sqrt(dot(b_perp, b_perp)), a_perp_norm = sqrt(dot(a_perp, a_perp));
   // straight or folded (or a segment of zero length): no direction to act along
   if (!(b_perp_norm.value > 1e-12 * std::sqrt(bb.value)) ||
       !(a_perp_norm.value > 1e-12 * std::sqrt(aa.value)))
@@ -90,11 +85,10 @@ inline void evaluateRows(const AngleConstraint& constraint, const EffectContext&
     out.jdot_v[0] = 0.0;
     return;
   }
-  const Dual3 gi = (-Dual{ 1.0, 0.0 } / (sqrt(aa) * b_perp_norm)) * b_perp;
-  const Dual3 gk = (-Dual{ 1.0, 0.0 } / (sqrt(bb) * a_perp_norm)) * a_perp;
-  const Vec3 ji(gi.x.value, gi.y.value, gi.z.value), jk(gk.x.value, gk.y.value, gk.z.value);
-  const Vec3 ri(gi.x.derivative, gi.y.derivative, gi.z.derivative);
-  const Vec3 rk(gk.x.derivative, gk.y.derivative, gk.z.derivative);
+  const dual::Dual3 gi = (-dual::Dual{ 1.0, 0.0 } / (sqrt(aa) * b_perp_norm)) * b_perp;
+  const dual::Dual3 gk = (-dual::Dual{ 1.0, 0.0 } / (sqrt(bb) * a_perp_norm)) * a_perp;
+  const Vec3 ji = dual::valueOf(gi), jk = dual::valueOf(gk);
+  const Vec3 ri = dual::rateOf(gi), rk = dual::rateOf(gk);
   out.jacobian[0] = ji;
   out.jacobian[1] = -(ji + jk);
   out.jacobian[2] = jk;

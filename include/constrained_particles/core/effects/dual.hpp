@@ -4,9 +4,15 @@
 /// differences.
 #pragma once
 
+#include "constrained_particles/core/types.hpp"
+
 #include <cmath>
 
 namespace constrained_particles
+{
+/// In a namespace of its own so that sqrt(Dual) does not hide sqrt(double) from unqualified
+/// calls elsewhere in the core; the operators are found by argument-dependent lookup.
+namespace dual
 {
 /// a + b eps: value and derivative along one direction.
 struct Dual
@@ -64,5 +70,35 @@ inline Dual dot(const Dual3& a, const Dual3& b)
 {
   return a.x * b.x + a.y * b.y + a.z * b.z;
 }
+inline Dual3 cross(const Dual3& a, const Dual3& b)
+{
+  return { a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x };
+}
+inline Dual norm(const Dual3& a)
+{
+  return sqrt(dot(a, a));
+}
 
+/// A position [m] moving at a rate [m/s]: value + rate eps.
+inline Dual3 moving(const Vec3& value, const Vec3& rate)
+{
+  return { { value.x(), rate.x() }, { value.y(), rate.y() }, { value.z(), rate.z() } };
+}
+/// A constant vector: its rate is zero.
+inline Dual3 constant(const Vec3& value)
+{
+  return moving(value, Vec3::Zero());
+}
+/// The value parts.
+inline Vec3 valueOf(const Dual3& a)
+{
+  return Vec3(a.x.value, a.y.value, a.z.value);
+}
+/// The derivative parts: the rate along the direction.
+inline Vec3 rateOf(const Dual3& a)
+{
+  return Vec3(a.x.derivative, a.y.derivative, a.z.derivative);
+}
+
+}  // namespace dual
 }  // namespace constrained_particles

@@ -17,7 +17,7 @@ namespace constrained_particles
 struct MovingAnchorConstraint
 {
   int particle = 0;                 ///< particle index
-  Vec3 anchor{ NAN, NAN, NAN };     ///< a, the centre of the motion [m]; unset: its start
+  Vec3 anchor{ NAN, NAN, NAN };     ///< a, the centre of the motion [m]; unset: p(0) is its start
   Vec3 amplitude{ 0.0, 0.0, 0.0 };  ///< A, per axis [m]
   double frequency = 1.0;           ///< f [Hz]
   double phase = 0.0;               ///< phi [rad]
@@ -30,7 +30,7 @@ struct MovingAnchorConstraint
         field("particle", &MovingAnchorConstraint::particle, FieldKind::Particle, nullptr,
               "particle i"),
         field("anchor", &MovingAnchorConstraint::anchor, FieldKind::Vector, &limits::COORDINATE,
-              "a, centre of the motion (default: where it starts)", true),
+              "a, centre of the motion (default: so that p(0) is where it starts)", true),
         field("amplitude", &MovingAnchorConstraint::amplitude, FieldKind::Vector,
               &limits::AMPLITUDE, "A, per axis"),
         field("frequency", &MovingAnchorConstraint::frequency, FieldKind::Number,
@@ -55,12 +55,14 @@ inline ImposedMotion imposedMotion(const MovingAnchorConstraint& anchor, double 
            (-omega * omega * s) * anchor.amplitude };
 }
 
-/// An unset centre is where the particle starts.
+/// An unset centre puts the particle where it starts at t = 0: a = p_start - A sin(phi), so a
+/// phase does not make it jump when the scene loads.
 inline void fillFromStart(MovingAnchorConstraint& anchor, const std::vector<Surface>& /*surfaces*/,
                           Points& positions, Points& /*velocities*/)
 {
   if (isUnset(anchor.anchor))
-    anchor.anchor = positions.col(anchor.particle);
+    anchor.anchor =
+        Vec3(positions.col(anchor.particle)) - anchor.amplitude * std::sin(anchor.phase);
 }
 
 /// @throws InvalidInput naming the bad field
