@@ -285,6 +285,61 @@ TEST(Analytic, AngleConstraintMakesARigidCompoundPendulum)
   EXPECT_LE(worst_angle, 1e-9);
 }
 
+// A straight rod of three masses at l, 2 l, 3 l from a pinned end, held straight by two
+// collinear records (links keep the lengths): a compound pendulum, T = 2 pi sqrt(I / (g S)),
+// I = sum m_k r_k^2, S = sum m_k r_k, for small swings (with the theta^2 / 16 correction).
+TEST(Analytic, CollinearConstraintsMakeAStiffRod)
+{
+  const double l = 0.3, swing = 0.05;
+  const std::vector<double> m = { 0.6, 0.8, 0.5 };
+  Scene scene;
+  scene.masses = { 1.0, m[0], m[1], m[2] };  // the pinned end's mass plays no part
+  scene.forces = { GravityForce{} };
+  scene.constraints = { PinConstraint{ 0, Vec3::Zero() },
+                        LinkConstraint{ 0, 1, l },
+                        LinkConstraint{ 1, 2, l },
+                        LinkConstraint{ 2, 3, l },
+                        CollinearConstraint{ { { 0, 1, 2 } } },
+                        CollinearConstraint{ { { 1, 2, 3 } } } };
+  Points p = Points::Zero(3, 4);
+  for (int k = 1; k < 4; ++k)
+    p.col(k) = k * l * Vec3(std::sin(swing), 0.0, -std::cos(swing));
+  StepSettings settings;
+  settings.dt = 1e-4;
+  Simulator simulator(scene, stateOf(p, Points::Zero(3, 4)), settings);
+  double inertia = 0.0, moment = 0.0;
+  for (int k = 1; k < 4; ++k)
+  {
+    inertia += m[k - 1] * (k * l) * (k * l);
+    moment += m[k - 1] * (k * l);
+  }
+  double previous_x = simulator.state().positions(0, 3), previous_t = 0, period = 0;
+  int crossings = 0;
+  double worst_bend = 0.0;  // distance of the middle particles from the line end to end [m]
+  while (crossings < 2 && simulator.state().time < 5.0)
+  {
+    simulator.step();
+    const Points& q = simulator.state().positions;
+    const Vec3 axis = Vec3(q.col(3)).normalized();
+    for (int k = 1; k < 3; ++k)
+      worst_bend = std::max(worst_bend, Vec3(q.col(k)).cross(axis).norm());
+    const double x = q(0, 3), t = simulator.state().time;
+    if ((x > 0) != (previous_x > 0))
+    {
+      ++crossings;
+      const double crossing = previous_t + (t - previous_t) * previous_x / (previous_x - x);
+      period += crossings == 1 ? -crossing : crossing;
+    }
+    previous_x = x;
+    previous_t = t;
+  }
+  ASSERT_EQ(crossings, 2);
+  period *= 2.0;
+  const double expected = 2 * M_PI * std::sqrt(inertia / (G * moment)) * (1 + swing * swing / 16);
+  EXPECT_NEAR(period, expected, 1e-5 * expected);
+  EXPECT_LE(worst_bend, 1e-9);
+}
+
 // A moving anchor with no amplitude is a pin: the same motion to the last bit.
 TEST(Analytic, MovingAnchorAtRestIsAPin)
 {

@@ -34,8 +34,8 @@ SURFACE_TYPES = {"plane": 3, "bowl": 2, "saddle": 2, "waves": 3, "gaussian": 4}
 # scenes with chains and their particles per chain; those naming chain particles by index keep
 # their counts (config/scenes)
 CHAIN_COUNTS = {"chain": 5, "surface_chain": 5, "pinned_pendulum": 4, "two_chains_on_surface": 4,
-                "mobile": 3, "shaken_chain": 6}
-FIXED_COUNT = {"two_chains_on_surface", "mobile", "shaken_chain"}
+                "mobile": 3, "shaken_chain": 6, "stiff_rod": 4}
+FIXED_COUNT = {"two_chains_on_surface", "mobile", "shaken_chain", "stiff_rod"}
 # pinning these chains' first particles over-constrains them (the hub; the driven top): refused
 NO_PIN_FIRST = {"mobile", "shaken_chain"}
 WITH_SURFACE = {"bead", "surface_chain", "bead_with_drag", "two_chains_on_surface"}

@@ -167,7 +167,8 @@ class SimulatorInterfaceTest(unittest.TestCase):
         listed = self.list_scenes()
         for required in ("bead", "chain", "surface_chain", "pinned_pendulum",
                          "chain_pinned_both_ends", "two_chains_on_surface", "bead_with_drag",
-                         "zigzag_chain", "bead_on_wire", "sled_on_ramp", "shaken_chain"):
+                         "zigzag_chain", "bead_on_wire", "sled_on_ramp", "shaken_chain",
+                         "stiff_rod"):
             self.assertIn(required, listed.names)
         self.assertEqual(listed.names, sorted(listed.names))
         for name in listed.names:

@@ -12,6 +12,7 @@
 #pragma once
 
 #include "constrained_particles/core/effects/angle_constraint.hpp"
+#include "constrained_particles/core/effects/collinear_constraint.hpp"
 #include "constrained_particles/core/effects/link_constraint.hpp"
 #include "constrained_particles/core/effects/moving_anchor.hpp"
 #include "constrained_particles/core/effects/pin_constraint.hpp"
@@ -25,9 +26,9 @@
 namespace constrained_particles
 {
 /// One constraint of a scene: the registry of constraint kinds.
-using Constraint =
-    std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
-                 PointOnLineConstraint, PointOnPlaneConstraint, MovingAnchorConstraint>;
+using Constraint = std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
+                                PointOnLineConstraint, PointOnPlaneConstraint,
+                                MovingAnchorConstraint, CollinearConstraint>;
 
 /// Number of constraint kinds.
 constexpr int NUM_CONSTRAINT_KINDS = static_cast<int>(std::variant_size_v<Constraint>);

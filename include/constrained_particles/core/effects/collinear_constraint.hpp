@@ -1,0 +1,126 @@
+/// @file collinear_constraint.hpp
+/// @brief Three particles held on one straight line: two rows touching three particles. With
+/// links i-j and j-k it makes a stiff (straight) rod, which one angle row cannot hold.
+#pragma once
+
+#include "constrained_particles/core/effect_fields.hpp"
+#include "constrained_particles/core/effects/dual.hpp"
+#include "constrained_particles/core/effects/row_block.hpp"
+
+#include <Eigen/Geometry>
+
+#include <array>
+#include <cmath>
+#include <vector>
+
+namespace constrained_particles
+{
+/// Particle k held on the line through particles i and j: with a = p_j - p_i, d = p_k - p_j,
+///   C = (e_1.d, e_2.d) [m],  e_1 = (a x r) / |a x r|,  e_2 = u x e_1,  u = a / |a|,
+/// the offset of k from the line, across it; r is the coordinate axis least aligned with a, so
+/// |a x r| >= sqrt(2/3) |a| (the pair turns about u when that axis changes; C keeps its size).
+/// With w_1 = (I - e_1 e_1^T) d and w_2 = (I - e_1 e_1^T)(d x u), the gradients along a are
+///   g_1 = r x w_1 / |a x r|,  g_2 = (I - u u^T)(e_1 x d) / |a| + r x w_2 / |a x r|,
+/// so J_r = -g_r at i, g_r - e_r at j, e_r at k, and Jdot v = gdot_r.(v_j - v_i) +
+/// edot_r.(v_k - v_j), the rates taken along v with dual numbers (dual.hpp), exact to round-off.
+/// k behind j on the line (folded) also gives C = 0; with links, k cannot get there without
+/// leaving the line. The metric error of each row is |C_r| [m].
+struct CollinearConstraint
+{
+  std::array<int, 3> particles{ { 0, 1, 2 } };  ///< i, j, k: k on the line through i and j
+
+  static constexpr const char* KIND = "collinear";
+  static constexpr bool ELIMINATED = false;
+  static constexpr int ROWS = 2;       ///< the two directions across the line
+  static constexpr int PARTICLES = 3;  ///< each touching i, j and k
+  static constexpr auto fields()
+  {
+    return std::make_tuple(field("particles", &CollinearConstraint::particles, FieldKind::Particles,
+                                 nullptr, "i, j, k: k held on the line through i and j"));
+  }
+};
+
+/// Particles the rows touch: i, j, k.
+inline std::array<int, 3> rowParticles(const CollinearConstraint& constraint)
+{
+  return constraint.particles;
+}
+
+/// C, J, Jdot v and |C_r| at positions p [m], velocities v [m/s]. Stateless.
+inline void evaluateRows(const CollinearConstraint& constraint, const EffectContext& /*context*/,
+                         const Points& positions, const Points& velocities, RowBlock out)
+{
+  using dual::Dual;
+  using dual::Dual3;
+  const int i = constraint.particles[0], j = constraint.particles[1], k = constraint.particles[2];
+  const Vec3 a_value = positions.col(j) - positions.col(i);
+  const Vec3 va = velocities.col(j) - velocities.col(i);
+  const Vec3 vd = velocities.col(k) - velocities.col(j);
+  const Dual3 a = dual::moving(a_value, va);
+  const Dual3 d = dual::moving(positions.col(k) - positions.col(j), vd);
+  const Dual a_norm = norm(a);
+  if (!(a_norm.value > 0.0))  // i and j coincide: no line
+  {
+    for (int r = 0; r < 2; ++r)
+    {
+      out.value[r] = out.jdot_v[r] = 0.0;
+      out.violation[r] = 0.0;
+      out.jacobian[3 * r] = out.jacobian[3 * r + 1] = out.jacobian[3 * r + 2] = Vec3::Zero();
+    }
+    return;
+  }
+  int least = 0;
+  for (int axis = 1; axis < 3; ++axis)
+    if (std::abs(a_value[axis]) < std::abs(a_value[least]))
+      least = axis;
+  const Dual3 r = dual::constant(Vec3::Unit(least));
+  const Dual3 n = cross(a, r);
+  const Dual n_norm = norm(n);
+  const Dual one{ 1.0, 0.0 };
+  const Dual3 u = (one / a_norm) * a;
+  const Dual3 e1 = (one / n_norm) * n;
+  const Dual3 e2 = cross(u, e1);
+  // (I - e_1 e_1^T) x and (I - u u^T) x
+  auto acrossE1 = [&](const Dual3& x) { return x - dot(e1, x) * e1; };
+  auto acrossU = [&](const Dual3& x) { return x - dot(u, x) * u; };
+  const std::array<Dual3, 2> e = { { e1, e2 } };
+  const std::array<Dual3, 2> g = { { (one / n_norm) * cross(r, acrossE1(d)),
+                                     (one / a_norm) * acrossU(cross(e1, d)) +
+                                         (one / n_norm) * cross(r, acrossE1(cross(d, u))) } };
+  for (int row = 0; row < 2; ++row)
+  {
+    const Vec3 e_value = dual::valueOf(e[row]), g_value = dual::valueOf(g[row]);
+    out.value[row] = dot(e[row], d).value;
+    out.violation[row] = std::abs(out.value[row]);
+    out.jacobian[3 * row] = -g_value;
+    out.jacobian[3 * row + 1] = g_value - e_value;
+    out.jacobian[3 * row + 2] = e_value;
+    out.jdot_v[row] = dual::rateOf(g[row]).dot(va) + dual::rateOf(e[row]).dot(vd);
+  }
+}
+
+/// |J_r v| [m/s]: how fast k leaves the line, across it.
+inline void violationRates(const CollinearConstraint& constraint, const EffectContext& context,
+                           const Points& positions, const Points& velocities, double* rates)
+{
+  double value[2], jdot_v[2], violation[2];
+  Vec3 jacobian[6];
+  evaluateRows(constraint, context, positions, velocities,
+               RowBlock{ value, jdot_v, violation, jacobian });
+  for (int row = 0; row < 2; ++row)
+  {
+    double rate = 0.0;
+    for (int p = 0; p < 3; ++p)
+      rate += jacobian[3 * row + p].dot(velocities.col(constraint.particles[p]));
+    rates[row] = std::abs(rate);
+  }
+}
+
+/// @throws InvalidInput naming the bad field
+inline void validate(const CollinearConstraint& constraint, int num_particles, int num_surfaces,
+                     const std::string& prefix, bool allow_unset = false)
+{
+  validateFields(constraint, num_particles, num_surfaces, prefix, allow_unset);
+}
+
+}  // namespace constrained_particles
