@@ -1,6 +1,6 @@
 // Headless run of every shipped scene (or of the scenes named) without ROS: prints sim time,
 // energy and max constraint error.
-// Usage: constrained_particles_demo [seconds] [scene directory] [scene name or file ...]
+// Usage: constrained_particles_demo [seconds] [scene directory or file] [scene name or file ...]
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <sys/stat.h>
+
 using namespace constrained_particles;
 
 int main(int argc, char** argv)
@@ -26,15 +28,28 @@ int main(int argc, char** argv)
     if (end == argv[1] || *end != '\0' || !std::isfinite(duration) || duration < 0.0 ||
         duration > 1e6)
     {
-      std::fprintf(stderr,
-                   "usage: constrained_particles_demo [seconds] [scene directory] [scene ...]\n"
-                   "seconds: simulated time per scene, in [0, 1e6] s (got '%s')\n",
-                   argv[1]);
+      std::fprintf(
+          stderr,
+          "usage: constrained_particles_demo [seconds] [scene directory or file] [scene ...]\n"
+          "seconds: simulated time per scene, in [0, 1e6] s (got '%s')\n",
+          argv[1]);
       return 2;
     }
   }
-  const std::string directory = argc > 2 ? argv[2] : SCENES_DIR;
-  std::vector<std::string> names(argv + std::min(argc, 3), argv + argc);
+  // a scene file in the directory's place is a scene, read with the shipped ones beside it
+  std::string directory = SCENES_DIR;
+  std::vector<std::string> names;
+  struct stat info;
+  if (argc > 2 && stat(argv[2], &info) == 0 && S_ISREG(info.st_mode))
+    names.push_back(argv[2]);
+  else if (argc > 2 && !(stat(argv[2], &info) == 0 && S_ISDIR(info.st_mode)))
+  {
+    std::fprintf(stderr, "scene directory '%s': no such directory or scene file\n", argv[2]);
+    return 2;
+  }
+  else if (argc > 2)
+    directory = argv[2];
+  names.insert(names.end(), argv + std::min(argc, 3), argv + argc);
   if (names.empty())
     names = listScenes(directory);
   bool all_finite = true;
@@ -64,9 +79,11 @@ int main(int argc, char** argv)
     const int steps_per_report = std::max(1, static_cast<int>(1.0 / settings.dt + 0.5));
     const Diagnostics start = simulator.diagnostics();
     const auto wall_start = std::chrono::steady_clock::now();
-    while (simulator.state().time < duration - 0.5 * settings.dt)
+    const long total_steps = std::lround(duration / settings.dt);  // the duration, to one dt
+    while (static_cast<long>(simulator.state().steps) < total_steps)
     {
-      simulator.step(steps_per_report);
+      simulator.step(static_cast<int>(std::min<long>(
+          steps_per_report, total_steps - static_cast<long>(simulator.state().steps))));
       const Diagnostics d = simulator.diagnostics();
       all_finite = all_finite && d.finite();
       std::printf("t = %6.3f s  energy = %12.6f J (drift %+.3e J)  max error = %.3e m, %.3e m/s\n",

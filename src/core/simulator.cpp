@@ -26,10 +26,25 @@ Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_
                        settings.projection_tolerance, settings.projection_max_iterations);
   if (!projection.converged)
   {
+    // name the constraint left furthest from holding: it is (one of) those that cannot all hold
+    const RowData& rows = compiled.data->rows;
+    std::string worst;
+    double worst_violation = -1.0;
+    for (const RowRecord& record : model.rowRecords())
+      for (int r = record.first_row; r < record.first_row + record.rows; ++r)
+        if (!(rows.violation[r] <= worst_violation))
+        {
+          worst_violation = rows.violation[r];
+          worst = "constraints[" + std::to_string(record.constraint) + "] (" +
+                  kindOf(scene.constraints[record.constraint]) + ")";
+        }
     throw InvalidInput("initial_state.positions",
                        "cannot be projected onto the constraints: error " +
                            formatValue(projection.max_position_error) + " m after " +
-                           std::to_string(projection.iterations) + " Newton iterations");
+                           std::to_string(projection.iterations) +
+                           " Newton iterations, largest at " + worst +
+                           "; the constraints may not all hold at once (check lengths, angles "
+                           "and anchors against each other)");
   }
   projectVelocities(model, *compiled.data, start.time, start.positions, start.velocities, false,
                     false);

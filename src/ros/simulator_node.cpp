@@ -69,10 +69,9 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
           "= '" + parameters_.scenario + "' has " + std::to_string(scene.numParticles()) +
               " particles, over ~max_particles = " + std::to_string(parameters_.max_particles));
     // the scene's solver settings, unless set as parameters
-    SolverSpec from_parameters;
-    from_parameters.values = parameters_.step;
-    from_parameters.given = parameters_.step_given;
-    const StepSettings settings = from_parameters.applyTo(scene.solver.applyTo(parameters_.step));
+    chosen_step_.values = parameters_.step;
+    chosen_step_.given = parameters_.step_given;
+    const StepSettings settings = settingsFor(scene);
     const BuiltScene built = buildScene(scene);
     simulator_ = std::make_unique<Simulator>(built.scene, built.initial_state, settings,
                                              scene.solver.solve_method);
@@ -333,11 +332,17 @@ void SimulatorNode::rebuildLocked(const SceneDescription& description, const Ste
   reanchorLocked();
 }
 
+StepSettings SimulatorNode::settingsFor(const SceneDescription& scene) const
+{
+  // defaults, then the scene's own, then the user's: nothing carries over from the last scene
+  return chosen_step_.applyTo(scene.solver.applyTo(StepSettings{}));
+}
+
 void SimulatorNode::loadSceneLocked(const std::string& name_or_path, const std::string& field)
 {
   const SceneDescription description =
       loadSceneFile(resolveScene(name_or_path, parameters_.scene_directory, field));
-  rebuildLocked(description, description.solver.applyTo(parameters_.step));
+  rebuildLocked(description, settingsFor(description));
 }
 
 void SimulatorNode::pushReconfigure()
@@ -368,7 +373,10 @@ bool SimulatorNode::resetCallback(Reset::Request& request, Reset::Response& resp
     response.success = true;
     response.message = "reset to scene '" + scene_.name + "' (" +
                        std::to_string(simulator_->model().numParticles()) + " particles, solve " +
-                       solveMethodName(simulator_->model().solveMethod()) + ")";
+                       solveMethodName(simulator_->model().solveMethod()) + "; " +
+                       parameters_.step.integrator + " + " +
+                       stabilizationName(parameters_.step.stabilization) +
+                       ", dt = " + formatValue(parameters_.step.dt) + " s)";
   }
   pushReconfigure();
   return true;
@@ -553,12 +561,29 @@ bool SimulatorNode::reconfigureCallback(const SimulatorConfig& config)
   }
   catch (const InvalidInput& e)
   {
-    ROS_WARN("dynamic_reconfigure refused: %s; keeping the current settings", e.what());
+    // named as dynparam names it: "~gravity.z" is gravity_z there, "~dt" is dt
+    std::string field = e.field();
+    if (!field.empty() && field[0] == '~')
+      field.erase(0, 1);
+    std::replace(field.begin(), field.end(), '.', '_');
+    const std::string reason = std::string(e.what()).substr(e.field().size());
+    ROS_WARN("dynamic_reconfigure refused: %s%s; keeping the current settings", field.c_str(),
+             reason.c_str());
     simulator_->setStepSettings(parameters_.step);
     return false;
   }
   if (candidate.publish_rate != parameters_.publish_rate)
     publish_timer_.setPeriod(ros::WallDuration(1.0 / candidate.publish_rate));
+  // a step setting changed here is the user's choice from now on, for every scene
+  forEachField<StepSettings>(
+      [&](const auto& spec)
+      {
+        if (candidate.step.*(spec.member) != parameters_.step.*(spec.member) &&
+            std::find(chosen_step_.given.begin(), chosen_step_.given.end(), spec.name) ==
+                chosen_step_.given.end())
+          chosen_step_.given.push_back(spec.name);
+      });
+  chosen_step_.values = candidate.step;
   parameters_ = candidate;
   reanchorLocked();
   return true;

@@ -602,6 +602,25 @@ BuiltScene buildScene(const SceneDescription& d)
                        "constraints[" + std::to_string(k) + "]");
     scene.constraints.push_back(constraint);
   }
+  // placing particles (on a surface, along a chain) can take them out of range, or to NaN where a
+  // surface is undefined: refused here, with why, before anything runs
+  static const char* const AXES[] = { "x", "y", "z" };
+  for (int i = 0; i < n; ++i)
+    for (int axis = 0; axis < 3; ++axis)
+      for (const bool velocity : { false, true })
+      {
+        const double value = velocity ? state.velocities(axis, i) : state.positions(axis, i);
+        const Range& range = velocity ? limits::VELOCITY : limits::COORDINATE;
+        if (!range.contains(value))
+          throw InvalidInput("particle " + std::to_string(i) +
+                                 (velocity ? " velocity." : " position.") + AXES[axis],
+                             "= " + formatValue(value) +
+                                 " where the scene places it (on its surface, along its chain), "
+                                 "must be in " +
+                                 range.text() +
+                                 "; a surface must be defined, and its height and slope in "
+                                 "range, where its particles start");
+      }
   scene.forces = d.forces;
   return built;
 }

@@ -333,6 +333,21 @@ TEST(SceneFiles, ParticleListsExpandAndPinsDefaultToTheirStart)
   EXPECT_EQ(std::get<PinConstraint>(s.scene.constraints[2]).anchor, Vec3(0, 0, 5));
 }
 
+// a line or plane given without a point goes through where its particle starts: nothing moves
+TEST(SceneFiles, LinesAndPlanesDefaultToTheirParticlesStart)
+{
+  const BuiltScene s = buildScene(
+      parseScene("particles: [{position: [0.3, -0.2, 1.0]}, {position: [2, 1, 0.5]}]\n"
+                 "constraints: [{type: point_on_line, particle: 0, direction: [1, 1, 0]},\n"
+                 "              {type: point_on_plane, particle: 1, normal: [0, 0, 1]}]\n",
+                 "test.yaml"));
+  EXPECT_EQ(std::get<PointOnLineConstraint>(s.scene.constraints.at(0)).point, Vec3(0.3, -0.2, 1.0));
+  EXPECT_EQ(std::get<PointOnPlaneConstraint>(s.scene.constraints.at(1)).point, Vec3(2, 1, 0.5));
+  Simulator simulator(s.scene, s.initial_state, StepSettings{});
+  EXPECT_EQ(Vec3(simulator.state().positions.col(0)), Vec3(0.3, -0.2, 1.0));
+  EXPECT_EQ(Vec3(simulator.state().positions.col(1)), Vec3(2, 1, 0.5));
+}
+
 // a driven anchor without a centre starts where its particle is written, whatever its phase
 TEST(SceneFiles, DrivenAnchorsStartWhereTheirParticleIs)
 {

@@ -126,6 +126,53 @@ TEST(Validation, StraightAngleStartIsRefusedWithItsReason)
             "accepted");
 }
 
+// a surface that puts its particle out of range, or is undefined where it starts, is refused
+// when the scene is built, naming the particle and why
+TEST(Validation, PlacementOutOfRangeIsRefused)
+{
+  auto refusal = [](const std::string& expression, const std::string& velocity)
+  {
+    try
+    {
+      buildScene(
+          parseScene("surfaces: {ground: {type: expression, expression: '" + expression +
+                         "'}}\nparticles: [{position: [0.5, 0, 0], velocity: " + velocity +
+                         "}]\nconstraints: [{type: surface, particle: 0, surface: ground}]\n",
+                     "placed.yaml"));
+    }
+    catch (const InvalidInput& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::string high = refusal("1e308*x*x", "[0, 0, 0]");
+  EXPECT_NE(high.find("particle 0 position.z = 2.5e+307"), std::string::npos) << high;
+  EXPECT_NE(high.find("[-1e+06, 1e+06] [m]"), std::string::npos) << high;
+  const std::string undefined = refusal("sqrt(x-5)", "[0, 0, 0]");
+  EXPECT_NE(undefined.find("particle 0 position.z"), std::string::npos) << undefined;
+  EXPECT_NE(undefined.find("a surface must be defined"), std::string::npos) << undefined;
+  // a steep slope lifts the velocity into the tangent plane, out of range
+  const std::string steep = refusal("1e5*x", "[100, 0, 0]");
+  EXPECT_NE(steep.find("particle 0 velocity.z"), std::string::npos) << steep;
+  EXPECT_EQ(refusal("0.5*x*x", "[1, 0, 0]"), "accepted");
+}
+
+// constraints that cannot all hold at the start are refused naming the one left furthest off
+TEST(Validation, InfeasibleStartNamesTheConstraint)
+{
+  Scene scene;
+  scene.masses = { 1.0, 1.0 };
+  scene.constraints = { PinConstraint{ 0, Vec3::Zero() }, PinConstraint{ 1, Vec3(2, 0, 0) },
+                        LinkConstraint{ 0, 1, 1.0 } };
+  State start;
+  start.positions = Points::Zero(3, 2);
+  start.positions(0, 1) = 2.0;
+  start.velocities = Points::Zero(3, 2);
+  expectRefused([&] { Simulator simulator(scene, start, StepSettings{}); },
+                "initial_state.positions", "largest at constraints[2] (link)");
+}
+
 TEST(Validation, SurfacesAreChecked)
 {
   expectRefused([] { makeSurface("cone", {}); }, "surface.type", "bowl");

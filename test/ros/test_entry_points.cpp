@@ -387,6 +387,30 @@ TEST_F(EntryPoints, SetSurface)
   std::remove(path.c_str());
 }
 
+// ~reset takes each scene's own step settings, with nothing carried over from the scene before;
+// a setting the user changes with dynamic_reconfigure then wins over every scene's
+TEST_F(EntryPoints, ResetTakesEachScenesSettingsAndTheUsersChoices)
+{
+  Reset::Request pendulum, chain;
+  pendulum.scenario = "pinned_pendulum";  // its file asks for velocity_verlet
+  chain.scenario = "chain";               // its file asks for nothing
+  const Reset::Response first = call<Reset>("reset", pendulum);
+  EXPECT_NE(first.message.find("velocity_verlet"), std::string::npos) << first.message;
+  const Reset::Response second = call<Reset>("reset", chain);
+  EXPECT_NE(second.message.find("rk4 + projection"), std::string::npos) << second.message;
+
+  dynamic_reconfigure::Reconfigure choose;
+  dynamic_reconfigure::StrParameter integrator;
+  integrator.name = "integrator";
+  integrator.value = "midpoint";
+  choose.request.config.strs.push_back(integrator);
+  ASSERT_TRUE(ros::service::call(NODE + "/set_parameters", choose));
+  const Reset::Response chosen = call<Reset>("reset", pendulum);
+  EXPECT_NE(chosen.message.find("midpoint"), std::string::npos) << chosen.message;
+  choose.request.config.strs[0].value = "rk4";
+  ASSERT_TRUE(ros::service::call(NODE + "/set_parameters", choose));
+}
+
 // dynamic_reconfigure: every reconfigurable number, through ~set_parameters as dynparam sends it
 TEST_F(EntryPoints, Reconfigure)
 {

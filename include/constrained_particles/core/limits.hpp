@@ -93,7 +93,8 @@ constexpr Range SURFACE_WIDTH{ 1e-6, false, 1e6, "m", false };
 
 // --- constraints ---
 /// The angle an angle constraint holds at its vertex [rad]. Straight (pi) and folded (0) are
-/// refused: there the angle has no gradient (a straight joint bends two ways; one row holds one).
+/// refused: there the angle has no gradient (a straight joint bends two ways; one row holds one;
+/// the collinear kind holds a straight joint).
 constexpr Range ANGLE{ 1e-3, false, 3.14, "rad", false };
 /// A driven anchor's amplitude component [m].
 constexpr Range AMPLITUDE{ -1e3, false, 1e3, "m", false };

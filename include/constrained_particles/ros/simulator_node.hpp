@@ -71,6 +71,8 @@ private:
   /// Loads a scene by name or path, applies its solver settings, and resets to it.
   /// Caller holds mutex_. @throws InvalidInput naming `field`; nothing changes
   void loadSceneLocked(const std::string& name_or_path, const std::string& field);
+  /// A scene's step settings: the defaults, then its `solver` section, then chosen_step_.
+  StepSettings settingsFor(const SceneDescription& scene) const;
   /// Rebuilds the simulator from `description` (which becomes the current scene) and resets.
   /// Caller holds mutex_. @throws InvalidInput; nothing changes
   void rebuildLocked(const SceneDescription& description, const StepSettings& settings);
@@ -101,6 +103,9 @@ private:
 
   ros::NodeHandle nh_;
   NodeParameters parameters_;
+  // the step settings the user chose (start-up parameters, then dynamic_reconfigure changes):
+  // they win over every scene's `solver` settings; what neither sets takes its default
+  SolverSpec chosen_step_;
 
   std::mutex mutex_;  // guards everything from here to the publishers
   std::unique_ptr<Simulator> simulator_;

@@ -139,7 +139,8 @@ inline void validate(const AngleConstraint& constraint, int num_particles, int n
         "= " + formatValue(angle) + ", must be in " + limits::ANGLE.text() +
             ": a straight (pi) or folded (0) joint has no angle gradient, and one angle row "
             "holds one bending direction where a straight joint has two. An unset angle is the "
-            "one the particles start with: start the joint bent, or give an angle in range");
+            "one the particles start with: start the joint bent, or hold a straight joint with "
+            "a collinear record instead");
   validateFields(constraint, num_particles, num_surfaces, prefix, allow_unset);
 }
 

@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cmath>
+#include <vector>
 
 namespace constrained_particles
 {
@@ -18,7 +19,7 @@ namespace constrained_particles
 struct PointOnLineConstraint
 {
   int particle = 0;                 ///< particle i
-  Vec3 point{ 0.0, 0.0, 0.0 };      ///< q, a point of the line [m]
+  Vec3 point{ NAN, NAN, NAN };      ///< q, a point of the line [m]; unset: its start
   Vec3 direction{ 1.0, 0.0, 0.0 };  ///< d, along the line (normalised), non-zero
 
   static constexpr const char* KIND = "point_on_line";
@@ -27,12 +28,13 @@ struct PointOnLineConstraint
   static constexpr int PARTICLES = 1;  ///< both on particle i
   static constexpr auto fields()
   {
-    return std::make_tuple(field("particle", &PointOnLineConstraint::particle, FieldKind::Particle,
-                                 nullptr, "particle i"),
-                           field("point", &PointOnLineConstraint::point, FieldKind::Vector,
-                                 &limits::COORDINATE, "q, a point of the line"),
-                           field("direction", &PointOnLineConstraint::direction,
-                                 FieldKind::Direction, &limits::DIRECTION, "d, along the line"));
+    return std::make_tuple(
+        field("particle", &PointOnLineConstraint::particle, FieldKind::Particle, nullptr,
+              "particle i"),
+        field("point", &PointOnLineConstraint::point, FieldKind::Vector, &limits::COORDINATE,
+              "q, a point of the line (default: where the particle starts)", true),
+        field("direction", &PointOnLineConstraint::direction, FieldKind::Direction,
+              &limits::DIRECTION, "d, along the line"));
   }
 };
 
@@ -78,6 +80,15 @@ inline void violationRates(const PointOnLineConstraint& constraint,
   const std::array<Vec3, 2> e = lineNormals(constraint.direction);
   for (int r = 0; r < 2; ++r)
     rates[r] = std::abs(e[r].dot(velocities.col(constraint.particle)));
+}
+
+/// An unset point is where the particle starts: it starts on the line.
+inline void fillFromStart(PointOnLineConstraint& constraint,
+                          const std::vector<Surface>& /*surfaces*/, Points& positions,
+                          Points& /*velocities*/)
+{
+  if (isUnset(constraint.point))
+    constraint.point = positions.col(constraint.particle);
 }
 
 /// @throws InvalidInput naming the bad field

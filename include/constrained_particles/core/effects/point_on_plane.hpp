@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cmath>
+#include <vector>
 
 namespace constrained_particles
 {
@@ -15,7 +16,7 @@ namespace constrained_particles
 struct PointOnPlaneConstraint
 {
   int particle = 0;              ///< particle i
-  Vec3 point{ 0.0, 0.0, 0.0 };   ///< q, a point of the plane [m]
+  Vec3 point{ NAN, NAN, NAN };   ///< q, a point of the plane [m]; unset: its start
   Vec3 normal{ 0.0, 0.0, 1.0 };  ///< n, normal to the plane (normalised), non-zero
 
   static constexpr const char* KIND = "point_on_plane";
@@ -24,12 +25,13 @@ struct PointOnPlaneConstraint
   static constexpr int PARTICLES = 1;  ///< on particle i
   static constexpr auto fields()
   {
-    return std::make_tuple(field("particle", &PointOnPlaneConstraint::particle, FieldKind::Particle,
-                                 nullptr, "particle i"),
-                           field("point", &PointOnPlaneConstraint::point, FieldKind::Vector,
-                                 &limits::COORDINATE, "q, a point of the plane"),
-                           field("normal", &PointOnPlaneConstraint::normal, FieldKind::Direction,
-                                 &limits::DIRECTION, "n, normal to the plane"));
+    return std::make_tuple(
+        field("particle", &PointOnPlaneConstraint::particle, FieldKind::Particle, nullptr,
+              "particle i"),
+        field("point", &PointOnPlaneConstraint::point, FieldKind::Vector, &limits::COORDINATE,
+              "q, a point of the plane (default: where the particle starts)", true),
+        field("normal", &PointOnPlaneConstraint::normal, FieldKind::Direction, &limits::DIRECTION,
+              "n, normal to the plane"));
   }
 };
 
@@ -56,6 +58,15 @@ inline void violationRates(const PointOnPlaneConstraint& constraint,
                            const Points& velocities, double* rates)
 {
   rates[0] = std::abs(constraint.normal.normalized().dot(velocities.col(constraint.particle)));
+}
+
+/// An unset point is where the particle starts: it starts on the plane.
+inline void fillFromStart(PointOnPlaneConstraint& constraint,
+                          const std::vector<Surface>& /*surfaces*/, Points& positions,
+                          Points& /*velocities*/)
+{
+  if (isUnset(constraint.point))
+    constraint.point = positions.col(constraint.particle);
 }
 
 /// @throws InvalidInput naming the bad field
