@@ -64,7 +64,10 @@ SolveReport factorizeRows(const Model& model, Data& data);
 /// std::integral_constant: loops over a row's blocks have a fixed trip count the compiler
 /// unrolls, where one generic loop per row costs more than the arithmetic in it.
 template <typename Fn>
-void forEachRow(const Model& model, Fn&& fn)
+#if defined(__GNUC__)
+__attribute__((always_inline))  // one loop per kind, inlined into each product: see above
+#endif
+inline void forEachRow(const Model& model, Fn&& fn)
 {
   std::apply(
       [&](const auto&... tables)
