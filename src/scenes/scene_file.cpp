@@ -75,11 +75,16 @@ void requireSequence(const Where& where, const YAML::Node& node, const std::stri
 void checkKeys(const Where& where, const YAML::Node& map, const std::vector<std::string>& known,
                const std::string& what)
 {
+  std::vector<std::string> seen;
   for (const auto& entry : map)
   {
     const std::string key = entry.first.as<std::string>();
     if (std::find(known.begin(), known.end(), key) == known.end())
       fail(where / key, entry.first, "is not a key of " + what + "; valid keys: " + joined(known));
+    // YAML forbids it and yaml-cpp would keep one value silently: refuse it
+    if (std::find(seen.begin(), seen.end(), key) != seen.end())
+      fail(where / key, entry.first, "appears twice in " + what);
+    seen.push_back(key);
   }
 }
 
@@ -319,7 +324,11 @@ void readRecords(const Where& where, const YAML::Node& list,
     const Where at = where[k];
     requireMap(at, node, "one record with a type");
     if (!node["type"])
-      fail(at / "type", node, "is missing");
+    {
+      const auto& names = KindNames<Variant>::value;
+      fail(at / "type", node,
+           "is missing; valid: " + joined(std::vector<std::string>(names.begin(), names.end())));
+    }
     const std::size_t before = out.size();
     reader.read(readString(at / "type", node["type"]), at, node, out,
                 std::make_index_sequence<std::variant_size_v<Variant>>{});

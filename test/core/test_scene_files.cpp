@@ -252,6 +252,12 @@ TEST(SceneFiles, BadFilesAreRefusedNamingFileKeyAndReason)
       "particles: [{mass: 1}, {mass: 1}]\n"
       "constraints:\n  - {type: link, first: 0, second: 1, lenght: 2}\n",
       { "test.yaml:3: constraints[0].lenght", "a link record", "length" });
+  // a record without its type: the valid types
+  expectRefused("particles: [{mass: 1}, {mass: 1}]\nconstraints:\n  - {first: 0, second: 1}\n",
+                { "constraints[0].type", "is missing; valid: surface, link, pin, angle" });
+  // a key given twice (yaml-cpp would keep one silently)
+  expectRefused("particles:\n  - {mass: 1.0, mass: 2.0}\n",
+                { "test.yaml:2: particles[0].mass", "appears twice" });
   // invalid values: the key, the value and the range
   expectRefused("particles:\n  - {mass: -1.0}\n",
                 { "particles[0].mass", "= -1", "[1e-09, 1e+06]" });
