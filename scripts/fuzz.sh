@@ -14,9 +14,11 @@ WITH_FUZZ=1 bash "$ROOT/scripts/install_deps.sh"
 OUT="$ROOT/build/fuzz"
 mkdir -p "$OUT/corpus" "$OUT/findings"
 BIN="$OUT/fuzz_core"
-SOURCES=("$ROOT"/src/core/*.cpp "$ROOT"/src/scenes/*.cpp "$ROOT/test/fuzz/fuzz_input.cpp"
-  "$ROOT/test/fuzz/libfuzzer_main.cpp")
-newest=$(ls -t "${SOURCES[@]}" "$ROOT"/include/constrained_particles/*/*.hpp \
+# the core as CMake builds it: every stage file, one file per integrator and per solve
+SOURCES=("$ROOT"/src/core/*.cpp "$ROOT"/src/core/integrators/*.cpp "$ROOT"/src/core/solvers/*.cpp
+  "$ROOT"/src/scenes/*.cpp "$ROOT/test/fuzz/fuzz_input.cpp" "$ROOT/test/fuzz/libfuzzer_main.cpp")
+newest=$(ls -t "${SOURCES[@]}" "$ROOT"/src/core/*.hpp "$ROOT"/src/core/*/*.hpp \
+  "$ROOT"/include/constrained_particles/*/*.hpp \
   "$ROOT"/include/constrained_particles/core/effects/*.hpp | head -1)
 if [[ ! -x "$BIN" || "$newest" -nt "$BIN" ]]; then
   echo "building $BIN (clang, libFuzzer + ASan + UBSan)..." >&2
