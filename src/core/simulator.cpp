@@ -27,22 +27,38 @@ Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_
   if (!projection.converged)
   {
     // name the constraint left furthest from holding: it is (one of) those that cannot all hold
+    // (named by kind and particles: a scene file's indices differ, its chains' links come first)
     const RowData& rows = compiled.data->rows;
-    std::string worst;
+    const RowRecord* worst = nullptr;
     double worst_violation = -1.0;
     for (const RowRecord& record : model.rowRecords())
       for (int r = record.first_row; r < record.first_row + record.rows; ++r)
-        if (!(rows.violation[r] <= worst_violation))
+        if (worst_violation == worst_violation &&  // a NaN row is the worst and stays so
+            !(rows.violation[r] <= worst_violation))
         {
           worst_violation = rows.violation[r];
-          worst = "constraints[" + std::to_string(record.constraint) + "] (" +
-                  kindOf(scene.constraints[record.constraint]) + ")";
+          worst = &record;
         }
+    std::string where = "(none)";
+    if (worst)
+    {
+      const Constraint& constraint = scene.constraints[worst->constraint];
+      where = std::string("a ") + kindOf(constraint) + " on particles";
+      std::visit(
+          [&](const auto& c)
+          {
+            using Kind = std::decay_t<decltype(c)>;
+            if constexpr (!Kind::ELIMINATED)
+              for (int particle : rowParticles(c))
+                where += " " + std::to_string(particle);
+          },
+          constraint);
+    }
     throw InvalidInput("initial_state.positions",
                        "cannot be projected onto the constraints: error " +
                            formatValue(projection.max_position_error) + " m after " +
                            std::to_string(projection.iterations) +
-                           " Newton iterations, largest at " + worst +
+                           " Newton iterations, largest at " + where +
                            "; the constraints may not all hold at once (check lengths, angles "
                            "and anchors against each other)");
   }

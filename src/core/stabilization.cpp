@@ -80,7 +80,7 @@ ProjectionReport shakePositions(const Model& model, Data& data, double time,
   {
     // the trial rows give C only; the directions stay those of the reference
     evaluateRowRecords(model, time, positions, data.stages.zero, data.trial_rows, &data.counters,
-                       false);
+                       false, &reference);
     report.max_position_error = data.trial_rows.max_violation;
     report.converged = report.max_position_error <= tolerance;
     if (report.converged || iteration >= max_iterations ||

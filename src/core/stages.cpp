@@ -67,9 +67,9 @@ void imposeKind(const std::vector<KindRecord<Kind>>& table, double time,
 
 void evaluateRowRecords(const Model& model, double time, const Points& positions,
                         const Points& velocities, RowData& rows, EffectCounters* counters,
-                        bool diagonals)
+                        bool diagonals, const Points* frame_positions)
 {
-  const EffectContext context{ model.scene().surfaces, time };
+  const EffectContext context{ model.scene().surfaces, time, frame_positions };
   double max_violation = 0.0;
   std::apply(
       [&](const auto&... tables)

@@ -19,10 +19,10 @@ namespace constrained_particles
 {
 /// Evaluates every row record at (p, v) and time t into `rows`: C, J, Jdot v, the metric
 /// violations and their max, and (if `diagonals`) each row's diagonal entry of J W J^T. Counts
-/// each record in `counters` if given. Stateless otherwise.
+/// each record in `counters` if given. `frame_positions`: see EffectContext. Stateless otherwise.
 void evaluateRowRecords(const Model& model, double time, const Points& positions,
                         const Points& velocities, RowData& rows, EffectCounters* counters,
-                        bool diagonals = true);
+                        bool diagonals = true, const Points* frame_positions = nullptr);
 
 /// Stage 1, rows at positions: evaluateRowRecords into `rows`, counted in data.counters.
 void rowStage(const Model& model, Data& data, double time, const Points& positions,
@@ -67,7 +67,8 @@ template <typename Fn>
 #if defined(__GNUC__)
 __attribute__((always_inline))  // one loop per kind, inlined into each product: see above
 #endif
-inline void forEachRow(const Model& model, Fn&& fn)
+inline void
+forEachRow(const Model& model, Fn&& fn)
 {
   std::apply(
       [&](const auto&... tables)

@@ -402,6 +402,9 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
     for (const auto& entry : surfaces)
     {
       const std::string name = entry.first.as<std::string>();
+      for (const NamedSurface& earlier : d.surfaces)
+        if (earlier.name == name)
+          fail(top / "surfaces" / name, entry.first, "appears twice among the surfaces");
       d.surfaces.push_back(
           NamedSurface{ name, parseSurface(top / "surfaces" / name, entry.second) });
     }
@@ -572,7 +575,7 @@ BuiltScene buildScene(const SceneDescription& d)
     const int first = next;
     Vec3 start = chain.start, velocity = chain.velocity;
     int surface = -1;
-    for (std::size_t k = 0; k < d.surfaces.size(); ++k)
+    for (std::size_t k = 0; k < d.surfaces.size() && surface < 0; ++k)
       if (!chain.surface.empty() && d.surfaces[k].name == chain.surface)
         surface = static_cast<int>(k);
     if (surface >= 0)
@@ -602,17 +605,15 @@ BuiltScene buildScene(const SceneDescription& d)
           PinConstraint{ next - 1, Vec3(start + (chain.particles - 1) * step) });
   }
   // each kind completes itself from the start: places particles on surfaces, anchors pins
-  for (std::size_t k = 0; k < d.constraints.size(); ++k)
+  const std::size_t first_own = scene.constraints.size();
+  for (const Constraint& written : d.constraints)
   {
-    Constraint constraint = d.constraints[k];
+    Constraint constraint = written;
     fillFromStart(constraint, scene.surfaces, state.positions, state.velocities);
-    // a value taken from the start (an angle) is checked like one written in the file
-    validateConstraint(constraint, n, static_cast<int>(scene.surfaces.size()),
-                       "constraints[" + std::to_string(k) + "]");
     scene.constraints.push_back(constraint);
   }
   // placing particles (on a surface, along a chain) can take them out of range, or to NaN where a
-  // surface is undefined: refused here, with why, before anything runs
+  // surface is undefined: refused here, with why, before anything runs or is checked against them
   static const char* const AXES[] = { "x", "y", "z" };
   for (int i = 0; i < n; ++i)
     for (int axis = 0; axis < 3; ++axis)
@@ -630,6 +631,10 @@ BuiltScene buildScene(const SceneDescription& d)
                                  "; a surface must be defined, and its height and slope in "
                                  "range, where its particles start");
       }
+  // a value taken from the start (an angle) is checked like one written in the file
+  for (std::size_t k = 0; k < d.constraints.size(); ++k)
+    validateConstraint(scene.constraints[first_own + k], n, static_cast<int>(scene.surfaces.size()),
+                       "constraints[" + std::to_string(k) + "]");
   scene.forces = d.forces;
   return built;
 }

@@ -328,9 +328,11 @@ TEST(SolveSelection, TreeMatchesDenseWhenParticlesCarryTheirOwnRows)
     fallbacks += tree.report.fallback ? 1 : 0;
     EXPECT_EQ(tree.report.singular, dense.report.singular) << trial;
     if (!dense.report.singular)
+    {
       EXPECT_LE((tree.multipliers - dense.multipliers).norm(),
                 1e-8 * (1.0 + dense.multipliers.norm()))
           << "trial " << trial;
+    }
   }
   EXPECT_GT(fallbacks, 0);  // the cases that need it occur
 

@@ -255,6 +255,9 @@ TEST(SceneFiles, BadFilesAreRefusedNamingFileKeyAndReason)
   // a record without its type: the valid types
   expectRefused("particles: [{mass: 1}, {mass: 1}]\nconstraints:\n  - {first: 0, second: 1}\n",
                 { "constraints[0].type", "is missing; valid: surface, link, pin, angle" });
+  // a surface named twice
+  expectRefused("surfaces:\n  ground: {type: bowl}\n  ground: {type: plane}\n",
+                { "surfaces.ground", "appears twice" });
   // a key given twice (yaml-cpp would keep one silently)
   expectRefused("particles:\n  - {mass: 1.0, mass: 2.0}\n",
                 { "test.yaml:2: particles[0].mass", "appears twice" });

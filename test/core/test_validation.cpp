@@ -170,7 +170,7 @@ TEST(Validation, InfeasibleStartNamesTheConstraint)
   start.positions(0, 1) = 2.0;
   start.velocities = Points::Zero(3, 2);
   expectRefused([&] { Simulator simulator(scene, start, StepSettings{}); },
-                "initial_state.positions", "largest at constraints[2] (link)");
+                "initial_state.positions", "largest at a link on particles 0 1");
 }
 
 TEST(Validation, SurfacesAreChecked)

@@ -50,6 +50,11 @@ class SimClockTest(unittest.TestCase):
         self.assertTrue(self.step(250).success)
         state = self.state_at(0.25)
         self.assertAlmostEqual(state.header.stamp.to_sec(), 0.25, places=6)
+        # /clock comes on its own connection: one from before the reset may still be the latest
+        # when ~state arrives, so wait (in wall time) for the clock to catch up, then hold there
+        deadline = time.monotonic() + 10.0
+        while abs(self.clocks[-1].clock.to_sec() - 0.25) > 1e-9 and time.monotonic() < deadline:
+            time.sleep(0.01)
         self.assertAlmostEqual(self.clocks[-1].clock.to_sec(), 0.25, places=6)
         self.assertAlmostEqual(rospy.Time.now().to_sec(), 0.25, places=6)
         # tf is stamped with sim time too (polled against wall time: sim time stands still here,

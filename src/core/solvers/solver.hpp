@@ -16,7 +16,9 @@
 namespace constrained_particles
 {
 /// Factorisation of J W J^T for one model. Allocates when made; the single-row, tridiagonal and
-/// tree solves allocate nothing after that.
+/// tree solves allocate nothing after that, but for a tree's steps handed to its sparse fallback
+/// (two particles of one tree with rows of their own, one locked along its parent link), which
+/// allocate as the sparse solve does inside Eigen's factorisation.
 class ConstraintSolver
 {
 public:

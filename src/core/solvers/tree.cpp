@@ -99,7 +99,16 @@ TreeSolver::TreeSolver(const Model& model) : ConstraintSolver(SolveMethod::Tree)
     parent_[n + touch.row] = -2;
   std::vector<int> queue;
   queue.reserve(n + m);
-  for (int seed = 0; seed < n + m; ++seed)
+  // roots first at particles with rows of their own: a root's own rows never break the
+  // elimination down (see factorize), so one such particle per tree needs no fallback
+  std::vector<int> seeds;
+  seeds.reserve(2 * n + m);
+  for (int i = 0; i < n; ++i)
+    if (inner_start_[i + 1] > inner_start_[i])
+      seeds.push_back(i);
+  for (int node = 0; node < n + m; ++node)
+    seeds.push_back(node);
+  for (const int seed : seeds)
   {
     if (parent_[seed] != -3 || (seed < n && w[seed] == 0.0))
       continue;
@@ -195,7 +204,9 @@ SolveReport TreeSolver::factorize(const Model& model, const RowData& rows, Effec
   broke_down_ = false;
   use_fallback_ = false;
   SolveReport report = ConstraintSolver::factorize(model, rows, counters);
-  if (!broke_down_)
+  // a singular system is factorised again regularised, where the breakdown check is off (the
+  // shift hides it): where a breakdown is possible, the sparse solve takes those too
+  if (!broke_down_ && !(report.singular && fallback_))
     return report;
   if (!fallback_)  // not reached: only the particles checked at construction can break down
     fallback_ = makeSparseSolver(model);

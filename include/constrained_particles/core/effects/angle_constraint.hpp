@@ -114,15 +114,24 @@ inline void violationRates(const AngleConstraint& constraint, const EffectContex
 }
 
 /// An unset angle is the one the particles start with.
+/// @throws InvalidInput when a segment starts with zero length: it has no direction, no angle
 inline void fillFromStart(AngleConstraint& constraint, const std::vector<Surface>& /*surfaces*/,
                           Points& positions, Points& /*velocities*/)
 {
   if (isUnset(constraint.angle))
   {
     const int j = constraint.particles[1];
-    constraint.angle =
-        detail::jointAngle(positions.col(constraint.particles[0]) - positions.col(j),
-                           positions.col(constraint.particles[2]) - positions.col(j));
+    const Vec3 a = positions.col(constraint.particles[0]) - positions.col(j);
+    const Vec3 b = positions.col(constraint.particles[2]) - positions.col(j);
+    // (non-finite starts are refused by the caller's range check, with their own reason)
+    if (a.allFinite() && b.allFinite() && (a.norm() == 0.0 || b.norm() == 0.0))
+      throw InvalidInput(
+          "angle", "of the angle on particles [" + std::to_string(constraint.particles[0]) + ", " +
+                       std::to_string(j) + ", " + std::to_string(constraint.particles[2]) +
+                       "] cannot be taken from the start: two of them coincide, "
+                       "so a segment has no direction; move them apart or give "
+                       "the angle");
+    constraint.angle = detail::jointAngle(a, b);
   }
 }
 

@@ -24,7 +24,10 @@ namespace constrained_particles
 /// so J_r = -g_r at i, g_r - e_r at j, e_r at k, and Jdot v = gdot_r.(v_j - v_i) +
 /// edot_r.(v_k - v_j), the rates taken along v with dual numbers (dual.hpp), exact to round-off.
 /// k behind j on the line (folded) also gives C = 0; with links, k cannot get there without
-/// leaving the line. The metric error of each row is |C_r| [m].
+/// leaving the line. The metric error of both rows is |C| = hypot(C_1, C_2) [m], k's distance
+/// from the line, whatever the pair. With context.frame_positions set (SHAKE's trial rows), r
+/// is picked at those positions so C stays in the frame of the reference Jacobian. Where i and
+/// j all but coincide (|a| <= 1e-12 |d|) there is no line: zero rows, reported singular.
 struct CollinearConstraint
 {
   std::array<int, 3> particles{ { 0, 1, 2 } };  ///< i, j, k: k on the line through i and j
@@ -47,7 +50,7 @@ inline std::array<int, 3> rowParticles(const CollinearConstraint& constraint)
 }
 
 /// C, J, Jdot v and |C_r| at positions p [m], velocities v [m/s]. Stateless.
-inline void evaluateRows(const CollinearConstraint& constraint, const EffectContext& /*context*/,
+inline void evaluateRows(const CollinearConstraint& constraint, const EffectContext& context,
                          const Points& positions, const Points& velocities, RowBlock out)
 {
   using dual::Dual;
@@ -59,7 +62,8 @@ inline void evaluateRows(const CollinearConstraint& constraint, const EffectCont
   const Dual3 a = dual::moving(a_value, va);
   const Dual3 d = dual::moving(positions.col(k) - positions.col(j), vd);
   const Dual a_norm = norm(a);
-  if (!(a_norm.value > 0.0))  // i and j coincide: no line
+  // i and j (all but) coincide: no line; past these the gradients lose their digits or overflow
+  if (!(a_norm.value > 1e-12 * norm(d).value) || !(a_norm.value > 1e-150))
   {
     for (int r = 0; r < 2; ++r)
     {
@@ -69,9 +73,13 @@ inline void evaluateRows(const CollinearConstraint& constraint, const EffectCont
     }
     return;
   }
+  // the frame's axis, picked where the caller's reference Jacobian was (SHAKE), else here
+  const Vec3 a_frame = context.frame_positions
+                           ? Vec3(context.frame_positions->col(j) - context.frame_positions->col(i))
+                           : a_value;
   int least = 0;
   for (int axis = 1; axis < 3; ++axis)
-    if (std::abs(a_value[axis]) < std::abs(a_value[least]))
+    if (std::abs(a_frame[axis]) < std::abs(a_frame[least]))
       least = axis;
   const Dual3 r = dual::constant(Vec3::Unit(least));
   const Dual3 n = cross(a, r);
@@ -88,10 +96,13 @@ inline void evaluateRows(const CollinearConstraint& constraint, const EffectCont
                                      (one / a_norm) * acrossU(cross(e1, d)) +
                                          (one / n_norm) * cross(r, acrossE1(cross(d, u))) } };
   for (int row = 0; row < 2; ++row)
+    out.value[row] = dot(e[row], d).value;
+  // k's distance from the line, the same whichever pair of directions measures it
+  const double distance = std::hypot(out.value[0], out.value[1]);
+  for (int row = 0; row < 2; ++row)
   {
     const Vec3 e_value = dual::valueOf(e[row]), g_value = dual::valueOf(g[row]);
-    out.value[row] = dot(e[row], d).value;
-    out.violation[row] = std::abs(out.value[row]);
+    out.violation[row] = distance;
     out.jacobian[3 * row] = -g_value;
     out.jacobian[3 * row + 1] = g_value - e_value;
     out.jacobian[3 * row + 2] = e_value;
@@ -99,7 +110,7 @@ inline void evaluateRows(const CollinearConstraint& constraint, const EffectCont
   }
 }
 
-/// |J_r v| [m/s]: how fast k leaves the line, across it.
+/// hypot(J_1 v, J_2 v) for both rows [m/s]: how fast k leaves the line, whatever the pair.
 inline void violationRates(const CollinearConstraint& constraint, const EffectContext& context,
                            const Points& positions, const Points& velocities, double* rates)
 {
@@ -107,13 +118,11 @@ inline void violationRates(const CollinearConstraint& constraint, const EffectCo
   Vec3 jacobian[6];
   evaluateRows(constraint, context, positions, velocities,
                RowBlock{ value, jdot_v, violation, jacobian });
+  double rate[2] = { 0.0, 0.0 };
   for (int row = 0; row < 2; ++row)
-  {
-    double rate = 0.0;
     for (int p = 0; p < 3; ++p)
-      rate += jacobian[3 * row + p].dot(velocities.col(constraint.particles[p]));
-    rates[row] = std::abs(rate);
-  }
+      rate[row] += jacobian[3 * row + p].dot(velocities.col(constraint.particles[p]));
+  rates[0] = rates[1] = std::hypot(rate[0], rate[1]);
 }
 
 /// @throws InvalidInput naming the bad field

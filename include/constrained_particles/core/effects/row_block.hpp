@@ -16,6 +16,10 @@ struct EffectContext
 {
   const std::vector<Surface>& surfaces;  ///< the scene's height fields
   double time;                           ///< simulated time [s]
+  /// Positions a kind that picks a frame by position (collinear) picks it at, so that rows
+  /// evaluated at trial positions stay in the frame of their reference Jacobian (SHAKE);
+  /// nullptr: the positions being evaluated.
+  const Points* frame_positions = nullptr;
 };
 
 /// Where an eliminated kind holds its particle at a time t: exactly, not as rows.
