@@ -254,7 +254,9 @@ TEST(Allocations, SparseStepsAllocateTheSameEveryStep)
         counts[k] = allocationsIn([&] { statistics = simulator.step(100); });
         factorizations[k] = statistics.solve.factorizations;
         if (fallback)  // every factorisation of this swing is the fallback's
+        {
           EXPECT_EQ(statistics.solve.fallbacks, statistics.solve.factorizations) << name;
+        }
       }
       // the same work each batch allocates the same; dopri5's internal steps may differ
       for (int k = 1; k < 3; ++k)

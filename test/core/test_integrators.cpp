@@ -99,7 +99,9 @@ TEST(Integrators, ObservedOrdersMatchTheTable)
       const long steps = std::lround(1.0 / dt);
       const StepStatistics statistics = simulator.step(static_cast<int>(steps));
       if (integrator->adaptive)
+      {
         ASSERT_EQ(statistics.internal_steps, steps) << integrator->name << ", dt = " << dt;
+      }
       dts.push_back(dt);
       errors.push_back(
           (Vec3(simulator.state().positions.col(0)) - orbit.exact(simulator.state().time)).norm());

@@ -83,7 +83,9 @@ TEST(DocumentedRanges, ReconfigureRangesAreTheLimits)
     EXPECT_EQ(max[name], range->high);
     EXPECT_TRUE(range->contains(defaults[name]));
     if (!std::isnan(structDefault(name)))
+    {
       EXPECT_EQ(defaults[name], structDefault(name));
+    }
   }
   int enums = 0;
   for (const auto& group : description.groups)
