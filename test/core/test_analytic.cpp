@@ -12,6 +12,43 @@ using constrained_particles::testing::computeAccelerations;
 using constrained_particles::testing::G;
 using constrained_particles::testing::stateOf;
 
+namespace
+{
+struct SwingPeriod
+{
+  int crossings = 0;  ///< zero crossings of x seen (2 for a period)
+  double period = 0;  ///< twice the time between the first two [s]
+};
+
+// Steps until x(positions) has crossed zero twice (at most 5 s of sim time), calling each_step
+// after every step; crossing times are interpolated linearly within the step.
+template <typename X, typename EachStep>
+SwingPeriod measurePeriod(Simulator& simulator, X x_of, EachStep each_step)
+{
+  SwingPeriod result;
+  double previous_x = x_of(simulator.state().positions), previous_t = simulator.state().time;
+  double first = 0;
+  while (result.crossings < 2 && simulator.state().time < 5.0)
+  {
+    simulator.step();
+    each_step();
+    const double x = x_of(simulator.state().positions), t = simulator.state().time;
+    if ((x > 0) != (previous_x > 0))
+    {
+      const double crossing = previous_t + (t - previous_t) * previous_x / (previous_x - x);
+      if (++result.crossings == 1)
+        first = crossing;
+      else
+        result.period = 2.0 * (crossing - first);  // two crossings are half a period apart
+    }
+    previous_x = x;
+    previous_t = t;
+  }
+  return result;
+}
+
+}  // namespace
+
 // Plane z = a x from rest: xddot = -g a / (1 + a^2), |normal force| = m g / sqrt(1 + a^2).
 TEST(Analytic, BeadSlidesDownPlane)
 {
@@ -118,30 +155,11 @@ TEST(Analytic, PendulumPeriod)
   StepSettings settings;
   settings.dt = 1e-4;
   Simulator simulator(scene, stateOf(p, v), settings);
-  // time of the second zero crossing of x after release = one period... interpolate linearly
-  double previous_x = simulator.state().positions(0, 1), previous_t = 0;
-  int crossings = 0;
-  double period = 0;
-  while (crossings < 2 && simulator.state().time < 5.0)
-  {
-    simulator.step();
-    const double x = simulator.state().positions(0, 1), t = simulator.state().time;
-    if ((x > 0) != (previous_x > 0))
-    {
-      ++crossings;
-      const double crossing = previous_t + (t - previous_t) * previous_x / (previous_x - x);
-      if (crossings == 1)
-        period = -crossing;
-      else
-        period += crossing;
-    }
-    previous_x = x;
-    previous_t = t;
-  }
-  ASSERT_EQ(crossings, 2);
-  period *= 2.0;  // two crossings are half a period apart
+  const SwingPeriod swing = measurePeriod(
+      simulator, [](const Points& q) { return q(0, 1); }, [] {});
+  ASSERT_EQ(swing.crossings, 2);
   const double expected = 2 * M_PI * std::sqrt(L / G) * (1 + theta0 * theta0 / 16);
-  EXPECT_NEAR(period, expected, 1e-5 * expected);
+  EXPECT_NEAR(swing.period, expected, 1e-5 * expected);
 }
 
 namespace
@@ -256,32 +274,19 @@ TEST(Analytic, AngleConstraintMakesARigidCompoundPendulum)
   Simulator simulator(scene, stateOf(p, Points::Zero(3, 3)), settings);
   EXPECT_EQ(simulator.model().solveMethod(), SolveMethod::Tree);
   // the centre of mass crosses x = 0 every half period
-  auto centre = [&]
-  { return 0.5 * (simulator.state().positions(0, 1) + simulator.state().positions(0, 2)); };
-  double previous_x = centre(), previous_t = 0, period = 0;
-  int crossings = 0;
   double worst_angle = 0.0;
-  while (crossings < 2 && simulator.state().time < 5.0)
-  {
-    simulator.step();
-    const Vec3 a = simulator.state().positions.col(1), b = simulator.state().positions.col(2);
-    worst_angle =
-        std::max(worst_angle, std::abs(std::acos(a.dot(b) / (a.norm() * b.norm())) - opening));
-    const double x = centre(), t = simulator.state().time;
-    if ((x > 0) != (previous_x > 0))
-    {
-      ++crossings;
-      const double crossing = previous_t + (t - previous_t) * previous_x / (previous_x - x);
-      period += crossings == 1 ? -crossing : crossing;
-    }
-    previous_x = x;
-    previous_t = t;
-  }
-  ASSERT_EQ(crossings, 2);
-  period *= 2.0;
+  const SwingPeriod measured = measurePeriod(
+      simulator, [](const Points& q) { return 0.5 * (q(0, 1) + q(0, 2)); },
+      [&]
+      {
+        const Vec3 a = simulator.state().positions.col(1), b = simulator.state().positions.col(2);
+        worst_angle =
+            std::max(worst_angle, std::abs(std::acos(a.dot(b) / (a.norm() * b.norm())) - opening));
+      });
+  ASSERT_EQ(measured.crossings, 2);
   const double expected =
       2 * M_PI * std::sqrt(l / (G * std::cos(opening / 2))) * (1 + swing * swing / 16);
-  EXPECT_NEAR(period, expected, 1e-5 * expected);
+  EXPECT_NEAR(measured.period, expected, 1e-5 * expected);
   EXPECT_LE(worst_angle, 1e-9);
 }
 
@@ -313,30 +318,19 @@ TEST(Analytic, CollinearConstraintsMakeAStiffRod)
     inertia += m[k - 1] * (k * l) * (k * l);
     moment += m[k - 1] * (k * l);
   }
-  double previous_x = simulator.state().positions(0, 3), previous_t = 0, period = 0;
-  int crossings = 0;
   double worst_bend = 0.0;  // distance of the middle particles from the line end to end [m]
-  while (crossings < 2 && simulator.state().time < 5.0)
-  {
-    simulator.step();
-    const Points& q = simulator.state().positions;
-    const Vec3 axis = Vec3(q.col(3)).normalized();
-    for (int k = 1; k < 3; ++k)
-      worst_bend = std::max(worst_bend, Vec3(q.col(k)).cross(axis).norm());
-    const double x = q(0, 3), t = simulator.state().time;
-    if ((x > 0) != (previous_x > 0))
-    {
-      ++crossings;
-      const double crossing = previous_t + (t - previous_t) * previous_x / (previous_x - x);
-      period += crossings == 1 ? -crossing : crossing;
-    }
-    previous_x = x;
-    previous_t = t;
-  }
-  ASSERT_EQ(crossings, 2);
-  period *= 2.0;
+  const SwingPeriod measured = measurePeriod(
+      simulator, [](const Points& q) { return q(0, 3); },
+      [&]
+      {
+        const Points& q = simulator.state().positions;
+        const Vec3 axis = Vec3(q.col(3)).normalized();
+        for (int k = 1; k < 3; ++k)
+          worst_bend = std::max(worst_bend, Vec3(q.col(k)).cross(axis).norm());
+      });
+  ASSERT_EQ(measured.crossings, 2);
   const double expected = 2 * M_PI * std::sqrt(inertia / (G * moment)) * (1 + swing * swing / 16);
-  EXPECT_NEAR(period, expected, 1e-5 * expected);
+  EXPECT_NEAR(measured.period, expected, 1e-5 * expected);
   EXPECT_LE(worst_bend, 1e-9);
 }
 

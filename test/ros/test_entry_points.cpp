@@ -127,6 +127,19 @@ protected:
   long received_ = 0;
 };
 
+// a ~set_chain request for a pinned chain of n particles, with `field` (link_length or
+// particle_mass) set to value and the other at a valid default
+SetChain::Request chainRequest(std::uint32_t n, const std::string& field, double value)
+{
+  SetChain::Request request;
+  request.num_particles = n;
+  request.link_length = 0.5;
+  request.particle_mass = 1.0;
+  request.pin_first = true;
+  (field == "link_length" ? request.link_length : request.particle_mass) = value;
+  return request;
+}
+
 // a parameter set as a double, or as an int when the range holds counts and the value is whole
 void setParameter(ros::NodeHandle& nh, const std::string& name, double value, const Range& range)
 {
@@ -239,13 +252,7 @@ TEST_F(EntryPoints, Services)
   for (const auto& [field, range] : chain_fields)
     for (double bad : badValues(*range))
     {
-      SetChain::Request request;
-      request.num_particles = 5;
-      request.link_length = 0.5;
-      request.particle_mass = 1.0;
-      request.pin_first = true;
-      (field == "link_length" ? request.link_length : request.particle_mass) = bad;
-      const SetChain::Response response = call<SetChain>("set_chain", request);
+      const SetChain::Response response = call<SetChain>("set_chain", chainRequest(5, field, bad));
       EXPECT_FALSE(response.success) << field << " = " << show(bad);
       EXPECT_NE(response.message.find(field), std::string::npos) << response.message;
     }
@@ -289,13 +296,7 @@ TEST_F(EntryPoints, Services)
   for (const auto& [field, range] : chain_fields)
     for (double good : goodValues(*range))
     {
-      SetChain::Request request;
-      request.num_particles = 3;
-      request.link_length = 0.5;
-      request.particle_mass = 1.0;
-      request.pin_first = true;
-      (field == "link_length" ? request.link_length : request.particle_mass) = good;
-      const SetChain::Response response = call<SetChain>("set_chain", request);
+      const SetChain::Response response = call<SetChain>("set_chain", chainRequest(3, field, good));
       EXPECT_TRUE(response.success) << field << " = " << show(good) << ": " << response.message;
       if (field == "link_length")
       {
