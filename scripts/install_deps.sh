@@ -7,7 +7,7 @@ PACKAGES=(
   build-essential cmake pkg-config libeigen3-dev libgtest-dev libboost-dev
   catkin ros-core-dev ros-message-generation ros-message-runtime
   libroscpp-dev librosconsole-dev libstd-srvs-dev libgeometry-msgs-dev
-  libtf2-ros-dev libtf2-eigen-dev libvisualization-msgs-dev
+  libtf2-ros-dev libtf2-eigen-dev libtf2-msgs-dev libvisualization-msgs-dev
   libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   librostest-dev python3-rostest rosbash python3-rospy python3-roslaunch
   python3-geometry-msgs python3-visualization-msgs python3-tf2-msgs

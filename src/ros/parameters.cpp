@@ -122,7 +122,7 @@ std::vector<std::string> SceneOverrides::applyTo(SceneDescription& description) 
       chain.num_particles = num_particles.value_or(first.particles);
       chain.link_length = link_length.value_or(first.link_length);
       chain.particle_mass = particle_mass.value_or(first.particle_mass);
-      chain.pin_first = pin_first.value_or(first.pin_first);
+      chain.pin_first = pin_first;
       setChains(description, chain);
     }
   }

@@ -7,6 +7,7 @@
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <rosgraph_msgs/Clock.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <ros/master.h>
 
 #include <algorithm>
 #include <cmath>
@@ -15,15 +16,6 @@ namespace constrained_particles
 {
 namespace
 {
-// longest stretch of wall time one batch of steps may cover; more means we are behind
-constexpr double MAX_BATCH_WALL = 0.02;  // [s]
-constexpr auto MAX_WAIT = std::chrono::milliseconds(100);
-
-double seconds(std::chrono::steady_clock::duration d)
-{
-  return std::chrono::duration<double>(d).count();
-}
-
 SimulatorConfig configFrom(const NodeParameters& p, const SceneDescription& scene)
 {
   SimulatorConfig c;
@@ -52,39 +44,80 @@ bool refuse(Response& response, const std::string& message)
   return true;
 }
 
+/// Copies a runner reply into a service response (logging a refusal).
+template <typename Response>
+bool answer(Response& response, const RunnerReply& reply)
+{
+  if (!reply.success)
+    return refuse(response, reply.message);
+  response.success = true;
+  response.message = reply.message;
+  return true;
+}
+
+/// Nodes other than this one that publish `topic`, from the master's system state.
+std::vector<std::string> otherPublishers(const std::string& topic)
+{
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  std::vector<std::string> nodes;
+  if (!ros::master::execute("getSystemState", args, result, payload, true) ||
+      payload.getType() != XmlRpc::XmlRpcValue::TypeArray || payload.size() < 1)
+    return nodes;
+  XmlRpc::XmlRpcValue& publishers = payload[0];
+  for (int k = 0; k < publishers.size(); ++k)
+  {
+    if (static_cast<std::string>(publishers[k][0]) != topic)
+      continue;
+    for (int j = 0; j < publishers[k][1].size(); ++j)
+      if (static_cast<std::string>(publishers[k][1][j]) != ros::this_node::getName())
+        nodes.push_back(publishers[k][1][j]);
+  }
+  return nodes;
+}
+
+std::string join(const std::vector<std::string>& items)
+{
+  std::string text;
+  for (const std::string& item : items)
+    text += (text.empty() ? "" : ", ") + item;
+  return text;
+}
+
 }  // namespace
 
 SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   : nh_(private_nh), parameters_(readParameters(nh_))
 {
+  // in a namespace, frames carry it, so two simulators never share a frame (REP 105 names)
+  if (!nh_.hasParam("frame_prefix") && ros::this_node::getNamespace() != "/")
+    parameters_.frame_prefix = ros::this_node::getNamespace().substr(1) + "/particle_";
+  if (parameters_.publish_clock)
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    SceneDescription scene =
-        loadSceneFile(resolveScene(parameters_.scenario, parameters_.scene_directory, "~scenario"));
-    for (const std::string& warning : parameters_.overrides.applyTo(scene))
-      ROS_WARN("simulator: %s", warning.c_str());
-    if (scene.numParticles() > parameters_.max_particles)
-      throw InvalidInput(
-          "~scenario",
-          "= '" + parameters_.scenario + "' has " + std::to_string(scene.numParticles()) +
-              " particles, over ~max_particles = " + std::to_string(parameters_.max_particles));
-    // the scene's solver settings, unless set as parameters
-    chosen_step_.values = parameters_.step;
-    chosen_step_.given = parameters_.step_given;
-    const StepSettings settings = settingsFor(scene);
-    const BuiltScene built = buildScene(scene);
-    simulator_ = std::make_unique<Simulator>(built.scene, built.initial_state, settings,
-                                             scene.solver.solve_method);
-    parameters_.step = settings;
-    scene_ = scene;
-    published_model_ = std::make_shared<const Model>(simulator_->model());
+    const std::vector<std::string> others = otherPublishers("/clock");
+    if (!others.empty())
+      throw InvalidInput("~publish_clock",
+                         "= true, but /clock is already published by " + join(others) +
+                             ": only one node may publish /clock; start this one with "
+                             "_publish_clock:=false");
   }
+  SceneDescription scene =
+      loadSceneFile(resolveScene(parameters_.scenario, parameters_.scene_directory, "~scenario"));
+  for (const std::string& warning : parameters_.overrides.applyTo(scene))
+    ROS_WARN("simulator: %s", warning.c_str());
+  runner_ = std::make_unique<SimulationRunner>(parameters_, scene);
+  const std::shared_ptr<const Snapshot> first = runner_->snapshot();
+  parameters_.step = first->parameters.step;
 
   mesh_cache_ = SurfaceMeshCache(parameters_.mesh_cells);
   if (parameters_.publish_clock)
     clock_publisher_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10);
-  state_publisher_ = nh_.advertise<SimState>("state", 10);
-  force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 1);
+  // our own /tf publisher (tf2_ros::TransformBroadcaster is a thin wrapper of one) so the message
+  // is built only with subscribers and reuses its frame names; queue as tf2_ros's broadcaster
+  tf_publisher_ = ros::NodeHandle().advertise<tf2_msgs::TFMessage>("/tf", 100);
+  // latched with ~publish_clock: while sim time stands still nothing new is sent
+  state_publisher_ = nh_.advertise<SimState>("state", 10, parameters_.publish_clock);
+  force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 10);
   scene_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("scene", 1, true);
   diagnostics_publisher_ =
       ros::NodeHandle().advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 1);
@@ -101,7 +134,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   services_.push_back(nh_.advertiseService("step", &SimulatorNode::stepCallback, this));
 
   reconfigure_server_ = std::make_unique<ReconfigureServer<SimulatorConfig>>(
-      nh_, configFrom(parameters_, scene_),
+      nh_, configFrom(first->parameters, *first->scene),
       [this](const SimulatorConfig& config) { return reconfigureCallback(config); });
 
   publish_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / parameters_.publish_rate),
@@ -111,274 +144,160 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   if (parameters_.status_period > 0.0)
     status_timer_ = nh_.createWallTimer(ros::WallDuration(parameters_.status_period),
                                         &SimulatorNode::statusCallback, this);
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    reanchorLocked();
-    rate_wall_ = Clock::now();
-  }
-  physics_thread_ = std::thread(&SimulatorNode::physicsLoop, this);
-  ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s", scene_.name.c_str(),
-           simulator_->model().numParticles(), parameters_.step.integrator.c_str(),
-           stabilizationName(parameters_.step.stabilization), parameters_.step.dt,
-           solveMethodName(simulator_->model().solveMethod()));
+  runner_->start();
+  ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s; frames %s<i> in %s",
+           first->scene->name.c_str(), first->model->numParticles(),
+           parameters_.step.integrator.c_str(), stabilizationName(parameters_.step.stabilization),
+           parameters_.step.dt, solveMethodName(first->model->solveMethod()),
+           parameters_.frame_prefix.c_str(), parameters_.fixed_frame.c_str());
 }
 
 SimulatorNode::~SimulatorNode()
 {
-  running_ = false;
-  wake_physics_.notify_all();
-  if (physics_thread_.joinable())
-    physics_thread_.join();
+  shutdown(std::chrono::milliseconds(0));
 }
 
-void SimulatorNode::reanchorLocked()
+bool SimulatorNode::shutdown(std::chrono::milliseconds timeout)
 {
-  anchor_wall_ = Clock::now();
-  anchor_sim_time_ = simulator_->state().time;
-  wake_physics_.notify_all();
-}
-
-void SimulatorNode::stepLocked(int count)
-{
-  last_good_state_ = simulator_->state();
-  const auto start = Clock::now();
-  simulator_->step(count);
-  step_time_ = seconds(Clock::now() - start) / count;
-  const State& state = simulator_->state();
-  if (!isFinite(state))
-  {
-    faultLocked("the state became non-finite between t = " + formatValue(last_good_state_.time) +
-                " s and t = " + formatValue(state.time) + " s");
-    return;
-  }
-  const double error = simulator_->diagnostics().max_position_error;
-  if (!(error <= parameters_.max_constraint_error))
-    faultLocked("the constraint error reached " + formatValue(error) +
-                " m at t = " + formatValue(state.time) + " s, over ~max_constraint_error = " +
-                formatValue(parameters_.max_constraint_error) + " m");
-}
-
-void SimulatorNode::faultLocked(const std::string& reason)
-{
-  faulted_ = true;
-  fault_reason_ = reason + "; stepping stopped at the last good state (t = " +
-                  formatValue(last_good_state_.time) + " s); call ~reset";
-  simulator_->restoreState(last_good_state_);
-  ROS_ERROR("simulator: %s", fault_reason_.c_str());
-}
-
-void SimulatorNode::physicsLoop()
-{
-  std::unique_lock<std::mutex> lock(mutex_);
-  while (running_)
-  {
-    if (paused_ || faulted_)
-    {
-      wake_physics_.wait_for(lock, MAX_WAIT);
-      continue;
-    }
-    const double dt = simulator_->stepSettings().dt;
-    const double rtf = parameters_.real_time_factor;
-    const double target = anchor_sim_time_ + rtf * seconds(Clock::now() - anchor_wall_);
-    const long due = static_cast<long>(std::floor((target - simulator_->state().time) / dt + 1e-9));
-    if (due > 0)
-    {
-      const long max_batch = std::max(1L, static_cast<long>(std::ceil(MAX_BATCH_WALL * rtf / dt)));
-      stepLocked(static_cast<int>(std::min(due, max_batch)));
-      // behind wall time: slow sim time down instead of building a backlog, and say so
-      if (due > max_batch)
-      {
-        reanchorLocked();
-        ++behind_events_;
-      }
-    }
-    const double until_next = (simulator_->state().time + dt - anchor_sim_time_) / rtf;
-    const auto wake = anchor_wall_ + std::chrono::duration_cast<Clock::duration>(
-                                         std::chrono::duration<double>(until_next));
-    wake_physics_.wait_until(lock, std::min(wake, Clock::now() + MAX_WAIT));
-  }
+  publish_timer_.stop();
+  diagnostics_timer_.stop();
+  status_timer_.stop();
+  return runner_->stop(timeout);
 }
 
 void SimulatorNode::publish()
 {
-  const bool want_state = state_publisher_.getNumSubscribers() > 0;
-  const bool want_forces = force_marker_publisher_.getNumSubscribers() > 0;
-  const bool want_scene = scene_marker_publisher_.getNumSubscribers() > 0;
-
-  Snapshot snap;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    snap.scenario = scene_.name;
-    snap.status = faulted_  ? SimState::STATUS_FAULT
-                  : paused_ ? SimState::STATUS_PAUSED
-                            : SimState::STATUS_RUNNING;
-    snap.status_message = faulted_ ? fault_reason_ : paused_ ? "paused" : "";
-    snap.state = simulator_->state();
-    if (want_state || want_forces)
-      simulator_->constraintForces(snap.constraint_forces, snap.multipliers);
-    if (want_state)
-      snap.diagnostics = simulator_->diagnostics();
-    snap.step_time = step_time_;
-    snap.real_time_factor = achieved_rtf_;
-    snap.behind = behind_ && !paused_ && !faulted_;
-    if (snap.behind)
-      snap.status_message = "behind: achieved real-time factor " + formatValue(achieved_rtf_) +
-                            " of " + formatValue(parameters_.real_time_factor) +
-                            "; sim time is slowed, no steps are dropped";
-    if (want_scene)
-    {
-      snap.model = published_model_;
-      snap.scene_changed = scene_changed_;
-      scene_changed_ = false;
-    }
-  }
+  std::lock_guard<std::mutex> lock(publish_mutex_);
+  // wall stamp before the snapshot: a message stamped after a request returned shows its effect
+  const ros::Time wall_now = ros::Time::now();
+  // the statistics of every step up to this snapshot since the last ~state message
+  StepStatistics statistics;
+  const std::shared_ptr<const Snapshot> snap =
+      runner_->snapshot(SimulationRunner::Reader::State, statistics);
+  // with sim time as stamps, only what is new: tf2 rejects a repeated stamp (TF_REPEATED_DATA)
+  if (parameters_.publish_clock && !(snap->stamp > last_stamp_))
+    return;
   // nothing non-finite leaves the node
-  if (!isFinite(snap.state) || (want_state && !snap.diagnostics.finite()) ||
-      ((want_state || want_forces) &&
-       (!snap.constraint_forces.allFinite() || !snap.multipliers.allFinite())))
+  if (!isFinite(snap->state) || !snap->diagnostics.finite() ||
+      !snap->constraint_forces.allFinite() || !snap->multipliers.allFinite())
   {
     ROS_ERROR_THROTTLE(5.0, "simulator: non-finite values at t = %.6f s; not published",
-                       snap.state.time);
+                       snap->state.time);
     return;
   }
-
   std_msgs::Header header;
-  // sim time as ROS time: nodes with use_sim_time follow /clock
-  header.stamp =
-      parameters_.publish_clock ? ros::Time(std::max(snap.state.time, 0.0)) : ros::Time::now();
+  header.stamp = parameters_.publish_clock ? ros::Time(snap->stamp) : wall_now;
+  header.frame_id = parameters_.fixed_frame;
   if (parameters_.publish_clock)
   {
     rosgraph_msgs::Clock clock;
     clock.clock = header.stamp;
     clock_publisher_.publish(clock);
+    last_stamp_ = snap->stamp;
   }
-  header.frame_id = parameters_.fixed_frame;
-  const int n = static_cast<int>(snap.state.positions.cols());
+  const int n = static_cast<int>(snap->state.positions.cols());
 
-  std::vector<geometry_msgs::TransformStamped> transforms(n);
-  for (int i = 0; i < n; ++i)
+  if (frames_scene_serial_ != snap->scene_serial)
   {
-    geometry_msgs::TransformStamped& t = transforms[i];
-    t.header = header;
-    t.child_frame_id = parameters_.frame_prefix + std::to_string(i);
-    t.transform.translation.x = snap.state.positions(0, i);
-    t.transform.translation.y = snap.state.positions(1, i);
-    t.transform.translation.z = snap.state.positions(2, i);
-    t.transform.rotation.w = 1.0;
+    // frame names once per scene, not per publish
+    tf_message_.transforms.resize(n);
+    for (int i = 0; i < n; ++i)
+    {
+      geometry_msgs::TransformStamped& t = tf_message_.transforms[i];
+      t.header.frame_id = parameters_.fixed_frame;
+      t.child_frame_id = parameters_.frame_prefix + std::to_string(i);
+      t.transform.rotation.w = 1.0;
+    }
+    frames_scene_serial_ = snap->scene_serial;
   }
-  tf_broadcaster_.sendTransform(transforms);
+  if (tf_publisher_.getNumSubscribers() > 0)
+  {
+    for (int i = 0; i < n; ++i)
+    {
+      geometry_msgs::TransformStamped& t = tf_message_.transforms[i];
+      t.header.stamp = header.stamp;
+      t.transform.translation.x = snap->state.positions(0, i);
+      t.transform.translation.y = snap->state.positions(1, i);
+      t.transform.translation.z = snap->state.positions(2, i);
+    }
+    tf_publisher_.publish(tf_message_);
+  }
 
-  if (want_state)
+  if (state_publisher_.getNumSubscribers() > 0 || parameters_.publish_clock)
   {
     SimState msg;
     msg.header = header;
-    msg.scenario = snap.scenario;
-    msg.sim_time = snap.state.time;
-    msg.steps = snap.state.steps;
-    msg.positions = toPointMsgs(snap.state.positions);
-    msg.velocities = toVectorMsgs(snap.state.velocities);
-    msg.constraint_forces = toVectorMsgs(snap.constraint_forces);
-    msg.multipliers.assign(snap.multipliers.data(),
-                           snap.multipliers.data() + snap.multipliers.size());
-    msg.max_position_error = snap.diagnostics.max_position_error;
-    msg.max_velocity_error = snap.diagnostics.max_velocity_error;
-    msg.kinetic_energy = snap.diagnostics.kinetic_energy;
-    msg.potential_energy = snap.diagnostics.potential_energy;
-    msg.step_time = snap.step_time;
-    msg.real_time_factor = snap.real_time_factor;
-    msg.behind = snap.behind;
-    msg.status = snap.status;
-    msg.status_message = snap.status_message;
+    msg.scenario = snap->scene->name;
+    msg.sim_time = snap->state.time;
+    msg.steps = snap->state.steps;
+    msg.positions = toPointMsgs(snap->state.positions);
+    msg.velocities = toVectorMsgs(snap->state.velocities);
+    msg.constraint_forces = toVectorMsgs(snap->constraint_forces);
+    msg.multipliers.assign(snap->multipliers.data(),
+                           snap->multipliers.data() + snap->multipliers.size());
+    msg.max_position_error = snap->diagnostics.max_position_error;
+    msg.max_velocity_error = snap->diagnostics.max_velocity_error;
+    msg.kinetic_energy = snap->diagnostics.kinetic_energy;
+    msg.potential_energy = snap->diagnostics.potential_energy;
+    msg.total_energy = snap->diagnostics.totalEnergy();
+    msg.step_time = snap->step_time;
+    msg.real_time_factor = snap->real_time_factor;
+    msg.behind = snap->behind;
+    msg.status = snap->faulted  ? SimState::STATUS_FAULT
+                 : snap->paused ? SimState::STATUS_PAUSED
+                                : SimState::STATUS_RUNNING;
+    msg.status_message = snap->faulted  ? snap->fault_reason
+                         : snap->behind ? "behind: cannot keep up with the real-time factor; "
+                                          "sim time slowed"
+                                        : "";
+    msg.interval_steps = static_cast<std::uint32_t>(statistics.steps);
+    msg.factorizations = static_cast<std::uint32_t>(statistics.solve.factorizations);
+    msg.singular_solves = static_cast<std::uint32_t>(statistics.solve.singular_count);
+    msg.min_pivot_ratio = statistics.solve.min_pivot_ratio;
+    msg.solve_fallbacks = static_cast<std::uint32_t>(statistics.solve.fallbacks);
+    msg.projections = static_cast<std::uint32_t>(statistics.projection.projections);
+    msg.projection_iterations = static_cast<std::uint32_t>(statistics.projection.iterations);
+    msg.max_projection_iterations =
+        static_cast<std::uint32_t>(statistics.projection.max_iterations);
+    msg.projections_converged = statistics.projection.converged;
+    msg.internal_steps = static_cast<std::uint32_t>(statistics.internal_steps);
+    msg.rejected_internal_steps = static_cast<std::uint32_t>(statistics.rejected_internal_steps);
+    forEachEffectCount(statistics.effects,
+                       [&msg](const char* name, std::uint64_t count)
+                       {
+                         msg.effect_names.push_back(name);
+                         msg.effect_counts.push_back(count);
+                       });
     state_publisher_.publish(msg);
   }
-  if (want_forces)
+  if (force_marker_publisher_.getNumSubscribers() > 0)
   {
     force_marker_publisher_.publish(
-        constraintForceMarkers(header, snap.state.positions, snap.constraint_forces,
+        constraintForceMarkers(header, snap->state.positions, snap->constraint_forces,
                                parameters_.force_scale, published_arrows_));
     published_arrows_ = n;
   }
-  if (want_scene)
+  if (scene_marker_publisher_.getNumSubscribers() > 0)
+  {
+    const bool scene_changed = markers_scene_serial_ != snap->scene_serial;
+    markers_scene_serial_ = snap->scene_serial;
     scene_marker_publisher_.publish(
-        sceneMarkers(header, *snap.model, snap.state.positions, mesh_cache_, snap.scene_changed));
-}
-
-void SimulatorNode::rebuildLocked(const SceneDescription& description, const StepSettings& settings)
-{
-  if (description.numParticles() > parameters_.max_particles)
-    throw InvalidInput(
-        "num_particles",
-        "= " + std::to_string(description.numParticles()) + " in scene '" + description.name +
-            "', must be at most ~max_particles = " + std::to_string(parameters_.max_particles));
-  const BuiltScene built = buildScene(description);
-  // settings first: if the scene is refused, put them back
-  const StepSettings saved = simulator_->stepSettings();
-  simulator_->setStepSettings(settings);
-  try
-  {
-    simulator_->setScene(built.scene, built.initial_state, description.solver.solve_method);
+        sceneMarkers(header, *snap->model, snap->state.positions, mesh_cache_, scene_changed));
   }
-  catch (const InvalidInput&)
-  {
-    simulator_->setStepSettings(saved);
-    throw;
-  }
-  parameters_.step = settings;
-  scene_ = description;
-  faulted_ = false;
-  fault_reason_.clear();
-  published_model_ = std::make_shared<const Model>(simulator_->model());
-  scene_changed_ = true;
-  reanchorLocked();
-}
-
-StepSettings SimulatorNode::settingsFor(const SceneDescription& scene) const
-{
-  // defaults, then the scene's own, then the user's: nothing carries over from the last scene
-  return chosen_step_.applyTo(scene.solver.applyTo(StepSettings{}));
-}
-
-void SimulatorNode::loadSceneLocked(const std::string& name_or_path, const std::string& field)
-{
-  const SceneDescription description =
-      loadSceneFile(resolveScene(name_or_path, parameters_.scene_directory, field));
-  rebuildLocked(description, settingsFor(description));
 }
 
 void SimulatorNode::pushReconfigure()
 {
-  SimulatorConfig config;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    config = configFrom(parameters_, scene_);
-  }
-  reconfigure_server_->update(config);
+  const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
+  reconfigure_server_->update(configFrom(snap->parameters, *snap->scene));
 }
 
 bool SimulatorNode::resetCallback(Reset::Request& request, Reset::Response& response)
 {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    try
-    {
-      if (request.scenario.empty())
-        rebuildLocked(scene_, parameters_.step);
-      else
-        loadSceneLocked(request.scenario, "scenario");
-    }
-    catch (const InvalidInput& e)
-    {
-      return refuse(response, e.what());
-    }
-    response.success = true;
-    response.message = "reset to scene '" + scene_.name + "' (" +
-                       std::to_string(simulator_->model().numParticles()) + " particles, solve " +
-                       solveMethodName(simulator_->model().solveMethod()) + "; " +
-                       parameters_.step.integrator + " + " +
-                       stabilizationName(parameters_.step.stabilization) +
-                       ", dt = " + formatValue(parameters_.step.dt) + " s)";
-  }
-  pushReconfigure();
+  const RunnerReply reply = runner_->reset(request.scenario);
+  answer(response, reply);
+  if (reply.success)
+    pushReconfigure();
   return true;
 }
 
@@ -391,11 +310,10 @@ bool SimulatorNode::listScenesCallback(ListScenes::Request&, ListScenes::Respons
 
 bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface::Response& response)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
+  Surface surface;
   try
   {
     const SurfaceType type = parseSurfaceType(request.type, "type");
-    Surface surface;
     if (type == SurfaceType::Expression && !request.coefficients.empty())
       throw InvalidInput("coefficients", "has " + std::to_string(request.coefficients.size()) +
                                              " values, must be empty for type 'expression'");
@@ -406,205 +324,120 @@ bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface:
                          "is only for type 'expression' (type is '" + request.type + "')");
     else
       surface = makeSurface(type, request.coefficients, "coefficients");
-    SceneDescription changed = scene_;
-    setFirstSurface(changed, surface);
-    rebuildLocked(changed, parameters_.step);
   }
   catch (const InvalidInput& e)
   {
     return refuse(response, e.what());
   }
-  response.success = true;
-  response.message = "surface set to '" + request.type + "'; scene '" + scene_.name + "' reset";
-  return true;
+  return answer(response, runner_->changeScene([surface](SceneDescription& scene)
+                                               { setFirstSurface(scene, surface); },
+                                               "surface set to '" + request.type + "'"));
 }
 
 bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Response& response)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
   ChainChange chain;
   // a uint32 above INT_MAX must not wrap to a valid count
   chain.num_particles =
       static_cast<int>(std::min<double>(request.num_particles, limits::PARTICLES.high + 1));
   chain.link_length = request.link_length;
   chain.particle_mass = request.particle_mass;
-  chain.pin_first = request.pin_first;
+  switch (request.pin_first)
+  {
+    case SetChain::Request::PIN_FIRST_KEEP:
+      break;
+    case SetChain::Request::PIN_FIRST_PIN:
+      chain.pin_first = true;
+      break;
+    case SetChain::Request::PIN_FIRST_UNPIN:
+      chain.pin_first = false;
+      break;
+    default:
+      return refuse(response, "pin_first = " + std::to_string(request.pin_first) +
+                                  ", must be 0 (keep), 1 (pin) or 2 (unpin)");
+  }
   try
   {
     validateChainChange(chain, parameters_.max_particles, "");
-    SceneDescription changed = scene_;
-    setChains(changed, chain);
-    rebuildLocked(changed, parameters_.step);
   }
   catch (const InvalidInput& e)
   {
     return refuse(response, e.what());
   }
-  response.success = true;
-  response.message = "chain set to " + std::to_string(chain.num_particles) +
-                     " particles, l = " + formatValue(chain.link_length) +
-                     " m, m = " + formatValue(chain.particle_mass) + " kg; scene '" + scene_.name +
-                     "' reset (" + std::to_string(simulator_->model().numParticles()) +
-                     " particles)";
-  return true;
+  return answer(response,
+                runner_->changeScene([chain](SceneDescription& scene) { setChains(scene, chain); },
+                                     "chain set to " + std::to_string(chain.num_particles) +
+                                         " particles, l = " + formatValue(chain.link_length) +
+                                         " m, m = " + formatValue(chain.particle_mass) + " kg"));
 }
 
 bool SimulatorNode::setStateCallback(SetState::Request& request, SetState::Response& response)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const std::size_t n = static_cast<std::size_t>(simulator_->model().numParticles());
-  if (request.positions.size() != n)
-    return refuse(response, "positions has " + std::to_string(request.positions.size()) +
-                                " entries, must have one per particle (" + std::to_string(n) + ")");
-  if (!request.velocities.empty() && request.velocities.size() != n)
-    return refuse(response, "velocities has " + std::to_string(request.velocities.size()) +
-                                " entries, must be empty (at rest) or one per particle (" +
-                                std::to_string(n) + ")");
-  // finite is not enough: a teleport to 1e300 m would overflow on the first step
-  State state = simulator_->state();
-  state.positions = fromMsgs(request.positions);
-  state.velocities =
-      request.velocities.empty() ? Points(Points::Zero(3, n)) : fromMsgs(request.velocities);
-  try
-  {
-    // finite is not enough: a teleport to 1e300 m would overflow on the first step
-    for (std::size_t i = 0; i < n; ++i)
-    {
-      requireInRange("positions[" + std::to_string(i) + "]", Vec3(state.positions.col(i)),
-                     limits::COORDINATE);
-      requireInRange("velocities[" + std::to_string(i) + "]", Vec3(state.velocities.col(i)),
-                     limits::VELOCITY);
-    }
-    const ProjectionReport report = simulator_->setState(state);
-    response.max_displacement = report.max_displacement;
-    response.message =
-        "state set; projection moved particles by up to " + formatValue(report.max_displacement) +
-        " m and changed velocities by up to " + formatValue(report.max_velocity_change) + " m/s";
-  }
-  catch (const InvalidInput& e)
-  {
-    return refuse(response, e.what());
-  }
-  faulted_ = false;
-  fault_reason_.clear();
-  reanchorLocked();
-  response.success = true;
-  return true;
+  const RunnerReply reply =
+      runner_->setState(fromMsgs(request.positions),
+                        request.velocities.empty() ? Points(3, 0) : fromMsgs(request.velocities));
+  response.max_displacement = reply.max_displacement;
+  return answer(response, reply);
 }
 
 bool SimulatorNode::pauseCallback(std_srvs::Empty::Request&, std_srvs::Empty::Response&)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  paused_ = true;
+  runner_->pause();
   return true;
 }
 
 bool SimulatorNode::unpauseCallback(std_srvs::Empty::Request&, std_srvs::Empty::Response&)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  paused_ = false;
-  reanchorLocked();
+  runner_->unpause();
   return true;
 }
 
 bool SimulatorNode::stepCallback(Step::Request& request, Step::Response& response)
 {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    response.sim_time = simulator_->state().time;
-    if (!paused_)
-      return refuse(response, "the simulation is running: call ~pause before ~step");
-    if (faulted_)
-      return refuse(response, "stepping is stopped (" + fault_reason_ + ")");
-    if (!limits::STEPS_PER_CALL.contains(request.steps))
-      return refuse(response, "steps = " + std::to_string(request.steps) + ", must be in " +
-                                  limits::STEPS_PER_CALL.text());
-    stepLocked(static_cast<int>(request.steps));
-    response.sim_time = simulator_->state().time;
-    response.success = !faulted_;
-    response.message =
-        faulted_ ? fault_reason_ : "stepped " + std::to_string(request.steps) + " steps";
-  }
-  publish();
-  return true;
+  const RunnerReply reply = runner_->step(request.steps);
+  response.sim_time = reply.sim_time;
+  response.steps_taken = static_cast<std::uint32_t>(reply.steps_taken);
+  return answer(response, reply);
 }
 
 bool SimulatorNode::reconfigureCallback(const SimulatorConfig& config)
 {
-  std::lock_guard<std::mutex> lock(mutex_);
-  NodeParameters candidate = parameters_;
-  try
-  {
-    candidate.step.dt = config.dt;
-    candidate.step.integrator = findIntegrator(config.integrator).name;
-    candidate.step.stabilization = parseStabilization(config.stabilization);
-    candidate.step.baumgarte_frequency = config.baumgarte_frequency;
-    candidate.step.baumgarte_damping_ratio = config.baumgarte_damping_ratio;
-    candidate.step.adaptive_tolerance = config.adaptive_tolerance;
-    candidate.real_time_factor = config.real_time_factor;
-    candidate.publish_rate = config.publish_rate;
-    candidate.overrides.damping = config.damping;
-    candidate.overrides.gravity = Vec3(config.gravity_x, config.gravity_y, config.gravity_z);
-    validateNodeParameters(candidate);
-    simulator_->setStepSettings(candidate.step);
-    // new forces recompile the model (and restart dopri5's step control): only when they change
-    if (candidate.overrides.gravity != parameters_.overrides.gravity ||
-        candidate.overrides.damping != parameters_.overrides.damping)
-    {
-      SceneDescription changed = scene_;
-      setGravityAndDamping(changed, *candidate.overrides.gravity, config.damping);
-      simulator_->setForces(changed.forces);
-      scene_.forces = changed.forces;
-      published_model_ = std::make_shared<const Model>(simulator_->model());
-      scene_changed_ = true;
-    }
-  }
-  catch (const InvalidInput& e)
+  RunnerReply reply = runner_->reconfigure(
+      [&config](NodeParameters& candidate)
+      {
+        candidate.step.dt = config.dt;
+        candidate.step.integrator = findIntegrator(config.integrator).name;
+        candidate.step.stabilization = parseStabilization(config.stabilization);
+        candidate.step.baumgarte_frequency = config.baumgarte_frequency;
+        candidate.step.baumgarte_damping_ratio = config.baumgarte_damping_ratio;
+        candidate.step.adaptive_tolerance = config.adaptive_tolerance;
+        candidate.real_time_factor = config.real_time_factor;
+        candidate.publish_rate = config.publish_rate;
+        candidate.overrides.damping = config.damping;
+        candidate.overrides.gravity = Vec3(config.gravity_x, config.gravity_y, config.gravity_z);
+      });
+  if (!reply.success)
   {
     // named as dynparam names it: "~gravity.z" is gravity_z there, "~dt" is dt
-    std::string field = e.field();
+    std::string field = reply.field;
     if (!field.empty() && field[0] == '~')
       field.erase(0, 1);
     std::replace(field.begin(), field.end(), '.', '_');
-    const std::string reason = std::string(e.what()).substr(e.field().size());
+    const std::string reason =
+        reply.message.substr(std::min(reply.field.size(), reply.message.size()));
     ROS_WARN("dynamic_reconfigure refused: %s%s; keeping the current settings", field.c_str(),
              reason.c_str());
-    simulator_->setStepSettings(parameters_.step);
     return false;
   }
-  if (candidate.publish_rate != parameters_.publish_rate)
-    publish_timer_.setPeriod(ros::WallDuration(1.0 / candidate.publish_rate));
-  // a step setting changed here is the user's choice from now on, for every scene
-  forEachField<StepSettings>(
-      [&](const auto& spec)
-      {
-        if (candidate.step.*(spec.member) != parameters_.step.*(spec.member) &&
-            std::find(chosen_step_.given.begin(), chosen_step_.given.end(), spec.name) ==
-                chosen_step_.given.end())
-          chosen_step_.given.push_back(spec.name);
-      });
-  chosen_step_.values = candidate.step;
-  parameters_ = candidate;
-  reanchorLocked();
+  publish_timer_.setPeriod(ros::WallDuration(1.0 / config.publish_rate));
   return true;
-}
-
-void SimulatorNode::updateRateLocked()
-{
-  const Clock::time_point now = Clock::now();
-  const double wall = seconds(now - rate_wall_);
-  const double sim = simulator_->state().time;
-  if (wall > 0.0)
-    achieved_rtf_ =
-        (paused_ || faulted_ || sim < rate_sim_time_) ? 0.0 : (sim - rate_sim_time_) / wall;
-  behind_ = behind_events_ > 0;
-  behind_events_ = 0;
-  rate_wall_ = now;
-  rate_sim_time_ = sim;
 }
 
 void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
 {
+  StepStatistics statistics;
+  const std::shared_ptr<const Snapshot> snap =
+      runner_->snapshot(SimulationRunner::Reader::Diagnostics, statistics);
   diagnostic_msgs::DiagnosticStatus status;
   status.name = ros::this_node::getName() + ": physics";
   status.hardware_id = "constrained_particles";
@@ -615,31 +448,57 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
     kv.value = value;
     status.values.push_back(kv);
   };
+  const bool singular = statistics.solve.singular_count > 0;
+  const bool unconverged = !statistics.projection.converged;
+  status.level = snap->faulted ? diagnostic_msgs::DiagnosticStatus::ERROR
+                 : (snap->behind || singular || unconverged)
+                     ? diagnostic_msgs::DiagnosticStatus::WARN
+                     : diagnostic_msgs::DiagnosticStatus::OK;
+  std::string message = snap->faulted  ? snap->fault_reason
+                        : snap->paused ? (snap->stepping ? "paused, running a ~step" : "paused")
+                                       : "running";
+  if (!snap->faulted)
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    updateRateLocked();
-    const Diagnostics d = simulator_->diagnostics();
-    const bool behind = behind_ && !paused_ && !faulted_;
-    status.level = faulted_ ? diagnostic_msgs::DiagnosticStatus::ERROR
-                   : behind ? diagnostic_msgs::DiagnosticStatus::WARN
-                            : diagnostic_msgs::DiagnosticStatus::OK;
-    status.message = faulted_  ? fault_reason_
-                     : paused_ ? "paused"
-                     : behind  ? "behind: cannot keep up with the real-time factor; sim time slowed"
-                               : "running";
-    add("scenario", scene_.name);
-    add("solve", solveMethodName(simulator_->model().solveMethod()));
-    add("particles", std::to_string(simulator_->model().numParticles()));
-    add("sim_time [s]", formatValue(simulator_->state().time));
-    add("steps", std::to_string(simulator_->state().steps));
-    add("max_position_error [m]", formatValue(d.max_position_error));
-    add("max_constraint_error [m]", formatValue(parameters_.max_constraint_error));
-    add("step_time [s]", formatValue(step_time_));
-    add("real_time_factor achieved", formatValue(achieved_rtf_));
-    add("real_time_factor wanted", formatValue(parameters_.real_time_factor));
-    add("integrator", parameters_.step.integrator);
-    add("stabilization", stabilizationName(parameters_.step.stabilization));
+    if (snap->behind)
+      message += "; behind: cannot keep up with the real-time factor, sim time slowed";
+    if (singular)
+      message += "; " + std::to_string(statistics.solve.singular_count) +
+                 " singular solves (regularised) in the last second";
+    if (unconverged)
+      message += "; a projection did not converge within its iteration limit";
   }
+  status.message = message;
+  const NodeParameters& p = snap->parameters;
+  add("scenario", snap->scene->name);
+  add("solve", solveMethodName(snap->model->solveMethod()));
+  add("particles", std::to_string(snap->model->numParticles()));
+  add("sim_time [s]", formatValue(snap->state.time));
+  add("steps", std::to_string(snap->state.steps));
+  add("max_position_error [m]", formatValue(snap->diagnostics.max_position_error));
+  add("max_constraint_error [m]", formatValue(p.max_constraint_error));
+  add("total_energy [J]", formatValue(snap->diagnostics.totalEnergy()));
+  add("step_time [s]", formatValue(snap->step_time));
+  add("real_time_factor achieved", formatValue(snap->real_time_factor));
+  add("real_time_factor wanted", formatValue(p.real_time_factor));
+  add("integrator", p.step.integrator);
+  add("stabilization", stabilizationName(p.step.stabilization));
+  add("steps in the last second", std::to_string(statistics.steps));
+  add("factorizations", std::to_string(statistics.solve.factorizations));
+  add("singular solves", std::to_string(statistics.solve.singular_count));
+  add("min pivot ratio", formatValue(statistics.solve.min_pivot_ratio));
+  add("solve fallbacks", std::to_string(statistics.solve.fallbacks));
+  add("projections", std::to_string(statistics.projection.projections));
+  add("projection iterations", std::to_string(statistics.projection.iterations));
+  add("projections converged", statistics.projection.converged ? "yes" : "no");
+  add("internal steps", std::to_string(statistics.internal_steps));
+  add("rejected internal steps", std::to_string(statistics.rejected_internal_steps));
+  std::string effects;
+  forEachEffectCount(statistics.effects,
+                     [&effects](const char* name, std::uint64_t count) {
+                       effects += (effects.empty() ? "" : " ") + std::string(name) + ":" +
+                                  std::to_string(count);
+                     });
+  add("effect evaluations", effects.empty() ? "-" : effects);
   diagnostic_msgs::DiagnosticArray array;
   array.header.stamp = ros::Time::now();
   array.status.push_back(status);
@@ -648,24 +507,14 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
 
 void SimulatorNode::statusCallback(const ros::WallTimerEvent&)
 {
-  Diagnostics d;
-  double time = 0, step_time = 0;
-  bool paused = false, faulted = false, behind = false;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    behind = behind_;
-    d = simulator_->diagnostics();
-    time = simulator_->state().time;
-    step_time = step_time_;
-    paused = paused_;
-    faulted = faulted_;
-  }
-  ROS_INFO("t = %8.3f s  energy = %.6f J  max error = %.2e m  step = %.1f us%s", time,
-           d.totalEnergy(), d.max_position_error, 1e6 * step_time,
-           faulted  ? "  [FAULT: call ~reset]"
-           : paused ? "  [paused]"
-           : behind ? "  [behind: sim time slowed]"
-                    : "");
+  const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
+  ROS_INFO("t = %8.3f s  energy = %.6f J  max error = %.2e m  step = %.1f us%s", snap->state.time,
+           snap->diagnostics.totalEnergy(), snap->diagnostics.max_position_error,
+           1e6 * snap->step_time,
+           snap->faulted  ? "  [FAULT: call ~reset]"
+           : snap->paused ? "  [paused]"
+           : snap->behind ? "  [behind: sim time slowed]"
+                          : "");
 }
 
 }  // namespace constrained_particles

@@ -740,8 +740,8 @@ void setChains(SceneDescription& d, const ChainChange& change)
     spec.particles = change.num_particles;
     spec.link_length = change.link_length;
     spec.particle_mass = change.particle_mass;
-    if (spec.surface.empty())
-      spec.pin_first = change.pin_first;
+    if (spec.surface.empty() && change.pin_first)
+      spec.pin_first = *change.pin_first;
   }
 }
 

@@ -15,6 +15,7 @@ import unittest
 
 import rospy
 import rostest
+from wall_clock import WallClockWaits
 from constrained_particles.msg import SimState
 from constrained_particles.srv import ListScenes, Reset, SetChain, SetState, SetSurface, Step
 from dynamic_reconfigure.msg import Config, DoubleParameter, StrParameter
@@ -65,7 +66,7 @@ class Tally:
                 self.problems.append(f"{service}: refused without a message")
 
 
-class FuzzServicesTest(unittest.TestCase):
+class FuzzServicesTest(WallClockWaits, unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node("fuzz_services_test")
@@ -92,14 +93,14 @@ class FuzzServicesTest(unittest.TestCase):
     def _on_state(cls, msg):
         cls.latest = msg
 
-    def fresh_state(self, timeout=10.0):
+
+    def fresh_state(self):
+        """A ~state published after this call (stamped with wall time at publishing: it shows
+        every service call answered before)."""
         start = rospy.Time.now()
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            if self.latest is not None and self.latest.header.stamp > start:
-                return self.latest
-            time.sleep(0.005)
-        self.fail("no fresh ~state")
+        return self.wait_until(
+            lambda: self.latest if self.latest is not None and self.latest.header.stamp > start
+            else None, "a fresh ~state")
 
     def test_fuzz_every_service(self):
         rng = random.Random(SEED)

@@ -3,11 +3,13 @@
 import math
 import os
 import tempfile
+import time
 import unittest
 
 import dynamic_reconfigure.client
 import rospy
 import rostest
+from wall_clock import WallClockWaits
 import tf2_ros
 from constrained_particles.msg import SimState
 from constrained_particles.srv import ListScenes, Reset, SetChain, SetState, SetSurface, Step
@@ -16,6 +18,8 @@ from std_srvs.srv import Empty
 from visualization_msgs.msg import Marker, MarkerArray
 
 NODE = "/simulator"
+# wall-clock bound on a wait for something that must happen (generous: a loaded machine)
+WAIT = 30.0
 NAN = float("nan")
 INF = float("inf")
 
@@ -28,13 +32,13 @@ def distance(a, b):
     return math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b)))
 
 
-class SimulatorInterfaceTest(unittest.TestCase):
+class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node("simulator_interface_test")
         for name in ("reset", "list_scenes", "set_surface", "set_chain", "set_state", "pause",
                      "unpause", "step"):
-            rospy.wait_for_service(f"{NODE}/{name}", timeout=30.0)
+            rospy.wait_for_service(f"{NODE}/{name}", timeout=60.0)
         cls.reset = rospy.ServiceProxy(f"{NODE}/reset", Reset)
         cls.list_scenes = rospy.ServiceProxy(f"{NODE}/list_scenes", ListScenes)
         cls.set_surface = rospy.ServiceProxy(f"{NODE}/set_surface", SetSurface)
@@ -44,11 +48,13 @@ class SimulatorInterfaceTest(unittest.TestCase):
         cls.unpause = rospy.ServiceProxy(f"{NODE}/unpause", Empty)
         cls.step = rospy.ServiceProxy(f"{NODE}/step", Step)
         cls.latest_state = None
+        cls.states_received = 0
         cls.latest_forces = None
         cls.deleted_arrows = set()
         cls.latest_scene = None
         rospy.Subscriber(f"{NODE}/state", SimState, cls._on_state, queue_size=1)
-        rospy.Subscriber(f"{NODE}/constraint_forces", MarkerArray, cls._on_forces, queue_size=1)
+        # every marker array counts (the one deleting stale arrows is sent once): no dropping
+        rospy.Subscriber(f"{NODE}/constraint_forces", MarkerArray, cls._on_forces, queue_size=100)
         rospy.Subscriber(f"{NODE}/scene", MarkerArray, cls._on_scene, queue_size=1)
         cls.tf_buffer = tf2_ros.Buffer()
         cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
@@ -56,6 +62,7 @@ class SimulatorInterfaceTest(unittest.TestCase):
     @classmethod
     def _on_state(cls, msg):
         cls.latest_state = msg
+        cls.states_received += 1
 
     @classmethod
     def _on_forces(cls, msg):
@@ -74,16 +81,19 @@ class SimulatorInterfaceTest(unittest.TestCase):
     def tearDown(self):
         self.pause()
 
-    def fresh_state(self, timeout=5.0):
+
+    def fresh_state(self, timeout=WAIT):
         """A state published after this call (not one already in flight)."""
         start = rospy.Time.now()
-        deadline = start + rospy.Duration(timeout)
-        while rospy.Time.now() < deadline and not (
-                self.latest_state is not None and self.latest_state.header.stamp > start):
-            rospy.sleep(0.01)
-        self.assertIsNotNone(self.latest_state, "no ~state within timeout")
-        self.assertGreater(self.latest_state.header.stamp, start, "no new ~state within timeout")
+        self.wait_until(lambda: self.latest_state is not None and
+                        self.latest_state.header.stamp > start, "a new ~state", timeout)
         return self.latest_state
+
+    def state_after(self, earlier):
+        """The first state seen whose sim time moved on from `earlier`'s."""
+        return self.wait_until(
+            lambda: self.latest_state if self.latest_state.sim_time > earlier.sim_time else None,
+            f"a ~state past sim time {earlier.sim_time} s")
 
     def assert_refused(self, response, field):
         self.assertFalse(response.success, f"accepted, expected refusal naming {field}")
@@ -104,10 +114,8 @@ class SimulatorInterfaceTest(unittest.TestCase):
 
     def test_state_is_published_and_advances(self):
         self.unpause()
-        rospy.sleep(0.3)
-        first = self.fresh_state()
-        rospy.sleep(0.3)
-        second = self.fresh_state()
+        first = self.state_after(self.fresh_state())
+        second = self.state_after(first)
         self.assertEqual(second.scenario, "surface_chain")
         self.assertEqual(len(second.positions), 5)
         self.assertEqual(len(second.velocities), 5)
@@ -124,9 +132,13 @@ class SimulatorInterfaceTest(unittest.TestCase):
         state = self.fresh_state()
         for i, position in enumerate(positions_of(state)):
             frame = f"particle_{i}"
-            self.assertTrue(
-                self.tf_buffer.can_transform("world", frame, state.header.stamp, rospy.Duration(5.0)),
-                f"{frame} does not resolve from world")
+            # polled in wall time (can_transform's own timeout runs in rospy time)
+            deadline = time.monotonic() + WAIT
+            while not self.tf_buffer.can_transform("world", frame, state.header.stamp) and \
+                    time.monotonic() < deadline:
+                time.sleep(0.01)
+            self.assertTrue(self.tf_buffer.can_transform("world", frame, state.header.stamp),
+                            f"{frame} does not resolve from world")
             transform = self.tf_buffer.lookup_transform("world", frame, state.header.stamp)
             t = transform.transform.translation
             # tf2's Python buffer keeps stamps as doubles: equal to well under a microsecond
@@ -139,7 +151,7 @@ class SimulatorInterfaceTest(unittest.TestCase):
 
     def test_reset(self):
         self.unpause()
-        rospy.sleep(0.3)
+        self.state_after(self.fresh_state())
         self.pause()
         self.assertGreater(self.fresh_state().sim_time, 0.0)
         response = self.reset("chain")
@@ -321,8 +333,9 @@ class SimulatorInterfaceTest(unittest.TestCase):
         self.assertEqual(positions_of(runs[0]), positions_of(runs[1]))
         self.assertEqual([(v.x, v.y, v.z) for v in runs[0].velocities],
                          [(v.x, v.y, v.z) for v in runs[1].velocities])
-        # paused: time stands still
-        rospy.sleep(0.2)
+        # paused: time stands still (over at least 10 more publications: 0.2 s at 50 Hz)
+        count = self.states_received
+        self.wait_until(lambda: self.states_received >= count + 10, "10 more ~state messages")
         self.assertEqual(self.fresh_state().steps, 250)
         self.assert_refused(self.step(0), "steps")
         self.assert_refused(self.step(10**7), "steps")
@@ -334,11 +347,11 @@ class SimulatorInterfaceTest(unittest.TestCase):
     def test_constraint_force_markers_match_state(self):
         state = self.fresh_state()
         # markers of the same publish tick or later (paused: identical content)
-        deadline = rospy.Time.now() + rospy.Duration(5.0)
-        while rospy.Time.now() < deadline and not (
+        deadline = time.monotonic() + WAIT
+        while time.monotonic() < deadline and not (
                 self.latest_forces and self.latest_forces.markers
                 and self.latest_forces.markers[0].header.stamp >= state.header.stamp):
-            rospy.sleep(0.01)
+            time.sleep(0.01)
         self.assertIsNotNone(self.latest_forces)
         self.assertGreaterEqual(self.latest_forces.markers[0].header.stamp, state.header.stamp)
         scale = rospy.get_param(f"{NODE}/force_scale")
@@ -356,19 +369,19 @@ class SimulatorInterfaceTest(unittest.TestCase):
         # fewer particles: the stale arrows are deleted
         type(self).deleted_arrows = set()
         self.assertTrue(self.set_chain(3, 0.5, 1.0, True).success)
-        deadline = rospy.Time.now() + rospy.Duration(5.0)
-        while rospy.Time.now() < deadline and self.deleted_arrows != {3, 4}:
-            rospy.sleep(0.01)
+        deadline = time.monotonic() + WAIT
+        while time.monotonic() < deadline and self.deleted_arrows != {3, 4}:
+            time.sleep(0.01)
         self.assertEqual(self.deleted_arrows, {3, 4})
 
     def test_scene_markers(self):
         # a message published before setUp's reset may still be in flight: wait for a newer one
         start = rospy.Time.now()
-        deadline = start + rospy.Duration(5.0)
-        while rospy.Time.now() < deadline and not (
+        deadline = time.monotonic() + WAIT
+        while time.monotonic() < deadline and not (
                 self.latest_scene and self.latest_scene.markers
                 and self.latest_scene.markers[0].header.stamp >= start):
-            rospy.sleep(0.01)
+            time.sleep(0.01)
         self.assertIsNotNone(self.latest_scene)
         self.assertGreaterEqual(self.latest_scene.markers[0].header.stamp, start)
         by_ns = {m.ns: m for m in self.latest_scene.markers}
@@ -383,7 +396,7 @@ class SimulatorInterfaceTest(unittest.TestCase):
     # --- dynamic_reconfigure ---
 
     def test_reconfigure_dt_and_integrator(self):
-        client = dynamic_reconfigure.client.Client(NODE, timeout=10.0)
+        client = dynamic_reconfigure.client.Client(NODE, timeout=60.0)
         try:
             config = client.update_configuration({"dt": 0.002, "integrator": "semi_implicit_euler"})
             self.assertAlmostEqual(config["dt"], 0.002)

@@ -1,13 +1,22 @@
 #!/usr/bin/python3
 """A bad parameter at start-up stops simulator_node with a message naming the parameter."""
+import os
 import subprocess
+import tempfile
+import time
 import unittest
 
 import rospy
 import rostest
+from constrained_particles.msg import SimState
+from constrained_particles.srv import ListScenes
+
+# wall-clock bounds on waits for something that must happen: a node start on a loaded machine
+# can take 10 s and more
+STARTUP = 60.0
 
 
-def run_node(name, *assignments, timeout=30.0):
+def run_node(name, *assignments, timeout=STARTUP):
     """Starts simulator_node with private parameter assignments; returns (exit code, output)."""
     command = ["rosrun", "constrained_particles", "simulator_node", f"__name:={name}"]
     command += [f"_{key}:={value}" for key, value in assignments]
@@ -51,8 +60,55 @@ class StartupParametersTest(unittest.TestCase):
 
     def test_good_parameters_run(self):
         for index, scene in enumerate(("bead", "mobile")):
-            code, output = run_node(f"good_simulator_{index}", ("scenario", scene), timeout=5.0)
-            self.assertIsNone(code, f"node with good parameters exited: {output}")
+            name = f"good_simulator_{index}"
+            with tempfile.TemporaryDirectory() as folder:
+                path = os.path.join(folder, "output.log")
+                with open(path, "w") as log:
+                    node = subprocess.Popen(
+                        ["rosrun", "constrained_particles", "simulator_node", f"__name:={name}",
+                         f"_scenario:={scene}"], stdout=log, stderr=subprocess.STDOUT)
+
+                def output():
+                    with open(path, errors="replace") as log:
+                        return log.read()
+                states = []
+                subscriber = rospy.Subscriber(f"/{name}/state", SimState, states.append)
+                try:
+                    # running = serving (a service answers only once the node is constructed:
+                    # parameters read, scene built) and publishing a while (10 ~state messages)
+                    served = self.answers(f"/{name}/list_scenes", node, STARTUP)
+                    deadline = time.monotonic() + STARTUP
+                    while served and node.poll() is None and len(states) < 10 and \
+                            time.monotonic() < deadline:
+                        time.sleep(0.05)
+                    self.assertIsNone(node.poll(), f"node with good parameters exited: {output()}")
+                    self.assertTrue(served, f"node with good parameters did not serve within "
+                                            f"{STARTUP} s: {output()}")
+                    self.assertGreaterEqual(len(states), 10, f"node with good parameters did not "
+                                            f"publish 10 ~state within {STARTUP} s: {output()}")
+                finally:
+                    subscriber.unregister()
+                    node.terminate()
+                    try:
+                        node.wait(timeout=30)
+                    except subprocess.TimeoutExpired:
+                        node.kill()
+                        node.wait()
+
+    @staticmethod
+    def answers(service, node, timeout):
+        """Polls `service` until a call to it succeeds (True), the node exits or the wall-clock
+        deadline passes (False)."""
+        deadline = time.monotonic() + timeout
+        proxy = rospy.ServiceProxy(service, ListScenes)
+        while node.poll() is None and time.monotonic() < deadline:
+            try:
+                rospy.wait_for_service(service, timeout=max(0.1, min(1.0, deadline - time.monotonic())))
+                proxy()
+                return True
+            except (rospy.ROSException, rospy.ServiceException):
+                time.sleep(0.1)
+        return False
 
 
 if __name__ == "__main__":

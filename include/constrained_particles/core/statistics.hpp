@@ -3,6 +3,7 @@
 /// over a batch of steps (MuJoCo keeps its warnings and solver statistics in mjData likewise).
 #pragma once
 
+#include "constrained_particles/core/effect_fields.hpp"
 #include "constrained_particles/core/model.hpp"
 
 #include <array>
@@ -67,7 +68,22 @@ struct EffectCounters
   }
   /// Counts since `earlier` (a copy taken before).
   EffectCounters since(const EffectCounters& earlier) const;
+  /// Adds `other`'s counts (two batches counted as one).
+  void add(const EffectCounters& other);
 };
+
+/// Calls visit(kind, count) for each force kind, then each constraint kind, counted at least
+/// once (kind as scene files name it: "gravity", "link", ...).
+template <typename Visit>
+void forEachEffectCount(const EffectCounters& counters, Visit&& visit)
+{
+  for (std::size_t k = 0; k < counters.forces.size(); ++k)
+    if (counters.forces[k] > 0)
+      visit(KindNames<Force>::value[k], counters.forces[k]);
+  for (std::size_t k = 0; k < counters.constraints.size(); ++k)
+    if (counters.constraints[k] > 0)
+      visit(KindNames<Constraint>::value[k], counters.constraints[k]);
+}
 
 /// The worst and the totals over factorisations.
 struct SolveStatistics
@@ -92,6 +108,8 @@ struct SolveStatistics
     regularization =
         report.regularization > regularization ? report.regularization : regularization;
   }
+  /// Takes in another batch's statistics: totals add, worst values stay worst.
+  void merge(const SolveStatistics& other);
 };
 
 /// The worst and the totals over projections (and velocity Verlet's SHAKE/RATTLE).
@@ -106,6 +124,8 @@ struct ProjectionStatistics
   bool singular = false;           ///< any was singular
 
   void merge(const ProjectionReport& report);
+  /// Takes in another batch's statistics: totals add, worst values stay worst.
+  void merge(const ProjectionStatistics& other);
 };
 
 /// Statistics of a batch of steps (Simulator::step(count)): the worst and the totals over all of
@@ -119,6 +139,9 @@ struct StepStatistics
   long rejected_internal_steps = 0;  ///< dopri5: internal steps rejected and retaken smaller
   long forced_internal_steps = 0;    ///< dopri5: dt ends taken unchecked after 1e6 attempts
   EffectCounters effects;            ///< evaluations during the batch
+
+  /// Takes in the statistics of a later batch, as if both had been one.
+  void merge(const StepStatistics& later);
 };
 
 }  // namespace constrained_particles

@@ -45,7 +45,7 @@ struct NodeParameters
   std::vector<std::string> step_given;
   double real_time_factor = 1.0;           ///< sim seconds per wall second
   double publish_rate = 30.0;              ///< [Hz]
-  double status_period = 1.0;              ///< status log period [s], 0 = off
+  double status_period = 0.0;              ///< status log period [s], 0 = off (default)
   int max_particles = 100000;              ///< largest scene accepted
   std::string fixed_frame = "world";       ///< parent of every particle frame
   std::string frame_prefix = "particle_";  ///< child frame = prefix + index

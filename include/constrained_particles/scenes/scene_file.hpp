@@ -11,6 +11,7 @@
 #include "constrained_particles/core/scene.hpp"
 #include "constrained_particles/core/settings.hpp"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -77,7 +78,8 @@ struct ChainChange
   int num_particles = 5;       ///< n, limits::PARTICLES (and the node's ~max_particles)
   double link_length = 0.5;    ///< l [m], limits::LINK_LENGTH
   double particle_mass = 1.0;  ///< [kg], limits::MASS
-  bool pin_first = true;       ///< chains not on a surface: pin the first particle
+  /// chains not on a surface: pin (true) or free (false) the first particle; unset keeps it
+  std::optional<bool> pin_first;
 };
 
 /// @param max_particles largest count accepted (at most limits::PARTICLES.high)

@@ -1,0 +1,212 @@
+/// @file simulation_runner.hpp
+/// @brief The thread that owns the simulation. Only it steps; every change (reset, new surface or
+/// chain, teleport, pause, step N, reconfigure) is queued as a request and applied between
+/// batches of steps, and its caller is answered once it is applied (turtlesim's queue-and-apply
+/// shape). After batches it hands out immutable snapshots, so publishers never take a lock the
+/// physics holds and never solve anything. Needs no ROS master: the core tests drive it directly.
+#pragma once
+
+#include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/ros/parameters.hpp"
+#include "constrained_particles/scenes/scene_file.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+namespace constrained_particles
+{
+/// How a request ended.
+struct RunnerReply
+{
+  bool success = false;
+  std::string message;            ///< what was done, or why not (naming the field)
+  std::string field;              ///< the refused field, when one was named
+  double sim_time = 0;            ///< sim time once applied [s]
+  std::uint64_t steps_taken = 0;  ///< ~step: steps taken (fewer if interrupted or faulted)
+  double max_displacement = 0;    ///< teleport: largest move of a particle by projection [m]
+  /// Batches of steps that ended between queueing and applying the request: at most 1, the one
+  /// under way (a request waits for no more than one batch).
+  std::uint64_t batches_waited = 0;
+};
+
+/// Everything publishing needs, taken after a batch or a request; never changed afterwards.
+struct Snapshot
+{
+  std::uint64_t serial = 0;        ///< one more for each snapshot
+  std::uint64_t scene_serial = 0;  ///< one more for each model change (frames, markers); from 1
+  std::shared_ptr<const Model> model;
+  std::shared_ptr<const SceneDescription> scene;  ///< with the changes requests made to it
+  NodeParameters parameters;  ///< in force: step settings, real-time factor, publish rate
+  State state;
+  /// Constraint forces [N] (3 x n) and multipliers as the last step used them (its last stage;
+  /// after a reset or teleport, at the new state).
+  Points constraint_forces;
+  Eigen::VectorXd multipliers;
+  Diagnostics diagnostics;  ///< errors and energies of `state`
+  /// Monotone clock [s]: sim time plus the time of every earlier reset, plus TIME_JUMP per reset
+  /// or teleport, so a stamp taken from it is never repeated or earlier than one before.
+  double stamp = 0;
+  double step_time = 0;         ///< wall time per step over the last batch [s]
+  double real_time_factor = 0;  ///< achieved sim seconds per wall second over the last window
+  bool behind = false;          ///< sustained lag behind the wanted real-time factor
+  bool paused = false;
+  bool stepping = false;  ///< a ~step request is running
+  bool faulted = false;   ///< stepping stopped until a reset (fault_reason says why)
+  std::string fault_reason;
+};
+
+/// Runs one simulation on its own thread.
+class SimulationRunner
+{
+public:
+  /// Longest wall time one batch of steps may take before the runner applies requests and
+  /// offers a snapshot; at least one step is always taken.
+  static constexpr double BATCH_WALL_TIME = 0.02;  // [s]
+  /// Steps are taken in chunks of about this wall time, each checked for a fault (non-finite
+  /// state, constraint error over ~max_constraint_error): a fault keeps every good chunk.
+  static constexpr double CHECK_WALL_TIME = 0.002;  // [s]
+  /// Forward jump of Snapshot::stamp at each reset or teleport [s].
+  static constexpr double TIME_JUMP = 1e-3;
+  /// Window over which the achieved real-time factor and the lag are measured [s].
+  static constexpr double RATE_WINDOW = 1.0;
+  /// `behind` turns on when more than this fraction of the wanted sim time was dropped in each
+  /// of BEHIND_WINDOWS windows in a row, and off after a window below BEHIND_CLEAR.
+  static constexpr double BEHIND_SET = 0.05;
+  static constexpr int BEHIND_WINDOWS = 2;
+  static constexpr double BEHIND_CLEAR = 0.01;
+
+  /// Who reads statistics: each gets the merged statistics of every step since it last read.
+  enum class Reader
+  {
+    State,
+    Diagnostics
+  };
+
+  /// Compiles `scene` with `parameters` (its `solver` section, then the step settings the user
+  /// gave: parameters.step_given). Does not step until start().
+  /// @throws InvalidInput naming the bad field; nothing is started
+  SimulationRunner(const NodeParameters& parameters, const SceneDescription& scene);
+  ~SimulationRunner();
+
+  SimulationRunner(const SimulationRunner&) = delete;
+  SimulationRunner& operator=(const SimulationRunner&) = delete;
+
+  /// Starts the physics thread (running, or paused when `paused`).
+  void start(bool paused = false);
+  /// Stops the physics thread; waiting requests are refused. Returns false if the thread is
+  /// still inside a step after `timeout` (it exits after that step; the destructor waits).
+  bool stop(std::chrono::milliseconds timeout);
+
+  /// The latest snapshot (never null after construction).
+  std::shared_ptr<const Snapshot> snapshot() const;
+  /// The latest snapshot, and in `statistics` those of every step up to it since `reader` last
+  /// called this, merged (taken together, so they match the snapshot exactly).
+  std::shared_ptr<const Snapshot> snapshot(Reader reader, StepStatistics& statistics);
+
+  // Requests: each blocks until the physics thread applied it between batches (or refused it).
+  /// Back to the start of the current scene (`scenario` empty) or of another scene (a name in
+  /// ~scene_directory or a file path), with its own solver settings under the user's.
+  RunnerReply reset(const std::string& scenario);
+  /// Changes the current scene's description with `edit` (which throws InvalidInput to refuse)
+  /// and resets to it; `what` starts the reply ("surface set to 'bowl'").
+  RunnerReply changeScene(const std::function<void(SceneDescription&)>& edit,
+                          const std::string& what);
+  /// Teleports (projected onto the constraints); time is kept.
+  RunnerReply setState(const Points& positions, const Points& velocities);
+  RunnerReply pause();
+  RunnerReply unpause();
+  /// While paused: `steps` steps in batches; a pause, unpause, reset or scene change sent
+  /// meanwhile stops it at the next batch (the reply says how many were taken).
+  RunnerReply step(std::uint64_t steps);
+  /// Edits a copy of the node parameters (step settings, real-time factor, publish rate, gravity
+  /// and damping overrides) and applies it if every value is valid; refused otherwise, naming
+  /// the field, with nothing changed.
+  RunnerReply reconfigure(const std::function<void(NodeParameters&)>& edit);
+
+private:
+  using Clock = std::chrono::steady_clock;
+  struct Request
+  {
+    std::function<RunnerReply()> apply;
+    std::promise<RunnerReply> reply;
+    std::uint64_t queued_at_batch = 0;
+  };
+  struct StepRequest
+  {
+    std::uint64_t wanted = 0;
+    std::uint64_t taken = 0;
+    std::shared_ptr<std::promise<RunnerReply>> reply;
+  };
+
+  RunnerReply submit(std::function<RunnerReply()> apply);
+  /// Waits for a reply, giving up (refused) when the runner stops.
+  RunnerReply await(std::future<RunnerReply>& future);
+  void loop();
+  /// Applies the queued requests; true if there were any.
+  bool applyRequests();
+  /// One batch of due steps, bounded by BATCH_WALL_TIME; false if none were due.
+  bool runBatch();
+  /// Why `state` is a fault, or empty if it is not.
+  std::string faultIn(const State& state) const;
+  /// Stops stepping, puts back `good` and records why.
+  void fault(const std::string& reason, const State& good);
+  /// Ends a running ~step early (nothing if none runs).
+  void interruptStep(const std::string& by);
+  void finishStep(bool success, const std::string& message);
+  /// Rebuilds from `description` with `settings` (which become current) and resets.
+  /// @throws InvalidInput; nothing changes
+  void rebuild(const SceneDescription& description, const StepSettings& settings);
+  /// The defaults, then the scene's `solver` section, then the step settings the user chose.
+  StepSettings settingsFor(const SceneDescription& scene) const;
+  /// Restarts wall-time pacing from the current sim time.
+  void reanchor();
+  void updateRate(Clock::time_point now);
+  void makeSnapshot();
+
+  // owned by the physics thread once started (the constructor and stop() before it)
+  NodeParameters parameters_;
+  SolverSpec chosen_step_;  // the user's step settings: over every scene's own
+  std::unique_ptr<Simulator> simulator_;
+  std::shared_ptr<const Model> model_copy_;
+  std::shared_ptr<const SceneDescription> scene_;
+  std::uint64_t scene_serial_ = 1, snapshot_serial_ = 0;  // 0: none yet, for readers
+  bool paused_ = false, faulted_ = false;
+  std::string fault_reason_;
+  std::optional<StepRequest> step_request_;
+  State last_good_;
+  Points forces_;  // the constraint forces and multipliers of the snapshot to come
+  Eigen::VectorXd multipliers_;
+  double clock_base_ = 0;  // Snapshot::stamp - sim time [s]
+  double step_time_ = 0, step_time_estimate_ = 0;
+  Clock::time_point anchor_wall_, window_wall_, last_snapshot_wall_;
+  double anchor_sim_ = 0, window_sim_ = 0, window_dropped_ = 0, achieved_rtf_ = 0;
+  int lagging_windows_ = 0;
+  bool behind_ = false, window_valid_ = false, snapshot_due_ = true;
+
+  mutable std::mutex queue_mutex_;  // guards the queue and the wake-up
+  std::condition_variable wake_;
+  std::deque<std::shared_ptr<Request>> queue_;
+  std::uint64_t batches_ = 0;  // batches run, for RunnerReply::batches_waited
+  std::atomic<bool> stopping_{ false };
+  std::mutex exit_mutex_;
+  std::condition_variable exited_cv_;
+  bool exited_ = false;
+  std::thread thread_;
+
+  mutable std::mutex snapshot_mutex_;  // guards the two below; held only to swap pointers
+  std::shared_ptr<const Snapshot> snapshot_;
+  std::array<StepStatistics, 2> unread_;  // per Reader, up to snapshot_
+  StepStatistics pending_;                // physics thread: batches since the last snapshot
+};
+
+}  // namespace constrained_particles

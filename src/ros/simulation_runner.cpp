@@ -1,0 +1,620 @@
+#include "constrained_particles/ros/simulation_runner.hpp"
+
+#include "constrained_particles/core/integrators.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace constrained_particles
+{
+namespace
+{
+constexpr auto IDLE_WAIT = std::chrono::milliseconds(100);
+constexpr auto REPLY_POLL = std::chrono::milliseconds(50);
+
+double seconds(std::chrono::steady_clock::duration d)
+{
+  return std::chrono::duration<double>(d).count();
+}
+
+RunnerReply refused(const std::string& message)
+{
+  RunnerReply reply;
+  reply.success = false;
+  reply.message = message;
+  return reply;
+}
+
+}  // namespace
+
+SimulationRunner::SimulationRunner(const NodeParameters& parameters, const SceneDescription& scene)
+  : parameters_(parameters)
+{
+  chosen_step_.values = parameters.step;
+  chosen_step_.given = parameters.step_given;
+  if (scene.numParticles() > parameters_.max_particles)
+    throw InvalidInput(
+        "~scenario",
+        "= '" + parameters_.scenario + "' has " + std::to_string(scene.numParticles()) +
+            " particles, over ~max_particles = " + std::to_string(parameters_.max_particles));
+  const StepSettings settings = settingsFor(scene);
+  const BuiltScene built = buildScene(scene);
+  simulator_ = std::make_unique<Simulator>(built.scene, built.initial_state, settings,
+                                           scene.solver.solve_method);
+  parameters_.step = settings;
+  scene_ = std::make_shared<const SceneDescription>(scene);
+  model_copy_ = std::make_shared<const Model>(simulator_->model());
+  simulator_->constraintForces(forces_, multipliers_);
+  makeSnapshot();
+}
+
+SimulationRunner::~SimulationRunner()
+{
+  stopping_ = true;
+  wake_.notify_all();
+  if (thread_.joinable())
+    thread_.join();
+}
+
+void SimulationRunner::start(bool paused)
+{
+  paused_ = paused;
+  reanchor();
+  window_wall_ = Clock::now();
+  window_sim_ = simulator_->state().time;
+  window_valid_ = true;
+  thread_ = std::thread(&SimulationRunner::loop, this);
+}
+
+bool SimulationRunner::stop(std::chrono::milliseconds timeout)
+{
+  stopping_ = true;
+  wake_.notify_all();
+  if (!thread_.joinable())
+    return true;
+  std::unique_lock<std::mutex> lock(exit_mutex_);
+  if (!exited_cv_.wait_for(lock, timeout, [this] { return exited_; }))
+    return false;
+  lock.unlock();
+  thread_.join();
+  return true;
+}
+
+std::shared_ptr<const Snapshot> SimulationRunner::snapshot() const
+{
+  std::lock_guard<std::mutex> lock(snapshot_mutex_);
+  return snapshot_;
+}
+
+std::shared_ptr<const Snapshot> SimulationRunner::snapshot(Reader reader,
+                                                           StepStatistics& statistics)
+{
+  std::lock_guard<std::mutex> lock(snapshot_mutex_);
+  statistics = StepStatistics{};
+  std::swap(statistics, unread_[static_cast<int>(reader)]);
+  return snapshot_;
+}
+
+RunnerReply SimulationRunner::await(std::future<RunnerReply>& future)
+{
+  while (future.wait_for(REPLY_POLL) != std::future_status::ready)
+    if (stopping_ && future.wait_for(std::chrono::seconds(0)) != std::future_status::ready)
+      return refused("the node is shutting down");
+  return future.get();
+}
+
+RunnerReply SimulationRunner::submit(std::function<RunnerReply()> apply)
+{
+  auto request = std::make_shared<Request>();
+  request->apply = std::move(apply);
+  std::future<RunnerReply> future = request->reply.get_future();
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (stopping_)
+      return refused("the node is shutting down");
+    request->queued_at_batch = batches_;
+    queue_.push_back(request);
+  }
+  wake_.notify_all();
+  return await(future);
+}
+
+// ---- requests (their lambdas run on the physics thread) ----
+
+RunnerReply SimulationRunner::reset(const std::string& scenario)
+{
+  return submit(
+      [this, scenario]
+      {
+        if (scenario.empty())
+        {
+          rebuild(*scene_, parameters_.step);
+        }
+        else
+        {
+          const SceneDescription description =
+              loadSceneFile(resolveScene(scenario, parameters_.scene_directory, "scenario"));
+          rebuild(description, settingsFor(description));
+        }
+        RunnerReply reply;
+        reply.success = true;
+        reply.message = "reset to scene '" + scene_->name + "' (" +
+                        std::to_string(simulator_->model().numParticles()) + " particles, solve " +
+                        solveMethodName(simulator_->model().solveMethod()) + "; " +
+                        parameters_.step.integrator + " + " +
+                        stabilizationName(parameters_.step.stabilization) +
+                        ", dt = " + formatValue(parameters_.step.dt) + " s)";
+        return reply;
+      });
+}
+
+RunnerReply SimulationRunner::changeScene(const std::function<void(SceneDescription&)>& edit,
+                                          const std::string& what)
+{
+  return submit(
+      [this, edit, what]
+      {
+        SceneDescription changed = *scene_;
+        edit(changed);
+        rebuild(changed, parameters_.step);
+        RunnerReply reply;
+        reply.success = true;
+        reply.message = what + "; scene '" + scene_->name + "' reset (" +
+                        std::to_string(simulator_->model().numParticles()) + " particles)";
+        return reply;
+      });
+}
+
+RunnerReply SimulationRunner::setState(const Points& positions, const Points& velocities)
+{
+  return submit(
+      [this, positions, velocities]
+      {
+        const int n = simulator_->model().numParticles();
+        if (positions.cols() != n)
+          throw InvalidInput("positions", "has " + std::to_string(positions.cols()) +
+                                              " entries, must have one per particle (" +
+                                              std::to_string(n) + ")");
+        if (velocities.size() != 0 && velocities.cols() != n)
+          throw InvalidInput("velocities",
+                             "has " + std::to_string(velocities.cols()) +
+                                 " entries, must be empty (at rest) or one per particle (" +
+                                 std::to_string(n) + ")");
+        State state = simulator_->state();
+        state.positions = positions;
+        state.velocities = velocities.size() == 0 ? Points(Points::Zero(3, n)) : velocities;
+        // finite is not enough: a teleport to 1e300 m would overflow on the first step
+        for (int i = 0; i < n; ++i)
+        {
+          requireInRange("positions[" + std::to_string(i) + "]", Vec3(state.positions.col(i)),
+                         limits::COORDINATE);
+          requireInRange("velocities[" + std::to_string(i) + "]", Vec3(state.velocities.col(i)),
+                         limits::VELOCITY);
+        }
+        const ProjectionReport report = simulator_->setState(state);
+        interruptStep("~set_state");
+        faulted_ = false;
+        fault_reason_.clear();
+        clock_base_ += TIME_JUMP;
+        simulator_->constraintForces(forces_, multipliers_);
+        reanchor();
+        RunnerReply reply;
+        reply.success = true;
+        reply.max_displacement = report.max_displacement;
+        reply.message = "state set; projection moved particles by up to " +
+                        formatValue(report.max_displacement) +
+                        " m and changed velocities by up to " +
+                        formatValue(report.max_velocity_change) + " m/s";
+        return reply;
+      });
+}
+
+RunnerReply SimulationRunner::pause()
+{
+  return submit(
+      [this]
+      {
+        interruptStep("~pause");
+        paused_ = true;
+        RunnerReply reply;
+        reply.success = true;
+        reply.message = "paused";
+        return reply;
+      });
+}
+
+RunnerReply SimulationRunner::unpause()
+{
+  return submit(
+      [this]
+      {
+        interruptStep("~unpause");
+        paused_ = false;
+        reanchor();
+        RunnerReply reply;
+        reply.success = true;
+        reply.message =
+            faulted_ ? "unpaused, but stepping is stopped (" + fault_reason_ + ")" : "running";
+        return reply;
+      });
+}
+
+RunnerReply SimulationRunner::step(std::uint64_t steps)
+{
+  // the promise outlives this call if the runner stops first
+  auto promise = std::make_shared<std::promise<RunnerReply>>();
+  std::future<RunnerReply> future = promise->get_future();
+  RunnerReply immediate = submit(
+      [this, steps, promise]
+      {
+        if (!paused_)
+          return refused("the simulation is running: call ~pause before ~step");
+        if (faulted_)
+          return refused("stepping is stopped (" + fault_reason_ + ")");
+        if (step_request_)
+          return refused("a ~step of " + std::to_string(step_request_->wanted) +
+                         " steps is running (" + std::to_string(step_request_->taken) +
+                         " taken): wait for it, or ~pause to stop it");
+        if (!limits::STEPS_PER_CALL.contains(static_cast<double>(steps)))
+          throw InvalidInput("steps", "= " + std::to_string(steps) + ", must be in " +
+                                          limits::STEPS_PER_CALL.text());
+        step_request_.emplace();
+        step_request_->wanted = steps;
+        step_request_->reply = promise;
+        RunnerReply accepted;
+        accepted.success = true;
+        return accepted;
+      });
+  if (!immediate.success)
+    return immediate;
+  return await(future);
+}
+
+RunnerReply SimulationRunner::reconfigure(const std::function<void(NodeParameters&)>& edit)
+{
+  return submit(
+      [this, edit]
+      {
+        NodeParameters candidate = parameters_;
+        edit(candidate);
+        validateNodeParameters(candidate);
+        simulator_->setStepSettings(candidate.step);
+        // new forces recompile the model (and restart dopri5's step control): only on a change
+        if (candidate.overrides.gravity != parameters_.overrides.gravity ||
+            candidate.overrides.damping != parameters_.overrides.damping)
+        {
+          SceneDescription changed = *scene_;
+          setGravityAndDamping(changed, candidate.overrides.gravity.value_or(sceneGravity(changed)),
+                               candidate.overrides.damping.value_or(sceneDamping(changed)));
+          try
+          {
+            simulator_->setForces(changed.forces);
+          }
+          catch (const InvalidInput&)
+          {
+            simulator_->setStepSettings(parameters_.step);
+            throw;
+          }
+          scene_ = std::make_shared<const SceneDescription>(changed);
+          model_copy_ = std::make_shared<const Model>(simulator_->model());
+          ++scene_serial_;
+        }
+        // a step setting changed here is the user's choice from now on, for every scene
+        forEachField<StepSettings>(
+            [&](const auto& spec)
+            {
+              if (candidate.step.*(spec.member) != parameters_.step.*(spec.member) &&
+                  std::find(chosen_step_.given.begin(), chosen_step_.given.end(), spec.name) ==
+                      chosen_step_.given.end())
+                chosen_step_.given.push_back(spec.name);
+            });
+        chosen_step_.values = candidate.step;
+        parameters_ = candidate;
+        reanchor();
+        RunnerReply reply;
+        reply.success = true;
+        reply.message = "reconfigured";
+        return reply;
+      });
+}
+
+// ---- the physics thread ----
+
+void SimulationRunner::loop()
+{
+  while (!stopping_)
+  {
+    const bool applied = applyRequests();
+    const bool stepped = !stopping_ && runBatch();
+    const Clock::time_point now = Clock::now();
+    updateRate(now);
+    if (snapshot_due_ || applied ||
+        (stepped && seconds(now - last_snapshot_wall_) >= 1.0 / parameters_.publish_rate))
+      makeSnapshot();
+    if (step_request_ && step_request_->taken == step_request_->wanted)
+      finishStep(true, "stepped " + std::to_string(step_request_->taken) + " steps");
+    if (stepped || stopping_)
+      continue;
+    // idle: until a request, the next due step, or a while (to refresh the rate window)
+    Clock::time_point wake = now + IDLE_WAIT;
+    if (!paused_ && !faulted_)
+    {
+      const double dt = simulator_->stepSettings().dt;
+      const double until_next =
+          (simulator_->state().time + dt - anchor_sim_) / parameters_.real_time_factor;
+      wake = std::min(wake, anchor_wall_ + std::chrono::duration_cast<Clock::duration>(
+                                               std::chrono::duration<double>(until_next)));
+    }
+    std::unique_lock<std::mutex> lock(queue_mutex_);
+    wake_.wait_until(lock, wake, [this] { return stopping_ || !queue_.empty(); });
+  }
+  // refuse what is still queued, and a running ~step with what it took
+  std::deque<std::shared_ptr<Request>> left;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    left.swap(queue_);
+  }
+  for (const auto& request : left)
+    request->reply.set_value(refused("the node is shutting down"));
+  if (step_request_)
+    finishStep(false, "the node is shutting down after " + std::to_string(step_request_->taken) +
+                          " of " + std::to_string(step_request_->wanted) + " steps");
+  std::lock_guard<std::mutex> lock(exit_mutex_);
+  exited_ = true;
+  exited_cv_.notify_all();
+}
+
+bool SimulationRunner::applyRequests()
+{
+  std::deque<std::shared_ptr<Request>> requests;
+  std::uint64_t batches = 0;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    requests.swap(queue_);
+    batches = batches_;
+  }
+  if (requests.empty())
+    return false;
+  std::vector<RunnerReply> replies;
+  for (const auto& request : requests)
+  {
+    try
+    {
+      replies.push_back(request->apply());
+    }
+    catch (const InvalidInput& e)
+    {
+      replies.push_back(refused(e.what()));
+      replies.back().field = e.field();
+    }
+    replies.back().sim_time = simulator_->state().time;
+    replies.back().batches_waited = batches - request->queued_at_batch;
+  }
+  // answered after the snapshot, so a caller reading it sees what it asked for
+  makeSnapshot();
+  for (std::size_t k = 0; k < requests.size(); ++k)
+    requests[k]->reply.set_value(replies[k]);
+  return true;
+}
+
+bool SimulationRunner::runBatch()
+{
+  if (faulted_ || (paused_ && !step_request_))
+    return false;
+  const double dt = simulator_->stepSettings().dt;
+  const Clock::time_point start = Clock::now();
+  std::uint64_t wanted = 0;
+  if (step_request_)
+  {
+    wanted = step_request_->wanted - step_request_->taken;
+  }
+  else
+  {
+    const double target =
+        anchor_sim_ + parameters_.real_time_factor * seconds(start - anchor_wall_);
+    const double due = std::floor((target - simulator_->state().time) / dt + 1e-9);
+    if (!(due >= 1.0))
+      return false;
+    wanted = static_cast<std::uint64_t>(std::min(due, 1e15));
+  }
+  last_good_ = simulator_->state();
+  std::uint64_t taken = 0;
+  StepStatistics batch;
+  while (taken < wanted && !faulted_)
+  {
+    // chunks of about CHECK_WALL_TIME, each checked: a fault loses only the chunk it happened in
+    const double left = std::min(CHECK_WALL_TIME, BATCH_WALL_TIME - seconds(Clock::now() - start));
+    const double fit = step_time_estimate_ > 0 ? left / step_time_estimate_ : 1.0;
+    const auto chunk = static_cast<int>(std::clamp<double>(
+        std::floor(fit), 1.0, std::min<double>(static_cast<double>(wanted - taken), 1e6)));
+    const Clock::time_point chunk_start = Clock::now();
+    batch.merge(simulator_->step(chunk));
+    step_time_estimate_ = seconds(Clock::now() - chunk_start) / chunk;
+    if (const std::string reason = faultIn(simulator_->state()); !reason.empty())
+      fault(reason, last_good_);
+    else
+    {
+      taken += static_cast<std::uint64_t>(chunk);
+      last_good_ = simulator_->state();
+      forces_ = simulator_->data().constraint_forces;
+      multipliers_ = simulator_->data().multipliers;
+    }
+    if (seconds(Clock::now() - start) >= BATCH_WALL_TIME || stopping_)
+      break;
+  }
+  step_time_ =
+      seconds(Clock::now() - start) / static_cast<double>(std::max<std::uint64_t>(taken, 1));
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    ++batches_;
+  }
+  pending_.merge(batch);
+  if (step_request_)
+  {
+    step_request_->taken += taken;
+    if (faulted_)
+      finishStep(false, fault_reason_ + " (" + std::to_string(step_request_->taken) + " of " +
+                            std::to_string(step_request_->wanted) + " steps kept)");
+  }
+  else if (!faulted_ && taken < wanted)
+  {
+    // behind wall time: slow sim time down instead of building a backlog, and count the loss
+    window_dropped_ += static_cast<double>(wanted - taken) * dt;
+    reanchor();
+  }
+  return true;
+}
+
+std::string SimulationRunner::faultIn(const State& state) const
+{
+  if (!isFinite(state))
+    return "the state became non-finite between t = " + formatValue(last_good_.time) +
+           " s and t = " + formatValue(state.time) + " s";
+  const double error = simulator_->diagnostics().max_position_error;
+  if (!(error <= parameters_.max_constraint_error))
+    return "the constraint error reached " + formatValue(error) +
+           " m at t = " + formatValue(state.time) +
+           " s, over ~max_constraint_error = " + formatValue(parameters_.max_constraint_error) +
+           " m";
+  return "";
+}
+
+void SimulationRunner::fault(const std::string& reason, const State& good)
+{
+  faulted_ = true;
+  fault_reason_ = reason +
+                  "; stepping stopped at the last good state (t = " + formatValue(good.time) +
+                  " s); call ~reset";
+  simulator_->restoreState(good);
+  simulator_->constraintForces(forces_, multipliers_);
+  snapshot_due_ = true;
+}
+
+void SimulationRunner::interruptStep(const std::string& by)
+{
+  if (step_request_)
+    finishStep(false, "stopped by " + by + " after " + std::to_string(step_request_->taken) +
+                          " of " + std::to_string(step_request_->wanted) + " steps");
+}
+
+void SimulationRunner::finishStep(bool success, const std::string& message)
+{
+  RunnerReply reply;
+  reply.success = success;
+  reply.message = message;
+  reply.sim_time = simulator_->state().time;
+  reply.steps_taken = step_request_->taken;
+  const std::shared_ptr<std::promise<RunnerReply>> promise = step_request_->reply;
+  step_request_.reset();
+  // answered after the snapshot, so a caller reading it sees the step's end
+  makeSnapshot();
+  promise->set_value(reply);
+}
+
+void SimulationRunner::rebuild(const SceneDescription& description, const StepSettings& settings)
+{
+  if (description.numParticles() > parameters_.max_particles)
+    throw InvalidInput(
+        "num_particles",
+        "= " + std::to_string(description.numParticles()) + " in scene '" + description.name +
+            "', must be at most ~max_particles = " + std::to_string(parameters_.max_particles));
+  const BuiltScene built = buildScene(description);
+  const double time_before = simulator_->state().time;
+  // settings first: if the scene is refused, put them back
+  const StepSettings saved = simulator_->stepSettings();
+  simulator_->setStepSettings(settings);
+  try
+  {
+    simulator_->setScene(built.scene, built.initial_state, description.solver.solve_method);
+  }
+  catch (const InvalidInput&)
+  {
+    simulator_->setStepSettings(saved);
+    throw;
+  }
+  interruptStep("a reset");
+  // the clock runs on across the reset: stamps never go back (see Snapshot::stamp)
+  clock_base_ += time_before + TIME_JUMP;
+  parameters_.step = settings;
+  scene_ = std::make_shared<const SceneDescription>(description);
+  faulted_ = false;
+  fault_reason_.clear();
+  model_copy_ = std::make_shared<const Model>(simulator_->model());
+  ++scene_serial_;
+  simulator_->constraintForces(forces_, multipliers_);
+  step_time_estimate_ = 0;
+  window_valid_ = false;
+  reanchor();
+}
+
+StepSettings SimulationRunner::settingsFor(const SceneDescription& scene) const
+{
+  // defaults, then the scene's own, then the user's: nothing carries over from the last scene
+  return chosen_step_.applyTo(scene.solver.applyTo(StepSettings{}));
+}
+
+void SimulationRunner::reanchor()
+{
+  anchor_wall_ = Clock::now();
+  anchor_sim_ = simulator_->state().time;
+}
+
+void SimulationRunner::updateRate(Clock::time_point now)
+{
+  const double wall = seconds(now - window_wall_);
+  if (wall < RATE_WINDOW)
+    return;
+  const double sim = simulator_->state().time;
+  const bool idle = faulted_ || (paused_ && !step_request_);
+  if (window_valid_)
+    achieved_rtf_ = idle ? 0.0 : std::max(0.0, sim - window_sim_) / wall;
+  // lag: the share of the wanted sim time that was dropped to keep up (running only)
+  const double lag =
+      (idle || paused_) ? 0.0 : window_dropped_ / (parameters_.real_time_factor * wall);
+  if (idle || paused_ || lag < BEHIND_CLEAR)
+    lagging_windows_ = 0;
+  else if (lag > BEHIND_SET)
+    ++lagging_windows_;
+  if (lagging_windows_ >= BEHIND_WINDOWS)
+    behind_ = true;
+  else if (lagging_windows_ == 0)
+    behind_ = false;
+  window_wall_ = now;
+  window_sim_ = sim;
+  window_dropped_ = 0;
+  window_valid_ = true;
+  snapshot_due_ = true;
+}
+
+void SimulationRunner::makeSnapshot()
+{
+  auto s = std::make_shared<Snapshot>();
+  s->serial = ++snapshot_serial_;
+  s->scene_serial = scene_serial_;
+  s->model = model_copy_;
+  s->scene = scene_;
+  s->parameters = parameters_;
+  s->state = simulator_->state();
+  s->constraint_forces = forces_;
+  s->multipliers = multipliers_;
+  s->diagnostics = simulator_->diagnostics();
+  s->stamp = clock_base_ + s->state.time;
+  s->step_time = step_time_;
+  s->real_time_factor = achieved_rtf_;
+  s->behind = behind_ && !paused_ && !faulted_;
+  s->paused = paused_;
+  s->stepping = step_request_.has_value();
+  s->faulted = faulted_;
+  s->fault_reason = fault_reason_;
+  {
+    std::lock_guard<std::mutex> lock(snapshot_mutex_);
+    snapshot_ = std::move(s);
+    for (StepStatistics& unread : unread_)
+      unread.merge(pending_);
+  }
+  pending_ = StepStatistics{};
+  last_snapshot_wall_ = Clock::now();
+  snapshot_due_ = false;
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,239 @@
+// The runner without ROS: requests applied between batches, ~step in batches that a pause stops,
+// faults that keep every good batch, snapshots with a clock that never repeats, and the core's
+// statistics handed to each reader once. Deadlines are wall-clock and generous: they bound a
+// wait for something that must happen, they do not time anything.
+#include "constrained_particles/ros/simulation_runner.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <future>
+#include <thread>
+
+namespace constrained_particles
+{
+namespace
+{
+using namespace std::chrono_literals;
+
+SceneDescription scene(const std::string& name)
+{
+  return loadSceneFile(std::string(SCENES_DIR) + "/" + name + ".yaml");
+}
+
+NodeParameters parametersFor(const std::string& scenario)
+{
+  NodeParameters p;
+  p.scenario = scenario;
+  p.scene_directory = SCENES_DIR;
+  return p;
+}
+
+SceneDescription chainOf(int n)
+{
+  SceneDescription d = scene("chain");
+  ChainChange change;
+  change.num_particles = n;
+  change.link_length = 0.05;
+  change.particle_mass = 0.1;
+  setChains(d, change);
+  return d;
+}
+
+/// Polls `predicate` until it holds or `timeout` of wall time passed.
+template <typename Predicate>
+bool waitFor(Predicate predicate, std::chrono::seconds timeout = 60s)
+{
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (!predicate())
+  {
+    if (std::chrono::steady_clock::now() > deadline)
+      return false;
+    std::this_thread::sleep_for(2ms);
+  }
+  return true;
+}
+
+TEST(SimulationRunner, StepTakesExactlyTheStepsAskedAndReportsThem)
+{
+  SimulationRunner runner(parametersFor("chain"), scene("chain"));
+  runner.start(true);
+  StepStatistics s;
+  runner.snapshot(SimulationRunner::Reader::State, s);
+  const RunnerReply reply = runner.step(250);
+  ASSERT_TRUE(reply.success) << reply.message;
+  EXPECT_EQ(reply.steps_taken, 250u);
+  const auto snap = runner.snapshot();
+  EXPECT_EQ(snap->state.steps, 250u);
+  EXPECT_NEAR(snap->state.time, 250 * snap->parameters.step.dt, 1e-12);
+  EXPECT_NEAR(reply.sim_time, snap->state.time, 1e-12);
+  EXPECT_TRUE(snap->paused);
+  EXPECT_FALSE(snap->stepping);
+  // the state reader gets every step once; the diagnostics reader has its own copy
+  EXPECT_EQ(runner.snapshot(SimulationRunner::Reader::State, s)->state.steps, 250u);
+  EXPECT_EQ(s.steps, 250);
+  EXPECT_GT(s.solve.factorizations, 0);
+  EXPECT_TRUE(s.projection.converged);
+  std::uint64_t links = 0;
+  forEachEffectCount(s.effects,
+                     [&](const char* kind, std::uint64_t count)
+                     {
+                       if (std::string(kind) == "link")
+                         links = count;
+                     });
+  EXPECT_GT(links, 0u);
+  runner.snapshot(SimulationRunner::Reader::State, s);
+  EXPECT_EQ(s.steps, 0);
+  runner.snapshot(SimulationRunner::Reader::Diagnostics, s);
+  EXPECT_EQ(s.steps, 250);
+  // the last step's constraint forces are handed out, not recomputed at zero
+  EXPECT_GT(snap->constraint_forces.norm(), 0.0);
+  EXPECT_TRUE(snap->constraint_forces.allFinite());
+}
+
+TEST(SimulationRunner, RefusesStepWhileRunningOrOutOfRange)
+{
+  SimulationRunner runner(parametersFor("chain"), scene("chain"));
+  runner.start(false);
+  RunnerReply reply = runner.step(10);
+  EXPECT_FALSE(reply.success);
+  EXPECT_NE(reply.message.find("~pause"), std::string::npos) << reply.message;
+  ASSERT_TRUE(runner.pause().success);
+  reply = runner.step(0);
+  EXPECT_FALSE(reply.success);
+  EXPECT_EQ(reply.field, "steps");
+  EXPECT_NE(reply.message.find("[1, 1e+06]"), std::string::npos) << reply.message;
+}
+
+TEST(SimulationRunner, LongStepRunsInBatchesAndAPauseStopsItAtTheNextBatch)
+{
+  SimulationRunner runner(parametersFor("chain"), chainOf(300));
+  runner.start(true);
+  auto step = std::async(std::launch::async, [&] { return runner.step(1000000); });
+  // snapshots keep coming while it runs: publishers are never held up by it
+  ASSERT_TRUE(
+      waitFor([&] { return runner.snapshot()->stepping && runner.snapshot()->state.steps > 0; }));
+  const std::uint64_t first = runner.snapshot()->state.steps;
+  ASSERT_TRUE(waitFor([&] { return runner.snapshot()->state.steps > first; }));
+  const RunnerReply paused = runner.pause();
+  ASSERT_TRUE(paused.success);
+  // applied at the first batch boundary: at most the batch under way finished meanwhile
+  EXPECT_LE(paused.batches_waited, 1u);
+  ASSERT_EQ(step.wait_for(60s), std::future_status::ready);
+  const RunnerReply reply = step.get();
+  EXPECT_FALSE(reply.success);
+  EXPECT_NE(reply.message.find("~pause"), std::string::npos) << reply.message;
+  EXPECT_GT(reply.steps_taken, first);
+  EXPECT_LT(reply.steps_taken, 1000000u);
+  EXPECT_EQ(runner.snapshot()->state.steps, reply.steps_taken);
+  EXPECT_FALSE(runner.snapshot()->stepping);
+}
+
+TEST(SimulationRunner, FaultKeepsEveryGoodBatch)
+{
+  // no stabilisation: the links drift until the error passes ~max_constraint_error
+  NodeParameters p = parametersFor("chain");
+  p.max_constraint_error = 0.5;
+  p.step.stabilization = Stabilization::None;
+  p.step.integrator = "semi_implicit_euler";
+  p.step.dt = 0.001;
+  p.step_given = { "stabilization", "integrator", "dt" };
+  const SceneDescription chain = chainOf(300);
+  // the step at which it faults, one step at a time
+  const BuiltScene built = buildScene(chain);
+  StepSettings settings = chain.solver.applyTo(StepSettings{});
+  settings.stabilization = p.step.stabilization;
+  settings.integrator = p.step.integrator;
+  settings.dt = p.step.dt;
+  Simulator reference(built.scene, built.initial_state, settings);
+  std::uint64_t fault_step = 0;
+  while (fault_step < 1000000 &&
+         reference.diagnostics().max_position_error <= p.max_constraint_error)
+  {
+    reference.step();
+    ++fault_step;
+  }
+  ASSERT_GT(fault_step, 2000u);
+  ASSERT_LT(fault_step, 1000000u);
+  std::cerr << "faults at step " << fault_step << "\n";
+
+  SimulationRunner runner(p, chain);
+  runner.start(true);
+  const RunnerReply reply = runner.step(1000000);
+  EXPECT_FALSE(reply.success);
+  EXPECT_NE(reply.message.find("constraint error"), std::string::npos) << reply.message;
+  const auto snap = runner.snapshot();
+  EXPECT_TRUE(snap->faulted);
+  // the good steps before the fault are kept: all but the last chunk's (a few ms of wall time)
+  EXPECT_LT(reply.steps_taken, fault_step);
+  EXPECT_GT(reply.steps_taken, fault_step / 2);
+  EXPECT_EQ(snap->state.steps, reply.steps_taken);
+  EXPECT_LE(snap->diagnostics.max_position_error, p.max_constraint_error);
+  EXPECT_FALSE(runner.step(1).success);
+  ASSERT_TRUE(runner.reset("").success);
+  EXPECT_FALSE(runner.snapshot()->faulted);
+}
+
+TEST(SimulationRunner, StampsNeverRepeatOrGoBackAcrossResetsAndTeleports)
+{
+  SimulationRunner runner(parametersFor("chain"), scene("chain"));
+  runner.start(true);
+  double last = runner.snapshot()->stamp;
+  const std::uint64_t scene_serial = runner.snapshot()->scene_serial;
+  ASSERT_TRUE(runner.step(100).success);
+  EXPECT_NEAR(runner.snapshot()->stamp - last, 100 * runner.snapshot()->parameters.step.dt, 1e-9);
+  last = runner.snapshot()->stamp;
+  ASSERT_TRUE(runner.reset("").success);
+  EXPECT_EQ(runner.snapshot()->state.time, 0.0);
+  EXPECT_NEAR(runner.snapshot()->stamp, last + SimulationRunner::TIME_JUMP, 1e-9);
+  EXPECT_GT(runner.snapshot()->scene_serial, scene_serial);
+  last = runner.snapshot()->stamp;
+  const Points positions = runner.snapshot()->state.positions;
+  ASSERT_TRUE(runner.setState(positions, Points(3, 0)).success);
+  EXPECT_NEAR(runner.snapshot()->stamp, last + SimulationRunner::TIME_JUMP, 1e-9);
+  last = runner.snapshot()->stamp;
+  // a refused change changes nothing, not even the clock
+  EXPECT_FALSE(runner.reset("no_such_scene").success);
+  EXPECT_EQ(runner.snapshot()->stamp, last);
+}
+
+TEST(SimulationRunner, RefusedReconfigureNamesTheFieldAndKeepsEverything)
+{
+  SimulationRunner runner(parametersFor("chain"), scene("chain"));
+  runner.start(true);
+  const double dt = runner.snapshot()->parameters.step.dt;
+  const RunnerReply reply = runner.reconfigure([](NodeParameters& p) { p.step.dt = -1.0; });
+  EXPECT_FALSE(reply.success);
+  EXPECT_EQ(reply.field, "~dt");
+  EXPECT_EQ(runner.snapshot()->parameters.step.dt, dt);
+  ASSERT_TRUE(runner.step(10).success);
+  EXPECT_NEAR(runner.snapshot()->state.time, 10 * dt, 1e-12);
+}
+
+TEST(SimulationRunner, BehindOnlyOnASustainedLagAndNotWhilePaused)
+{
+  NodeParameters p = parametersFor("chain");
+  p.real_time_factor = limits::REAL_TIME_FACTOR.high;
+  SimulationRunner runner(p, chainOf(2000));
+  runner.start(false);
+  // 2,000 particles cannot run at 100x real time: behind within a few rate windows
+  EXPECT_TRUE(waitFor([&] { return runner.snapshot()->behind; }));
+  EXPECT_GT(runner.snapshot()->real_time_factor, 0.0);
+  ASSERT_TRUE(runner.pause().success);
+  EXPECT_FALSE(runner.snapshot()->behind);
+}
+
+TEST(SimulationRunner, StopRefusesWaitingRequestsAndEndsAStep)
+{
+  SimulationRunner runner(parametersFor("chain"), chainOf(300));
+  runner.start(true);
+  auto step = std::async(std::launch::async, [&] { return runner.step(1000000); });
+  ASSERT_TRUE(waitFor([&] { return runner.snapshot()->state.steps > 0; }));
+  EXPECT_TRUE(runner.stop(10s));
+  ASSERT_EQ(step.wait_for(60s), std::future_status::ready);
+  EXPECT_FALSE(step.get().success);
+  EXPECT_FALSE(runner.pause().success);
+}
+
+}  // namespace
+}  // namespace constrained_particles
