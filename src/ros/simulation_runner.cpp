@@ -50,7 +50,10 @@ SimulationRunner::SimulationRunner(const NodeParameters& parameters, const Scene
 
 SimulationRunner::~SimulationRunner()
 {
-  stopping_ = true;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);  // not between the loop's check and its wait
+    stopping_ = true;
+  }
   wake_.notify_all();
   if (thread_.joinable())
     thread_.join();
@@ -68,7 +71,10 @@ void SimulationRunner::start(bool paused)
 
 bool SimulationRunner::stop(std::chrono::milliseconds timeout)
 {
-  stopping_ = true;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);  // not between the loop's check and its wait
+    stopping_ = true;
+  }
   wake_.notify_all();
   if (!thread_.joinable())
     return true;
@@ -192,12 +198,13 @@ RunnerReply SimulationRunner::setState(const Points& positions, const Points& ve
                          limits::VELOCITY);
         }
         const ProjectionReport report = simulator_->setState(state);
-        interruptStep("~set_state");
         faulted_ = false;
         fault_reason_.clear();
         clock_base_ += TIME_JUMP;
         simulator_->constraintForces(forces_, multipliers_);
         reanchor();
+        // last: its snapshot must show the teleport whole
+        interruptStep("~set_state");
         RunnerReply reply;
         reply.success = true;
         reply.max_displacement = report.max_displacement;
@@ -270,22 +277,23 @@ RunnerReply SimulationRunner::step(std::uint64_t steps)
   return await(future);
 }
 
-RunnerReply SimulationRunner::reconfigure(const std::function<void(NodeParameters&)>& edit)
+RunnerReply SimulationRunner::reconfigure(
+    const std::function<void(NodeParameters&, const SceneDescription&)>& edit)
 {
   return submit(
       [this, edit]
       {
         NodeParameters candidate = parameters_;
-        edit(candidate);
+        edit(candidate, *scene_);
         validateNodeParameters(candidate);
         simulator_->setStepSettings(candidate.step);
         // new forces recompile the model (and restart dopri5's step control): only on a change
-        if (candidate.overrides.gravity != parameters_.overrides.gravity ||
-            candidate.overrides.damping != parameters_.overrides.damping)
+        const Vec3 gravity = candidate.overrides.gravity.value_or(sceneGravity(*scene_));
+        const double damping = candidate.overrides.damping.value_or(sceneDamping(*scene_));
+        if (gravity != sceneGravity(*scene_) || damping != sceneDamping(*scene_))
         {
           SceneDescription changed = *scene_;
-          setGravityAndDamping(changed, candidate.overrides.gravity.value_or(sceneGravity(changed)),
-                               candidate.overrides.damping.value_or(sceneDamping(changed)));
+          setGravityAndDamping(changed, gravity, damping);
           try
           {
             simulator_->setForces(changed.forces);
@@ -310,6 +318,8 @@ RunnerReply SimulationRunner::reconfigure(const std::function<void(NodeParameter
             });
         chosen_step_.values = candidate.step;
         parameters_ = candidate;
+        step_time_estimate_ = 0;
+        last_chunk_ = 1;
         reanchor();
         RunnerReply reply;
         reply.success = true;
@@ -425,15 +435,22 @@ bool SimulationRunner::runBatch()
     // chunks of about CHECK_WALL_TIME, each checked: a fault loses only the chunk it happened in
     const double left = std::min(CHECK_WALL_TIME, BATCH_WALL_TIME - seconds(Clock::now() - start));
     const double fit = step_time_estimate_ > 0 ? left / step_time_estimate_ : 1.0;
-    const auto chunk = static_cast<int>(std::clamp<double>(
-        std::floor(fit), 1.0, std::min<double>(static_cast<double>(wanted - taken), 1e6)));
+    // grown at most twofold per chunk: a step much slower than the estimate (a new integrator,
+    // dopri5 meeting a hard stretch) cannot make one chunk run for seconds
+    const auto chunk =
+        static_cast<int>(std::clamp<double>(std::floor(fit), 1.0,
+                                            std::min({ static_cast<double>(wanted - taken), 1e6,
+                                                       2.0 * static_cast<double>(last_chunk_) })));
+    last_chunk_ = chunk;
     const Clock::time_point chunk_start = Clock::now();
-    batch.merge(simulator_->step(chunk));
+    const StepStatistics statistics = simulator_->step(chunk);
     step_time_estimate_ = seconds(Clock::now() - chunk_start) / chunk;
+    // an undone chunk's statistics go with it: reports count the steps that stand
     if (const std::string reason = faultIn(simulator_->state()); !reason.empty())
       fault(reason, last_good_);
     else
     {
+      batch.merge(statistics);
       taken += static_cast<std::uint64_t>(chunk);
       last_good_ = simulator_->state();
       forces_ = simulator_->data().constraint_forces;
@@ -487,6 +504,8 @@ void SimulationRunner::fault(const std::string& reason, const State& good)
                   " s); call ~reset";
   simulator_->restoreState(good);
   simulator_->constraintForces(forces_, multipliers_);
+  // put back like a teleport: the fault's snapshot gets a stamp of its own
+  clock_base_ += TIME_JUMP;
   snapshot_due_ = true;
 }
 
@@ -532,7 +551,6 @@ void SimulationRunner::rebuild(const SceneDescription& description, const StepSe
     simulator_->setStepSettings(saved);
     throw;
   }
-  interruptStep("a reset");
   // the clock runs on across the reset: stamps never go back (see Snapshot::stamp)
   clock_base_ += time_before + TIME_JUMP;
   parameters_.step = settings;
@@ -543,8 +561,11 @@ void SimulationRunner::rebuild(const SceneDescription& description, const StepSe
   ++scene_serial_;
   simulator_->constraintForces(forces_, multipliers_);
   step_time_estimate_ = 0;
+  last_chunk_ = 1;
   window_valid_ = false;
   reanchor();
+  // last: its snapshot must show the new scene whole (model, forces, frames and clock together)
+  interruptStep("a reset or scene change");
 }
 
 StepSettings SimulationRunner::settingsFor(const SceneDescription& scene) const
@@ -571,14 +592,7 @@ void SimulationRunner::updateRate(Clock::time_point now)
   // lag: the share of the wanted sim time that was dropped to keep up (running only)
   const double lag =
       (idle || paused_) ? 0.0 : window_dropped_ / (parameters_.real_time_factor * wall);
-  if (idle || paused_ || lag < BEHIND_CLEAR)
-    lagging_windows_ = 0;
-  else if (lag > BEHIND_SET)
-    ++lagging_windows_;
-  if (lagging_windows_ >= BEHIND_WINDOWS)
-    behind_ = true;
-  else if (lagging_windows_ == 0)
-    behind_ = false;
+  behind_ = behind_monitor_.update(lag);
   window_wall_ = now;
   window_sim_ = sim;
   window_dropped_ = 0;
@@ -615,6 +629,16 @@ void SimulationRunner::makeSnapshot()
   pending_ = StepStatistics{};
   last_snapshot_wall_ = Clock::now();
   snapshot_due_ = false;
+}
+
+bool BehindMonitor::update(double lag)
+{
+  lagging_windows_ = lag > SET ? lagging_windows_ + 1 : 0;
+  if (lagging_windows_ >= WINDOWS)
+    behind_ = true;
+  else if (lag < CLEAR)
+    behind_ = false;
+  return behind_;
 }
 
 }  // namespace constrained_particles

@@ -114,7 +114,17 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
     clock_publisher_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10);
   // our own /tf publisher (tf2_ros::TransformBroadcaster is a thin wrapper of one) so the message
   // is built only with subscribers and reuses its frame names; queue as tf2_ros's broadcaster
-  tf_publisher_ = ros::NodeHandle().advertise<tf2_msgs::TFMessage>("/tf", 100);
+  tf_publisher_ = ros::NodeHandle().advertise<tf2_msgs::TFMessage>(
+      "/tf", 100,
+      ros::SubscriberStatusCallback(
+          [this](const ros::SingleSubscriberPublisher& subscriber)
+          {
+            // with ~publish_clock nothing is re-sent while time stands still: a listener joining
+            // then gets the last frames once, to itself only (no stamp twice for the others)
+            std::lock_guard<std::mutex> lock(publish_mutex_);
+            if (parameters_.publish_clock && last_stamp_ >= 0.0)
+              subscriber.publish(tf_message_);
+          }));
   // latched with ~publish_clock: while sim time stands still nothing new is sent
   state_publisher_ = nh_.advertise<SimState>("state", 10, parameters_.publish_clock);
   force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 10);
@@ -135,7 +145,9 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
 
   reconfigure_server_ = std::make_unique<ReconfigureServer<SimulatorConfig>>(
       nh_, configFrom(first->parameters, *first->scene),
-      [this](const SimulatorConfig& config) { return reconfigureCallback(config); });
+      [this](const SimulatorConfig& shown, const SimulatorConfig& requested,
+             SimulatorConfig& in_force)
+      { return reconfigureCallback(shown, requested, in_force); });
 
   publish_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / parameters_.publish_rate),
                                        [this](const ros::WallTimerEvent&) { publish(); });
@@ -197,7 +209,14 @@ void SimulatorNode::publish()
   }
   const int n = static_cast<int>(snap->state.positions.cols());
 
-  if (frames_scene_serial_ != snap->scene_serial)
+  if (snap->constraint_forces.cols() != n)
+  {
+    ROS_ERROR_THROTTLE(5.0, "simulator: snapshot with %d positions and %d forces; not published", n,
+                       static_cast<int>(snap->constraint_forces.cols()));
+    return;
+  }
+  if (frames_scene_serial_ != snap->scene_serial ||
+      tf_message_.transforms.size() != static_cast<std::size_t>(n))
   {
     // frame names once per scene, not per publish
     tf_message_.transforms.resize(n);
@@ -210,7 +229,7 @@ void SimulatorNode::publish()
     }
     frames_scene_serial_ = snap->scene_serial;
   }
-  if (tf_publisher_.getNumSubscribers() > 0)
+  if (tf_publisher_.getNumSubscribers() > 0 || parameters_.publish_clock)
   {
     for (int i = 0; i < n; ++i)
     {
@@ -262,6 +281,7 @@ void SimulatorNode::publish()
     msg.projections_converged = statistics.projection.converged;
     msg.internal_steps = static_cast<std::uint32_t>(statistics.internal_steps);
     msg.rejected_internal_steps = static_cast<std::uint32_t>(statistics.rejected_internal_steps);
+    msg.forced_internal_steps = static_cast<std::uint32_t>(statistics.forced_internal_steps);
     forEachEffectCount(statistics.effects,
                        [&msg](const char* name, std::uint64_t count)
                        {
@@ -400,21 +420,42 @@ bool SimulatorNode::stepCallback(Step::Request& request, Step::Response& respons
   return answer(response, reply);
 }
 
-bool SimulatorNode::reconfigureCallback(const SimulatorConfig& config)
+bool SimulatorNode::reconfigureCallback(const SimulatorConfig& shown,
+                                        const SimulatorConfig& requested, SimulatorConfig& in_force)
 {
-  RunnerReply reply = runner_->reconfigure(
-      [&config](NodeParameters& candidate)
+  // by value: the runner may still hold the edit if this call gives up at shutdown
+  const RunnerReply reply = runner_->reconfigure(
+      [shown, requested](NodeParameters& candidate, const SceneDescription& scene)
       {
-        candidate.step.dt = config.dt;
-        candidate.step.integrator = findIntegrator(config.integrator).name;
-        candidate.step.stabilization = parseStabilization(config.stabilization);
-        candidate.step.baumgarte_frequency = config.baumgarte_frequency;
-        candidate.step.baumgarte_damping_ratio = config.baumgarte_damping_ratio;
-        candidate.step.adaptive_tolerance = config.adaptive_tolerance;
-        candidate.real_time_factor = config.real_time_factor;
-        candidate.publish_rate = config.publish_rate;
-        candidate.overrides.damping = config.damping;
-        candidate.overrides.gravity = Vec3(config.gravity_x, config.gravity_y, config.gravity_z);
+        // only what the request changed (NaN never equals itself: it is taken, then refused)
+        auto changed = [](const auto& a, const auto& b) { return !(a == b); };
+        const SimulatorConfig& r = requested;
+        if (changed(r.dt, shown.dt))
+          candidate.step.dt = r.dt;
+        if (changed(r.integrator, shown.integrator))
+          candidate.step.integrator = findIntegrator(r.integrator).name;
+        if (changed(r.stabilization, shown.stabilization))
+          candidate.step.stabilization = parseStabilization(r.stabilization);
+        if (changed(r.baumgarte_frequency, shown.baumgarte_frequency))
+          candidate.step.baumgarte_frequency = r.baumgarte_frequency;
+        if (changed(r.baumgarte_damping_ratio, shown.baumgarte_damping_ratio))
+          candidate.step.baumgarte_damping_ratio = r.baumgarte_damping_ratio;
+        if (changed(r.adaptive_tolerance, shown.adaptive_tolerance))
+          candidate.step.adaptive_tolerance = r.adaptive_tolerance;
+        if (changed(r.real_time_factor, shown.real_time_factor))
+          candidate.real_time_factor = r.real_time_factor;
+        if (changed(r.publish_rate, shown.publish_rate))
+          candidate.publish_rate = r.publish_rate;
+        if (changed(r.damping, shown.damping))
+          candidate.overrides.damping = r.damping;
+        Vec3 gravity = candidate.overrides.gravity.value_or(sceneGravity(scene));
+        const Vec3 asked(r.gravity_x, r.gravity_y, r.gravity_z);
+        const Vec3 seen(shown.gravity_x, shown.gravity_y, shown.gravity_z);
+        for (int k = 0; k < 3; ++k)
+          if (changed(asked[k], seen[k]))
+            gravity[k] = asked[k];
+        if (changed(gravity, sceneGravity(scene)))
+          candidate.overrides.gravity = gravity;
       });
   if (!reply.success)
   {
@@ -429,7 +470,9 @@ bool SimulatorNode::reconfigureCallback(const SimulatorConfig& config)
              reason.c_str());
     return false;
   }
-  publish_timer_.setPeriod(ros::WallDuration(1.0 / config.publish_rate));
+  const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
+  in_force = configFrom(snap->parameters, *snap->scene);
+  publish_timer_.setPeriod(ros::WallDuration(1.0 / snap->parameters.publish_rate));
   return true;
 }
 
@@ -468,6 +511,9 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
       message += "; a projection did not converge within its iteration limit";
   }
   status.message = message;
+  if (snap->faulted && snap->fault_reason != logged_fault_)
+    ROS_ERROR("simulator: %s", snap->fault_reason.c_str());
+  logged_fault_ = snap->faulted ? snap->fault_reason : "";
   const NodeParameters& p = snap->parameters;
   add("scenario", snap->scene->name);
   add("solve", solveMethodName(snap->model->solveMethod()));

@@ -163,7 +163,11 @@ class NodeRunnerTest(WallClockWaits, unittest.TestCase):
             threading.Thread(target=lambda: self.call_quietly(step, 1000000), daemon=True).start()
             states = []
             sub = rospy.Subscriber(f"/{name}/state", SimState, states.append, queue_size=1)
-            self.wait_until(lambda: states and states[-1].steps > 0, "the step under way")
+            # paused, and still stepping: the ~step is under way (its service call in flight)
+            self.wait_until(lambda: len(states) >= 2 and
+                            states[-1].status == SimState.STATUS_PAUSED and
+                            states[-2].status == SimState.STATUS_PAUSED and
+                            states[-1].steps > states[-2].steps, "the step under way")
             sub.unregister()
             started = time.monotonic()
             # rosrun execs the node: the process we started is the node itself

@@ -23,9 +23,12 @@ template <typename ConfigType>
 class ReconfigureServer
 {
 public:
-  /// Applies a requested configuration (every field, changed or not); returns false to refuse
-  /// it, in which case the current configuration stays. Must not call back into the server.
-  using Callback = std::function<bool(const ConfigType& requested)>;
+  /// Applies a requested configuration: `current` is what the server showed, `requested` that
+  /// with the request's fields put in (the callback applies the fields that differ). Returns
+  /// false to refuse it, in which case the current configuration stays; on success it sets
+  /// `in_force` to the configuration now in force. Must not call back into the server.
+  using Callback = std::function<bool(const ConfigType& current, const ConfigType& requested,
+                                      ConfigType& in_force)>;
 
   /// Advertises ~set_parameters and the two latched topics, with `initial` as the current
   /// configuration. Reads nothing from and writes nothing to the parameter server: start-up
@@ -70,8 +73,12 @@ private:
       ROS_ERROR_NAMED("reconfigure",
                       "~set_parameters refused: a field above is not a parameter "
                       "of this node or has the wrong type; nothing was changed");
-    else if (callback_(requested))
-      config_ = requested;
+    else
+    {
+      ConfigType in_force = requested;
+      if (callback_(config_, requested, in_force))
+        config_ = in_force;
+    }
     publishLocked();
     config_.__toMessage__(response.config);
     return true;

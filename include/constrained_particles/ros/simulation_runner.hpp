@@ -53,16 +53,36 @@ struct Snapshot
   Points constraint_forces;
   Eigen::VectorXd multipliers;
   Diagnostics diagnostics;  ///< errors and energies of `state`
-  /// Monotone clock [s]: sim time plus the time of every earlier reset, plus TIME_JUMP per reset
-  /// or teleport, so a stamp taken from it is never repeated or earlier than one before.
+  /// Monotone clock [s]: sim time plus the time of every earlier reset, plus TIME_JUMP per reset,
+  /// scene change, teleport or fault, so a stamp taken from it is never repeated or earlier than
+  /// one before.
   double stamp = 0;
   double step_time = 0;         ///< wall time per step over the last batch [s]
   double real_time_factor = 0;  ///< achieved sim seconds per wall second over the last window
-  bool behind = false;          ///< sustained lag behind the wanted real-time factor
+  bool behind = false;  ///< sustained lag behind the wanted real-time factor (BehindMonitor)
   bool paused = false;
   bool stepping = false;  ///< a ~step request is running
   bool faulted = false;   ///< stepping stopped until a reset (fault_reason says why)
   std::string fault_reason;
+};
+
+/// Whether stepping is behind its real-time factor, with hysteresis: a single slow window of a
+/// busy machine does not turn it on, a single fast one does not turn it off.
+class BehindMonitor
+{
+public:
+  /// On after WINDOWS consecutive windows that each dropped more than SET of the wanted sim time.
+  static constexpr double SET = 0.05;
+  static constexpr int WINDOWS = 2;
+  /// Off after a window that dropped less than CLEAR (between CLEAR and SET it stays as it is).
+  static constexpr double CLEAR = 0.01;
+
+  /// Takes one window's lag (dropped / wanted sim time, 0 while paused); returns `behind`.
+  bool update(double lag);
+
+private:
+  int lagging_windows_ = 0;
+  bool behind_ = false;
 };
 
 /// Runs one simulation on its own thread.
@@ -75,15 +95,10 @@ public:
   /// Steps are taken in chunks of about this wall time, each checked for a fault (non-finite
   /// state, constraint error over ~max_constraint_error): a fault keeps every good chunk.
   static constexpr double CHECK_WALL_TIME = 0.002;  // [s]
-  /// Forward jump of Snapshot::stamp at each reset or teleport [s].
+  /// Forward jump of Snapshot::stamp at each reset, scene change, teleport or fault [s].
   static constexpr double TIME_JUMP = 1e-3;
   /// Window over which the achieved real-time factor and the lag are measured [s].
   static constexpr double RATE_WINDOW = 1.0;
-  /// `behind` turns on when more than this fraction of the wanted sim time was dropped in each
-  /// of BEHIND_WINDOWS windows in a row, and off after a window below BEHIND_CLEAR.
-  static constexpr double BEHIND_SET = 0.05;
-  static constexpr int BEHIND_WINDOWS = 2;
-  static constexpr double BEHIND_CLEAR = 0.01;
 
   /// Who reads statistics: each gets the merged statistics of every step since it last read.
   enum class Reader
@@ -129,9 +144,10 @@ public:
   /// meanwhile stops it at the next batch (the reply says how many were taken).
   RunnerReply step(std::uint64_t steps);
   /// Edits a copy of the node parameters (step settings, real-time factor, publish rate, gravity
-  /// and damping overrides) and applies it if every value is valid; refused otherwise, naming
-  /// the field, with nothing changed.
-  RunnerReply reconfigure(const std::function<void(NodeParameters&)>& edit);
+  /// and damping overrides), given the current scene, and applies it if every value is valid;
+  /// refused otherwise, naming the field, with nothing changed.
+  RunnerReply reconfigure(
+      const std::function<void(NodeParameters&, const SceneDescription&)>& edit);
 
 private:
   using Clock = std::chrono::steady_clock;
@@ -186,11 +202,12 @@ private:
   State last_good_;
   Points forces_;  // the constraint forces and multipliers of the snapshot to come
   Eigen::VectorXd multipliers_;
-  double clock_base_ = 0;  // Snapshot::stamp - sim time [s]
-  double step_time_ = 0, step_time_estimate_ = 0;
+  double clock_base_ = 0;                          // Snapshot::stamp - sim time [s]
+  double step_time_ = 0, step_time_estimate_ = 0;  // [s] per step: last batch, last chunk
+  int last_chunk_ = 1;                             // steps in the last chunk
   Clock::time_point anchor_wall_, window_wall_, last_snapshot_wall_;
   double anchor_sim_ = 0, window_sim_ = 0, window_dropped_ = 0, achieved_rtf_ = 0;
-  int lagging_windows_ = 0;
+  BehindMonitor behind_monitor_;
   bool behind_ = false, window_valid_ = false, snapshot_due_ = true;
 
   mutable std::mutex queue_mutex_;  // guards the queue and the wake-up

@@ -62,8 +62,11 @@ private:
   bool pauseCallback(std_srvs::Empty::Request& request, std_srvs::Empty::Response& response);
   bool unpauseCallback(std_srvs::Empty::Request& request, std_srvs::Empty::Response& response);
   bool stepCallback(Step::Request& request, Step::Response& response);
-  /// Applies a dynamic_reconfigure request; false (and nothing changed) if any value is bad.
-  bool reconfigureCallback(const SimulatorConfig& config);
+  /// Applies the fields of a dynamic_reconfigure request that differ from what the server showed
+  /// (so a request built on a stale view cannot undo a ~reset); false (and nothing changed) if
+  /// any value is bad. `in_force` gets the settings then in force.
+  bool reconfigureCallback(const SimulatorConfig& shown, const SimulatorConfig& requested,
+                           SimulatorConfig& in_force);
   void statusCallback(const ros::WallTimerEvent& event);
   /// Publishes the node's health and the core's reports since the last call on /diagnostics.
   void diagnosticsCallback(const ros::WallTimerEvent& event);
@@ -77,6 +80,7 @@ private:
   std::uint64_t frames_scene_serial_ = 0, markers_scene_serial_ = 0;
   tf2_msgs::TFMessage tf_message_;  // frame names filled once per scene
   int published_arrows_ = 0;
+  std::string logged_fault_;  // diagnostics timer: the fault last logged
   SurfaceMeshCache mesh_cache_;
 
   ros::Publisher clock_publisher_, tf_publisher_, state_publisher_, force_marker_publisher_,
