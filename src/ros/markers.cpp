@@ -3,6 +3,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace constrained_particles
 {
@@ -113,7 +114,9 @@ const visualization_msgs::Marker& SurfaceMeshCache::mesh(const std_msgs::Header&
         {
           const auto a = vertex(i, j), b = vertex(i + 1, j), c = vertex(i + 1, j + 1),
                      d = vertex(i, j + 1);
-          marker_.points.insert(marker_.points.end(), { a, b, c, a, c, d });
+          // a formula may be undefined over part of the region (sqrt(x) for x < 0): leave it out
+          if (std::isfinite(a.z) && std::isfinite(b.z) && std::isfinite(c.z) && std::isfinite(d.z))
+            marker_.points.insert(marker_.points.end(), { a, b, c, a, c, d });
         }
     }
   }

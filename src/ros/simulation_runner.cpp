@@ -32,6 +32,8 @@ SimulationRunner::SimulationRunner(const NodeParameters& parameters, const Scene
 {
   chosen_step_.values = parameters.step;
   chosen_step_.given = parameters.step_given;
+  // start-up overrides are already in `scene`; kept, a reconfigure would carry them to other scenes
+  parameters_.overrides = SceneOverrides{};
   if (scene.numParticles() > parameters_.max_particles)
     throw InvalidInput(
         "~scenario",
@@ -267,6 +269,7 @@ RunnerReply SimulationRunner::step(std::uint64_t steps)
                                           limits::STEPS_PER_CALL.text());
         step_request_.emplace();
         step_request_->wanted = steps;
+        step_request_->sim_time = simulator_->state().time;
         step_request_->reply = promise;
         RunnerReply accepted;
         accepted.success = true;
@@ -317,6 +320,10 @@ RunnerReply SimulationRunner::reconfigure(
                 chosen_step_.given.push_back(spec.name);
             });
         chosen_step_.values = candidate.step;
+        // gravity and damping are now the current scene's (kept by ~reset ''): not overrides that
+        // a later reconfigure would bring back into another scene
+        candidate.overrides.gravity.reset();
+        candidate.overrides.damping.reset();
         parameters_ = candidate;
         step_time_estimate_ = 0;
         last_chunk_ = 1;
@@ -469,6 +476,7 @@ bool SimulationRunner::runBatch()
   if (step_request_)
   {
     step_request_->taken += taken;
+    step_request_->sim_time = simulator_->state().time;
     if (faulted_)
       finishStep(false, fault_reason_ + " (" + std::to_string(step_request_->taken) + " of " +
                             std::to_string(step_request_->wanted) + " steps kept)");
@@ -521,7 +529,7 @@ void SimulationRunner::finishStep(bool success, const std::string& message)
   RunnerReply reply;
   reply.success = success;
   reply.message = message;
-  reply.sim_time = simulator_->state().time;
+  reply.sim_time = step_request_->sim_time;  // not a new scene's, when a reset stopped it
   reply.steps_taken = step_request_->taken;
   const std::shared_ptr<std::promise<RunnerReply>> promise = step_request_->reply;
   step_request_.reset();

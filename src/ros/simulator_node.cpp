@@ -8,6 +8,8 @@
 #include <rosgraph_msgs/Clock.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/master.h>
+#include <ros/network.h>
+#include <xmlrpcpp/XmlRpcClient.h>
 
 #include <algorithm>
 #include <cmath>
@@ -55,7 +57,27 @@ bool answer(Response& response, const RunnerReply& reply)
   return true;
 }
 
-/// Nodes other than this one that publish `topic`, from the master's system state.
+/// Whether `node` answers on its XML-RPC API (a node killed with SIGKILL stays registered).
+bool nodeAnswers(const std::string& node)
+{
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = node;
+  std::string host;
+  std::uint32_t port = 0;
+  if (!ros::master::execute("lookupNode", args, result, payload, false) ||
+      payload.getType() != XmlRpc::XmlRpcValue::TypeString ||
+      !ros::network::splitURI(static_cast<std::string>(payload), host, port))
+    return false;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue pid_args, pid_result;
+  pid_args[0] = ros::this_node::getName();
+  const bool answered = client.execute("getPid", pid_args, pid_result) && !client.isFault();
+  client.close();
+  return answered;
+}
+
+/// Nodes other than this one that publish `topic` and answer, from the master's system state.
 std::vector<std::string> otherPublishers(const std::string& topic)
 {
   XmlRpc::XmlRpcValue args, result, payload;
@@ -70,7 +92,8 @@ std::vector<std::string> otherPublishers(const std::string& topic)
     if (static_cast<std::string>(publishers[k][0]) != topic)
       continue;
     for (int j = 0; j < publishers[k][1].size(); ++j)
-      if (static_cast<std::string>(publishers[k][1][j]) != ros::this_node::getName())
+      if (static_cast<std::string>(publishers[k][1][j]) != ros::this_node::getName() &&
+          nodeAnswers(publishers[k][1][j]))
         nodes.push_back(publishers[k][1][j]);
   }
   return nodes;
@@ -87,11 +110,20 @@ std::string join(const std::vector<std::string>& items)
 }  // namespace
 
 SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
-  : nh_(private_nh), parameters_(readParameters(nh_))
+  : nh_(private_nh)
+  , parameters_(readParameters(nh_))
+  , publish_nh_(ros::NodeHandle())
+  , publish_spinner_(1, &publish_queue_)
 {
+  publish_nh_.setCallbackQueue(&publish_queue_);
   // in a namespace, frames carry it, so two simulators never share a frame (REP 105 names)
   if (!nh_.hasParam("frame_prefix") && ros::this_node::getNamespace() != "/")
     parameters_.frame_prefix = ros::this_node::getNamespace().substr(1) + "/particle_";
+  // a fixed frame named like a particle frame would be its own parent (TF_SELF_TRANSFORM)
+  if (parameters_.fixed_frame.rfind(parameters_.frame_prefix, 0) == 0)
+    throw InvalidInput("~fixed_frame",
+                       "= '" + parameters_.fixed_frame + "' starts with the frame prefix '" +
+                           parameters_.frame_prefix + "': particle frames would clash with it");
   if (parameters_.publish_clock)
   {
     const std::vector<std::string> others = otherPublishers("/clock");
@@ -111,10 +143,20 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
 
   mesh_cache_ = SurfaceMeshCache(parameters_.mesh_cells);
   if (parameters_.publish_clock)
+  {
     clock_publisher_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10);
+    // two started at once both passed the check above: now each sees the other, and the one
+    // whose name sorts first keeps /clock
+    for (const std::string& other : otherPublishers("/clock"))
+      if (other < ros::this_node::getName())
+        throw InvalidInput("~publish_clock", "= true, but " + other +
+                                                 " started publishing /clock at the same time: "
+                                                 "only one node may; start this one with "
+                                                 "_publish_clock:=false");
+  }
   // our own /tf publisher (tf2_ros::TransformBroadcaster is a thin wrapper of one) so the message
   // is built only with subscribers and reuses its frame names; queue as tf2_ros's broadcaster
-  tf_publisher_ = ros::NodeHandle().advertise<tf2_msgs::TFMessage>(
+  tf_publisher_ = publish_nh_.advertise<tf2_msgs::TFMessage>(
       "/tf", 100,
       ros::SubscriberStatusCallback(
           [this](const ros::SingleSubscriberPublisher& subscriber)
@@ -122,7 +164,10 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
             // with ~publish_clock nothing is re-sent while time stands still: a listener joining
             // then gets the last frames once, to itself only (no stamp twice for the others)
             std::lock_guard<std::mutex> lock(publish_mutex_);
-            if (parameters_.publish_clock && last_stamp_ >= 0.0)
+            // only while time stands still: a broadcast since the link came up would repeat
+            if (parameters_.publish_clock && last_stamp_ >= 0.0 &&
+                std::chrono::steady_clock::now() - last_tf_broadcast_ >
+                    std::chrono::milliseconds(500))
               subscriber.publish(tf_message_);
           }));
   // latched with ~publish_clock: while sim time stands still nothing new is sent
@@ -149,14 +194,15 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
              SimulatorConfig& in_force)
       { return reconfigureCallback(shown, requested, in_force); });
 
-  publish_timer_ = nh_.createWallTimer(ros::WallDuration(1.0 / parameters_.publish_rate),
-                                       [this](const ros::WallTimerEvent&) { publish(); });
-  diagnostics_timer_ =
-      nh_.createWallTimer(ros::WallDuration(1.0), &SimulatorNode::diagnosticsCallback, this);
+  publish_timer_ = publish_nh_.createWallTimer(ros::WallDuration(1.0 / parameters_.publish_rate),
+                                               [this](const ros::WallTimerEvent&) { publish(); });
+  diagnostics_timer_ = publish_nh_.createWallTimer(ros::WallDuration(1.0),
+                                                   &SimulatorNode::diagnosticsCallback, this);
   if (parameters_.status_period > 0.0)
-    status_timer_ = nh_.createWallTimer(ros::WallDuration(parameters_.status_period),
-                                        &SimulatorNode::statusCallback, this);
+    status_timer_ = publish_nh_.createWallTimer(ros::WallDuration(parameters_.status_period),
+                                                &SimulatorNode::statusCallback, this);
   runner_->start();
+  publish_spinner_.start();
   ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s; frames %s<i> in %s",
            first->scene->name.c_str(), first->model->numParticles(),
            parameters_.step.integrator.c_str(), stabilizationName(parameters_.step.stabilization),
@@ -171,6 +217,7 @@ SimulatorNode::~SimulatorNode()
 
 bool SimulatorNode::shutdown(std::chrono::milliseconds timeout)
 {
+  publish_spinner_.stop();
   publish_timer_.stop();
   diagnostics_timer_.stop();
   status_timer_.stop();
@@ -240,6 +287,7 @@ void SimulatorNode::publish()
       t.transform.translation.z = snap->state.positions(2, i);
     }
     tf_publisher_.publish(tf_message_);
+    last_tf_broadcast_ = std::chrono::steady_clock::now();
   }
 
   if (state_publisher_.getNumSubscribers() > 0 || parameters_.publish_clock)
@@ -356,10 +404,13 @@ bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface:
 
 bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Response& response)
 {
+  // a uint32 above INT_MAX must not wrap to a valid count: refused as sent
+  if (request.num_particles > static_cast<std::uint32_t>(parameters_.max_particles))
+    return refuse(response, "num_particles = " + std::to_string(request.num_particles) +
+                                ", must be in [1, " + std::to_string(parameters_.max_particles) +
+                                "] (~max_particles)");
   ChainChange chain;
-  // a uint32 above INT_MAX must not wrap to a valid count
-  chain.num_particles =
-      static_cast<int>(std::min<double>(request.num_particles, limits::PARTICLES.high + 1));
+  chain.num_particles = static_cast<int>(request.num_particles);
   chain.link_length = request.link_length;
   chain.particle_mass = request.particle_mass;
   switch (request.pin_first)

@@ -16,6 +16,7 @@ from wall_clock import WallClockWaits
 from constrained_particles.msg import SimState
 from constrained_particles.srv import Reset, SetChain, SetChainRequest, Step
 from diagnostic_msgs.msg import DiagnosticArray
+from dynamic_reconfigure.client import Client
 from std_srvs.srv import Empty
 
 NODE = "/simulator"
@@ -105,6 +106,37 @@ class NodeRunnerTest(WallClockWaits, unittest.TestCase):
         self.wait_until(lambda: abs(self.latest().sim_time - reply.sim_time) < 1e-9,
                         f"~state at the step's end, t = {reply.sim_time} s")
         self.assertTrue(self.reset("").success)
+
+    def test_waiting_service_calls_do_not_hold_up_publishing(self):
+        # steps of seconds each (dopri5 at its tightest tolerance, dt = 1 s): every request waits
+        self.chain(1000, SetChainRequest.PIN_FIRST_PIN)
+        client = Client(NODE, timeout=60.0)
+        client.update_configuration({"integrator": "dopri5", "adaptive_tolerance": 1e-14,
+                                     "dt": 1.0})
+        self.unpause()
+        stamps = []
+        tf = rospy.Subscriber("/tf", rospy.AnyMsg, lambda _m: stamps.append(time.monotonic()),
+                              queue_size=100)
+        # more callers than the node has service threads, all waiting for the step under way
+        callers = [threading.Thread(target=self.pause) for _ in range(8)]
+        try:
+            self.wait_until(lambda: len(stamps) > 10, "/tf before the calls")
+            start = time.monotonic()
+            for caller in callers:
+                caller.start()
+            time.sleep(3.0)  # the window observed
+            window = [t for t in stamps if t >= start]
+            gaps = [b - a for a, b in zip(window, window[1:])]
+            self.assertGreater(len(window), 10)
+            # 30 Hz asked: a gap of half a second means publishing waited for the runner
+            self.assertLess(max(gaps), 0.5)
+        finally:
+            for caller in callers:
+                caller.join(timeout=120.0)
+            tf.unregister()
+            client.update_configuration({"integrator": "rk4", "adaptive_tolerance": 1e-8,
+                                         "dt": 0.001})
+        self.assertFalse(any(caller.is_alive() for caller in callers))
 
     def test_state_reports_every_step_of_the_core(self):
         self.chain(5, SetChainRequest.PIN_FIRST_PIN)

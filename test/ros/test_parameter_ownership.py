@@ -4,13 +4,13 @@ one name: the first is reconfigured (dt, integrator, damping); the next ones, st
 scenes and no step parameters, run their own scene's solver settings and forces. Waits are
 wall-clock deadlines with polling."""
 import os
-import signal
 import subprocess
 import time
 import unittest
 
 import rospy
 import rostest
+from wall_clock import interrupt
 import yaml
 from dynamic_reconfigure.client import Client
 
@@ -39,19 +39,10 @@ class ParameterOwnershipTest(unittest.TestCase):
             ["rosrun", "constrained_particles", "simulator_node", f"__name:={NAME}",
              f"_scenario:={scenario}"],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-        self.addCleanup(self.stop, node)
+        self.addCleanup(interrupt, node)
         rospy.wait_for_service(f"/{NAME}/set_parameters", timeout=120.0)
         return node, Client(f"/{NAME}", timeout=120.0)
 
-    @staticmethod
-    def stop(node):
-        if node.poll() is None:
-            os.kill(node.pid, signal.SIGINT)
-            try:
-                node.wait(timeout=30.0)
-            except subprocess.TimeoutExpired:
-                node.kill()
-                node.wait()
 
     def wait_gone(self):
         deadline = time.monotonic() + 60.0
@@ -78,18 +69,20 @@ class ParameterOwnershipTest(unittest.TestCase):
     def test_next_start_runs_its_own_scene(self):
         first, client = self.start("chain")
         self.expect_scene_settings(client, "chain")
-        client.update_configuration({"dt": 0.002, "integrator": "semi_implicit_euler",
-                                     "damping": 0.7})
-        self.assertEqual(client.get_configuration(timeout=60.0)["integrator"], "semi_implicit_euler")
+        # the reply is the configuration in force (get_configuration may still hold the last one)
+        in_force = client.update_configuration({"dt": 0.002, "integrator": "semi_implicit_euler",
+                                                "damping": 0.7})
+        self.assertEqual(in_force["integrator"], "semi_implicit_euler")
+        self.assertAlmostEqual(in_force["damping"], 0.7, places=12)
         # the node keeps its run-time state to itself: no ~dt left behind for the next start
         for key in ("dt", "integrator", "damping", "stabilization"):
             self.assertFalse(rospy.has_param(f"/{NAME}/{key}"), key)
-        self.stop(first)
+        interrupt(first)
         self.wait_gone()
         for scenario in ("pinned_pendulum", "mobile", "chain"):
             node, client = self.start(scenario)
             self.expect_scene_settings(client, scenario)
-            self.stop(node)
+            interrupt(node)
             self.wait_gone()
 
 

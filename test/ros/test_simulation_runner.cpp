@@ -129,6 +129,44 @@ TEST(SimulationRunner, LongStepRunsInBatchesAndAPauseStopsItAtTheNextBatch)
   EXPECT_FALSE(runner.snapshot()->stepping);
 }
 
+TEST(SimulationRunner, StepStoppedByAResetAnswersWhereItGot)
+{
+  SimulationRunner runner(parametersFor("chain"), chainOf(300));
+  runner.start(true);
+  auto step = std::async(std::launch::async, [&] { return runner.step(1000000); });
+  ASSERT_TRUE(waitFor([&] { return runner.snapshot()->state.steps > 0; }));
+  ASSERT_TRUE(runner.reset("").success);
+  ASSERT_EQ(step.wait_for(60s), std::future_status::ready);
+  const RunnerReply reply = step.get();
+  EXPECT_FALSE(reply.success);
+  EXPECT_NE(reply.message.find("reset"), std::string::npos) << reply.message;
+  // the time its steps reached, not the new scene's 0
+  EXPECT_GT(reply.steps_taken, 0u);
+  EXPECT_NEAR(reply.sim_time, reply.steps_taken * runner.snapshot()->parameters.step.dt, 1e-9);
+  EXPECT_EQ(runner.snapshot()->state.steps, 0u);
+}
+
+TEST(SimulationRunner, ReconfiguredForcesStayWithTheirScene)
+{
+  SimulationRunner runner(parametersFor("chain"), scene("chain"));
+  runner.start(true);
+  ASSERT_TRUE(runner
+                  .reconfigure([](NodeParameters& p, const SceneDescription&)
+                               { p.overrides.gravity = Vec3(0, 0, -1.0); })
+                  .success);
+  EXPECT_EQ(sceneGravity(*runner.snapshot()->scene), Vec3(0, 0, -1.0));
+  // kept by a reset of the same scene, gone with a named one, and not brought back later
+  ASSERT_TRUE(runner.reset("").success);
+  EXPECT_EQ(sceneGravity(*runner.snapshot()->scene), Vec3(0, 0, -1.0));
+  ASSERT_TRUE(runner.reset("chain").success);
+  EXPECT_EQ(sceneGravity(*runner.snapshot()->scene), Vec3(0, 0, -9.81));
+  ASSERT_TRUE(
+      runner.reconfigure([](NodeParameters& p, const SceneDescription&) { p.step.dt = 0.002; })
+          .success);
+  EXPECT_EQ(sceneGravity(*runner.snapshot()->scene), Vec3(0, 0, -9.81));
+  EXPECT_EQ(runner.snapshot()->parameters.step.dt, 0.002);
+}
+
 TEST(SimulationRunner, FaultKeepsEveryGoodBatch)
 {
   // no stabilisation: the links drift until the error passes ~max_constraint_error

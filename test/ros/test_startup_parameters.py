@@ -43,6 +43,7 @@ class StartupParametersTest(unittest.TestCase):
             (("publish_rate", "-5"),),
             (("gravity", "[0, 0]"),),
             (("fixed_frame", "/world"),),
+            (("fixed_frame", "particle_1"),),  # a particle frame: its own parent
             (("surface/expression", "sin(x"), ("surface/type", "expression")),
         ]
         problems = []

@@ -8,12 +8,19 @@ import threading
 import time
 import unittest
 
+import rosgraph
 import rospy
 import rostest
-from wall_clock import WallClockWaits
+from wall_clock import WallClockWaits, interrupt
 from constrained_particles.msg import SimState
 from rosgraph_msgs.msg import Clock
 from tf2_msgs.msg import TFMessage
+
+
+def clock_publishers():
+    """The nodes the master lists as publishing /clock."""
+    state = rosgraph.Master("/two_simulators_test").getSystemState()
+    return sorted(node for topic, nodes in state[0] if topic == "/clock" for node in nodes)
 
 
 class TwoSimulatorsTest(WallClockWaits, unittest.TestCase):
@@ -53,9 +60,12 @@ class TwoSimulatorsTest(WallClockWaits, unittest.TestCase):
                 self.wait_until(lambda: frame in self.frames, f"frame {frame}")
         with self.lock:
             frames = dict(self.frames)
-        self.assertEqual(len(frames), sum(counts.values()), sorted(frames))
-        self.assertTrue(all(parent == "world" for parent in frames.values()))
-        self.assertFalse([f for f in frames if f.startswith("particle_")])
+        ours = {f: p for f, p in frames.items() if f.split("/")[0] in counts}
+        expected = {f"{side}/particle_{i}" for side, n in counts.items() for i in range(n)}
+        self.assertEqual(set(ours), expected)
+        self.assertTrue(all(parent == "world" for parent in ours.values()))
+        # every simulator here runs in a namespace: no frame without one
+        self.assertFalse([f for f in frames if "/" not in f], sorted(frames))
 
     def test_second_clock_publisher_is_refused(self):
         # a clock publisher of our own, as a first simulator with ~publish_clock would be
@@ -72,6 +82,43 @@ class TwoSimulatorsTest(WallClockWaits, unittest.TestCase):
         self.assertEqual(done.returncode, 1, output)
         self.assertIn("~publish_clock", output)
         self.assertIn(rospy.get_name(), output)
+
+    def clock_node(self, name):
+        return subprocess.Popen(
+            ["rosrun", "constrained_particles", "simulator_node", f"__name:={name}",
+             "__ns:=clock_test", "_scenario:=bead", "_publish_clock:=true"],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+
+
+    def test_two_clock_nodes_started_together_leave_one(self):
+        nodes = [self.clock_node("clock_a"), self.clock_node("clock_b")]
+        try:
+            # one is refused (exit 1, naming ~publish_clock), whichever way the starts interleave
+            self.wait_until(lambda: any(n.poll() is not None for n in nodes), "a refusal", 120.0)
+            refused = [n for n in nodes if n.poll() is not None]
+            self.assertEqual(len(refused), 1)
+            self.assertEqual(refused[0].returncode, 1)
+            self.assertIn("~publish_clock", refused[0].stdout.read())
+            self.wait_until(lambda: clock_publishers() in (["/clock_test/clock_a"], ["/clock_test/clock_b"]),
+                            "one /clock publisher")
+            self.assertIsNone([n for n in nodes if n not in refused][0].poll())
+        finally:
+            for node in nodes:
+                interrupt(node)
+
+    def test_a_dead_clock_publisher_does_not_block_a_start(self):
+        # a publisher the master still lists but that no longer answers (as after SIGKILL)
+        master = rosgraph.Master("/ghost")
+        master.registerPublisher("/clock", "rosgraph_msgs/Clock", "http://localhost:9/")
+        node = self.clock_node("after_ghost")
+        try:
+            self.wait_until(lambda: node.poll() is not None or
+                            "/clock_test/after_ghost" in clock_publishers(), "the node publishing /clock",
+                            120.0)
+            self.assertIsNone(node.poll(), node.stdout.read() if node.poll() is not None else "")
+        finally:
+            interrupt(node)
+            master.unregisterPublisher("/clock", "http://localhost:9/")
 
 
 if __name__ == "__main__":

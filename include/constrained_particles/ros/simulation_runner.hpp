@@ -161,6 +161,7 @@ private:
   {
     std::uint64_t wanted = 0;
     std::uint64_t taken = 0;
+    double sim_time = 0;  // after the steps taken [s]
     std::shared_ptr<std::promise<RunnerReply>> reply;
   };
 

@@ -16,6 +16,7 @@
 #include <constrained_particles/SetState.h>
 #include <constrained_particles/SetSurface.h>
 #include <constrained_particles/Step.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <std_srvs/Empty.h>
 #include <tf2_msgs/TFMessage.h>
@@ -73,10 +74,16 @@ private:
 
   ros::NodeHandle nh_;
   NodeParameters parameters_;  // as started; what changes at run time is in the snapshots
+  // publishing, diagnostics and /tf's connect callback on a queue and thread of their own: any
+  // number of service calls waiting for the runner cannot hold them up
+  ros::CallbackQueue publish_queue_;
+  ros::NodeHandle publish_nh_;
+  ros::AsyncSpinner publish_spinner_;
   std::unique_ptr<SimulationRunner> runner_;
 
   std::mutex publish_mutex_;  // publish() only: timer callbacks may overlap on the spinner
   double last_stamp_ = -1.0;  // ~publish_clock: the last stamp sent [s]
+  std::chrono::steady_clock::time_point last_tf_broadcast_;  // wall time of the last /tf
   std::uint64_t frames_scene_serial_ = 0, markers_scene_serial_ = 0;
   tf2_msgs::TFMessage tf_message_;  // frame names filled once per scene
   int published_arrows_ = 0;
