@@ -144,7 +144,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   mesh_cache_ = SurfaceMeshCache(parameters_.mesh_cells);
   if (parameters_.publish_clock)
   {
-    clock_publisher_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10);
+    // latched: a node with use_sim_time started while we are paused still learns the time
+    clock_publisher_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10, true);
     // two started at once both passed the check above: now each sees the other, and the one
     // whose name sorts first keeps /clock
     for (const std::string& other : otherPublishers("/clock"))
@@ -313,10 +314,12 @@ void SimulatorNode::publish()
     msg.status = snap->faulted  ? SimState::STATUS_FAULT
                  : snap->paused ? SimState::STATUS_PAUSED
                                 : SimState::STATUS_RUNNING;
-    msg.status_message = snap->faulted  ? snap->fault_reason
-                         : snap->behind ? "behind: cannot keep up with the real-time factor; "
-                                          "sim time slowed"
-                                        : "";
+    msg.status_message = snap->faulted    ? snap->fault_reason
+                         : snap->stepping ? "paused, running a ~step"
+                         : snap->paused   ? "paused"
+                         : snap->behind   ? "behind: cannot keep up with the real-time factor; "
+                                            "sim time slowed"
+                                          : "";
     msg.interval_steps = static_cast<std::uint32_t>(statistics.steps);
     msg.factorizations = static_cast<std::uint32_t>(statistics.solve.factorizations);
     msg.singular_solves = static_cast<std::uint32_t>(statistics.solve.singular_count);
@@ -468,7 +471,13 @@ bool SimulatorNode::stepCallback(Step::Request& request, Step::Response& respons
   const RunnerReply reply = runner_->step(request.steps);
   response.sim_time = reply.sim_time;
   response.steps_taken = static_cast<std::uint32_t>(reply.steps_taken);
-  return answer(response, reply);
+  if (reply.success || reply.steps_taken == 0)
+    return answer(response, reply);
+  // stopped part-way (a pause, reset, fault or shutdown): an outcome, not a refusal
+  ROS_INFO("~step: %s", reply.message.c_str());
+  response.success = false;
+  response.message = reply.message;
+  return true;
 }
 
 bool SimulatorNode::reconfigureCallback(const SimulatorConfig& shown,
@@ -572,7 +581,8 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   add("sim_time [s]", formatValue(snap->state.time));
   add("steps", std::to_string(snap->state.steps));
   add("max_position_error [m]", formatValue(snap->diagnostics.max_position_error));
-  add("max_constraint_error [m]", formatValue(p.max_constraint_error));
+  add("max_velocity_error [m/s]", formatValue(snap->diagnostics.max_velocity_error));
+  add("fault limit: max_constraint_error [m]", formatValue(p.max_constraint_error));
   add("total_energy [J]", formatValue(snap->diagnostics.totalEnergy()));
   add("step_time [s]", formatValue(snap->step_time));
   add("real_time_factor achieved", formatValue(snap->real_time_factor));

@@ -90,6 +90,7 @@ class NodeRunnerTest(WallClockWaits, unittest.TestCase):
             diagnostics_seen = diagnostics_count.value() - diagnostics_start
             self.assertTrue(worker.is_alive(), "the step should still be running")
             self.assertGreater(self.latest().steps, start_steps, "~state frozen during ~step")
+            self.assertEqual(self.latest().status_message, "paused, running a ~step")
             self.assertGreaterEqual(tf_rate, 0.8 * PUBLISH_RATE)
             self.assertGreaterEqual(diagnostics_seen, 2)
         finally:

@@ -74,6 +74,15 @@ class SimClockTest(unittest.TestCase):
         time.sleep(1.0)
         self.assertAlmostEqual(self.states[-1].header.stamp.to_sec(), 0.25 + offset, places=6)
         self.assertAlmostEqual(rospy.Time.now().to_sec(), 0.25 + offset, places=6)
+        # /clock is latched: a node joining now learns the time although nothing is re-sent
+        late = []
+        subscriber = rospy.Subscriber("/clock", Clock, late.append)
+        deadline = time.monotonic() + 30.0
+        while not late and time.monotonic() < deadline:
+            time.sleep(0.01)
+        subscriber.unregister()
+        self.assertTrue(late, "no /clock for a subscriber joining while paused")
+        self.assertAlmostEqual(late[0].clock.to_sec(), 0.25 + offset, places=6)
         # stepping advances it by exactly the steps
         self.assertTrue(self.step(100).success)
         self.assertAlmostEqual(self.state_at(0.35).header.stamp.to_sec(), 0.35 + offset, places=6)
