@@ -453,7 +453,7 @@ bool SimulationRunner::runBatch()
     const StepStatistics statistics = simulator_->step(chunk);
     step_time_estimate_ = seconds(Clock::now() - chunk_start) / chunk;
     // an undone chunk's statistics go with it: reports count the steps that stand
-    if (const std::string reason = faultIn(simulator_->state()); !reason.empty())
+    if (const std::string reason = faultIn(simulator_->state(), statistics); !reason.empty())
       fault(reason, last_good_);
     else
     {
@@ -490,8 +490,14 @@ bool SimulationRunner::runBatch()
   return true;
 }
 
-std::string SimulationRunner::faultIn(const State& state) const
+std::string SimulationRunner::faultIn(const State& state, const StepStatistics& chunk) const
 {
+  if (chunk.forced_internal_steps > 0)
+    return "dopri5 could not meet ~adaptive_tolerance = " +
+           formatValue(parameters_.step.adaptive_tolerance) + " within " +
+           formatValue(parameters_.step.dt) + " s at t = " + formatValue(state.time) +
+           " s (over 100,000 internal steps, or one under 1e-12 dt): loosen the tolerance or " +
+           "shorten ~dt";
   if (!isFinite(state))
     return "the state became non-finite between t = " + formatValue(last_good_.time) +
            " s and t = " + formatValue(state.time) + " s";

@@ -212,6 +212,31 @@ TEST(SimulationRunner, FaultKeepsEveryGoodBatch)
   EXPECT_FALSE(runner.snapshot()->faulted);
 }
 
+TEST(SimulationRunner, Dopri5AtItsGuardsFaultsNamingTheTolerance)
+{
+  // a 1 mm, 1 mg chain at dt = 1 s and the tightest tolerance: the step cannot be met in
+  // bounded work, so dopri5 ends it unchecked at a guard and the runner faults, keeping t = 0
+  NodeParameters p = parametersFor("chain");
+  p.step.integrator = "dopri5";
+  p.step.adaptive_tolerance = limits::ADAPTIVE_TOLERANCE.low;
+  p.step.dt = 1.0;
+  p.step_given = { "integrator", "adaptive_tolerance", "dt" };
+  SceneDescription chain = scene("chain");
+  ChainChange change;
+  change.num_particles = 50;
+  change.link_length = 1e-3;
+  change.particle_mass = 1e-6;
+  setChains(chain, change);
+  SimulationRunner runner(p, chain);
+  runner.start(true);
+  const RunnerReply reply = runner.step(1);
+  EXPECT_FALSE(reply.success);
+  EXPECT_NE(reply.message.find("adaptive_tolerance"), std::string::npos) << reply.message;
+  EXPECT_EQ(reply.steps_taken, 0u);
+  EXPECT_TRUE(runner.snapshot()->faulted);
+  EXPECT_EQ(runner.snapshot()->state.steps, 0u);
+}
+
 TEST(SimulationRunner, StampsNeverRepeatOrGoBackAcrossResetsAndTeleports)
 {
   SimulationRunner runner(parametersFor("chain"), scene("chain"));

@@ -137,7 +137,9 @@ struct StepStatistics
   ProjectionStatistics projection;   ///< every projection
   long internal_steps = 0;           ///< dopri5: accepted internal steps (fixed-step: 1 per step)
   long rejected_internal_steps = 0;  ///< dopri5: internal steps rejected and retaken smaller
-  long forced_internal_steps = 0;    ///< dopri5: dt ends taken unchecked after 1e6 attempts
+  /// dopri5: dt ends taken unchecked because a guard was hit (over 100,000 internal steps in one
+  /// dt, or an internal step under 1e-12 dt): the tolerance cannot be met at this dt
+  long forced_internal_steps = 0;
   EffectCounters effects;            ///< evaluations during the batch
 
   /// Takes in the statistics of a later batch, as if both had been one.

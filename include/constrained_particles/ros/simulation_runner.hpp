@@ -93,7 +93,8 @@ public:
   /// offers a snapshot; at least one step is always taken.
   static constexpr double BATCH_WALL_TIME = 0.02;  // [s]
   /// Steps are taken in chunks of about this wall time, each checked for a fault (non-finite
-  /// state, constraint error over ~max_constraint_error): a fault keeps every good chunk.
+  /// state, constraint error over ~max_constraint_error, a dopri5 step forced at its guards): a
+  /// fault keeps every good chunk.
   static constexpr double CHECK_WALL_TIME = 0.002;  // [s]
   /// Forward jump of Snapshot::stamp at each reset, scene change, teleport or fault [s].
   static constexpr double TIME_JUMP = 1e-3;
@@ -173,8 +174,8 @@ private:
   bool applyRequests();
   /// One batch of due steps, bounded by BATCH_WALL_TIME; false if none were due.
   bool runBatch();
-  /// Why `state` is a fault, or empty if it is not.
-  std::string faultIn(const State& state) const;
+  /// Why `state`, reached by a chunk with `chunk` statistics, is a fault, or empty if it is not.
+  std::string faultIn(const State& state, const StepStatistics& chunk) const;
   /// Stops stepping, puts back `good` and records why.
   void fault(const std::string& reason, const State& good);
   /// Ends a running ~step early (nothing if none runs).
