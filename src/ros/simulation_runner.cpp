@@ -25,6 +25,23 @@ RunnerReply refused(const std::string& message)
   return reply;
 }
 
+RunnerReply accepted(const std::string& message)
+{
+  RunnerReply reply;
+  reply.success = true;
+  reply.message = message;
+  return reply;
+}
+
+/// @throws InvalidInput naming `field` if `scene` has more particles than `max_particles`
+void requireAtMost(const SceneDescription& scene, int max_particles, const std::string& field)
+{
+  if (scene.numParticles() > max_particles)
+    throw InvalidInput(field,
+                       "gives scene '" + scene.name + "' " + std::to_string(scene.numParticles()) +
+                           " particles, over ~max_particles = " + std::to_string(max_particles));
+}
+
 }  // namespace
 
 SimulationRunner::SimulationRunner(const NodeParameters& parameters, const SceneDescription& scene)
@@ -34,11 +51,7 @@ SimulationRunner::SimulationRunner(const NodeParameters& parameters, const Scene
   chosen_step_.given = parameters.step_given;
   // start-up overrides are already in `scene`; kept, a reconfigure would carry them to other scenes
   parameters_.overrides = SceneOverrides{};
-  if (scene.numParticles() > parameters_.max_particles)
-    throw InvalidInput(
-        "~scenario",
-        "= '" + parameters_.scenario + "' has " + std::to_string(scene.numParticles()) +
-            " particles, over ~max_particles = " + std::to_string(parameters_.max_particles));
+  requireAtMost(scene, parameters_.max_particles, "~scenario");
   const StepSettings settings = settingsFor(scene);
   const BuiltScene built = buildScene(scene);
   simulator_ = std::make_unique<Simulator>(built.scene, built.initial_state, settings,
@@ -52,11 +65,7 @@ SimulationRunner::SimulationRunner(const NodeParameters& parameters, const Scene
 
 SimulationRunner::~SimulationRunner()
 {
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);  // not between the loop's check and its wait
-    stopping_ = true;
-  }
-  wake_.notify_all();
+  requestStop();
   if (thread_.joinable())
     thread_.join();
 }
@@ -71,13 +80,18 @@ void SimulationRunner::start(bool paused)
   thread_ = std::thread(&SimulationRunner::loop, this);
 }
 
-bool SimulationRunner::stop(std::chrono::milliseconds timeout)
+void SimulationRunner::requestStop()
 {
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);  // not between the loop's check and its wait
     stopping_ = true;
   }
   wake_.notify_all();
+}
+
+bool SimulationRunner::stop(std::chrono::milliseconds timeout)
+{
+  requestStop();
   if (!thread_.joinable())
     return true;
   std::unique_lock<std::mutex> lock(exit_mutex_);
@@ -144,15 +158,12 @@ RunnerReply SimulationRunner::reset(const std::string& scenario)
               loadSceneFile(resolveScene(scenario, parameters_.scene_directory, "scenario"));
           rebuild(description, settingsFor(description));
         }
-        RunnerReply reply;
-        reply.success = true;
-        reply.message = "reset to scene '" + scene_->name + "' (" +
+        return accepted("reset to scene '" + scene_->name + "' (" +
                         std::to_string(simulator_->model().numParticles()) + " particles, solve " +
                         solveMethodName(simulator_->model().solveMethod()) + "; " +
                         parameters_.step.integrator + " + " +
                         stabilizationName(parameters_.step.stabilization) +
-                        ", dt = " + formatValue(parameters_.step.dt) + " s)";
-        return reply;
+                        ", dt = " + formatValue(parameters_.step.dt) + " s)");
       });
 }
 
@@ -165,11 +176,8 @@ RunnerReply SimulationRunner::changeScene(const std::function<void(SceneDescript
         SceneDescription changed = *scene_;
         edit(changed);
         rebuild(changed, parameters_.step);
-        RunnerReply reply;
-        reply.success = true;
-        reply.message = what + "; scene '" + scene_->name + "' reset (" +
-                        std::to_string(simulator_->model().numParticles()) + " particles)";
-        return reply;
+        return accepted(what + "; scene '" + scene_->name + "' reset (" +
+                        std::to_string(simulator_->model().numParticles()) + " particles)");
       });
 }
 
@@ -207,13 +215,11 @@ RunnerReply SimulationRunner::setState(const Points& positions, const Points& ve
         reanchor();
         // last: its snapshot must show the teleport whole
         interruptStep("~set_state");
-        RunnerReply reply;
-        reply.success = true;
+        RunnerReply reply =
+            accepted("state set; projection moved particles by up to " +
+                     formatValue(report.max_displacement) + " m and changed velocities by up to " +
+                     formatValue(report.max_velocity_change) + " m/s");
         reply.max_displacement = report.max_displacement;
-        reply.message = "state set; projection moved particles by up to " +
-                        formatValue(report.max_displacement) +
-                        " m and changed velocities by up to " +
-                        formatValue(report.max_velocity_change) + " m/s";
         return reply;
       });
 }
@@ -225,10 +231,7 @@ RunnerReply SimulationRunner::pause()
       {
         interruptStep("~pause");
         paused_ = true;
-        RunnerReply reply;
-        reply.success = true;
-        reply.message = "paused";
-        return reply;
+        return accepted("paused");
       });
 }
 
@@ -240,11 +243,8 @@ RunnerReply SimulationRunner::unpause()
         interruptStep("~unpause");
         paused_ = false;
         reanchor();
-        RunnerReply reply;
-        reply.success = true;
-        reply.message =
-            faulted_ ? "unpaused, but stepping is stopped (" + fault_reason_ + ")" : "running";
-        return reply;
+        return accepted(faulted_ ? "unpaused, but stepping is stopped (" + fault_reason_ + ")"
+                                 : "running");
       });
 }
 
@@ -271,9 +271,7 @@ RunnerReply SimulationRunner::step(std::uint64_t steps)
         step_request_->wanted = steps;
         step_request_->sim_time = simulator_->state().time;
         step_request_->reply = promise;
-        RunnerReply accepted;
-        accepted.success = true;
-        return accepted;
+        return accepted("step under way");
       });
   if (!immediate.success)
     return immediate;
@@ -328,10 +326,7 @@ RunnerReply SimulationRunner::reconfigure(
         step_time_estimate_ = 0;
         last_chunk_ = 1;
         reanchor();
-        RunnerReply reply;
-        reply.success = true;
-        reply.message = "reconfigured";
-        return reply;
+        return accepted("reconfigured");
       });
 }
 
@@ -460,11 +455,15 @@ bool SimulationRunner::runBatch()
       batch.merge(statistics);
       taken += static_cast<std::uint64_t>(chunk);
       last_good_ = simulator_->state();
-      forces_ = simulator_->data().constraint_forces;
-      multipliers_ = simulator_->data().multipliers;
     }
     if (seconds(Clock::now() - start) >= BATCH_WALL_TIME || stopping_)
       break;
+  }
+  // the last step's forces, once per batch (after a fault, fault() took them at the good state)
+  if (!faulted_)
+  {
+    forces_ = simulator_->data().constraint_forces;
+    multipliers_ = simulator_->data().multipliers;
   }
   step_time_ =
       seconds(Clock::now() - start) / static_cast<double>(std::max<std::uint64_t>(taken, 1));
@@ -495,9 +494,9 @@ std::string SimulationRunner::faultIn(const State& state, const StepStatistics& 
   if (chunk.forced_internal_steps > 0)
     return "dopri5 could not meet ~adaptive_tolerance = " +
            formatValue(parameters_.step.adaptive_tolerance) + " within " +
-           formatValue(parameters_.step.dt) + " s at t = " + formatValue(state.time) +
-           " s (over 100,000 internal steps, or one under 1e-12 dt): loosen the tolerance or " +
-           "shorten ~dt";
+           formatValue(parameters_.step.dt) + " s at t = " + formatValue(state.time) + " s (over " +
+           std::to_string(DOPRI5_MAX_INTERNAL_STEPS) + " internal steps, or one under " +
+           formatValue(DOPRI5_MIN_INTERNAL_STEP) + " dt): loosen the tolerance or shorten ~dt";
   if (!isFinite(state))
     return "the state became non-finite between t = " + formatValue(last_good_.time) +
            " s and t = " + formatValue(state.time) + " s";
@@ -532,9 +531,7 @@ void SimulationRunner::interruptStep(const std::string& by)
 
 void SimulationRunner::finishStep(bool success, const std::string& message)
 {
-  RunnerReply reply;
-  reply.success = success;
-  reply.message = message;
+  RunnerReply reply = success ? accepted(message) : refused(message);
   reply.sim_time = step_request_->sim_time;  // not a new scene's, when a reset stopped it
   reply.steps_taken = step_request_->taken;
   const std::shared_ptr<std::promise<RunnerReply>> promise = step_request_->reply;
@@ -546,11 +543,7 @@ void SimulationRunner::finishStep(bool success, const std::string& message)
 
 void SimulationRunner::rebuild(const SceneDescription& description, const StepSettings& settings)
 {
-  if (description.numParticles() > parameters_.max_particles)
-    throw InvalidInput(
-        "num_particles",
-        "= " + std::to_string(description.numParticles()) + " in scene '" + description.name +
-            "', must be at most ~max_particles = " + std::to_string(parameters_.max_particles));
+  requireAtMost(description, parameters_.max_particles, "num_particles");
   const BuiltScene built = buildScene(description);
   const double time_before = simulator_->state().time;
   // settings first: if the scene is refused, put them back

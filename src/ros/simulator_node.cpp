@@ -107,6 +107,24 @@ std::string join(const std::vector<std::string>& items)
   return text;
 }
 
+/// Only one node may publish /clock: throws naming the others that do. Before advertising, any
+/// other counts; after (`advertised`), two started at once each see the other, and the one whose
+/// name sorts first keeps /clock.
+void requireClockFree(bool advertised)
+{
+  std::vector<std::string> others = otherPublishers("/clock");
+  if (advertised)
+    others.erase(std::remove_if(others.begin(), others.end(),
+                                [](const std::string& other)
+                                { return !(other < ros::this_node::getName()); }),
+                 others.end());
+  if (!others.empty())
+    throw InvalidInput("~publish_clock", "= true, but /clock is already published by " +
+                                             join(others) +
+                                             ": only one node may publish /clock; start this "
+                                             "one with _publish_clock:=false");
+}
+
 }  // namespace
 
 SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
@@ -125,14 +143,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
                        "= '" + parameters_.fixed_frame + "' starts with the frame prefix '" +
                            parameters_.frame_prefix + "': particle frames would clash with it");
   if (parameters_.publish_clock)
-  {
-    const std::vector<std::string> others = otherPublishers("/clock");
-    if (!others.empty())
-      throw InvalidInput("~publish_clock",
-                         "= true, but /clock is already published by " + join(others) +
-                             ": only one node may publish /clock; start this one with "
-                             "_publish_clock:=false");
-  }
+    requireClockFree(false);
   SceneDescription scene =
       loadSceneFile(resolveScene(parameters_.scenario, parameters_.scene_directory, "~scenario"));
   for (const std::string& warning : parameters_.overrides.applyTo(scene))
@@ -146,14 +157,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   {
     // latched: a node with use_sim_time started while we are paused still learns the time
     clock_publisher_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10, true);
-    // two started at once both passed the check above: now each sees the other, and the one
-    // whose name sorts first keeps /clock
-    for (const std::string& other : otherPublishers("/clock"))
-      if (other < ros::this_node::getName())
-        throw InvalidInput("~publish_clock", "= true, but " + other +
-                                                 " started publishing /clock at the same time: "
-                                                 "only one node may; start this one with "
-                                                 "_publish_clock:=false");
+    requireClockFree(true);
   }
   // our own /tf publisher (tf2_ros::TransformBroadcaster is a thin wrapper of one) so the message
   // is built only with subscribers and reuses its frame names; queue as tf2_ros's broadcaster
@@ -163,9 +167,9 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
           [this](const ros::SingleSubscriberPublisher& subscriber)
           {
             // with ~publish_clock nothing is re-sent while time stands still: a listener joining
-            // then gets the last frames once, to itself only (no stamp twice for the others)
+            // then gets the last frames once, to itself only, and only if nothing was broadcast
+            // lately (a broadcast since its link came up would repeat a stamp)
             std::lock_guard<std::mutex> lock(publish_mutex_);
-            // only while time stands still: a broadcast since the link came up would repeat
             if (parameters_.publish_clock && last_stamp_ >= 0.0 &&
                 std::chrono::steady_clock::now() - last_tf_broadcast_ >
                     std::chrono::milliseconds(500))
@@ -407,13 +411,8 @@ bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface:
 
 bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Response& response)
 {
-  // a uint32 above INT_MAX must not wrap to a valid count: refused as sent
-  if (request.num_particles > static_cast<std::uint32_t>(parameters_.max_particles))
-    return refuse(response, "num_particles = " + std::to_string(request.num_particles) +
-                                ", must be in [1, " + std::to_string(parameters_.max_particles) +
-                                "] (~max_particles)");
   ChainChange chain;
-  chain.num_particles = static_cast<int>(request.num_particles);
+  chain.num_particles = request.num_particles;
   chain.link_length = request.link_length;
   chain.particle_mass = request.particle_mass;
   switch (request.pin_first)

@@ -737,7 +737,7 @@ void setChains(SceneDescription& d, const ChainChange& change)
                            "change)");
   for (ChainSpec& spec : d.chains)
   {
-    spec.particles = change.num_particles;
+    spec.particles = static_cast<int>(change.num_particles);
     spec.link_length = change.link_length;
     spec.particle_mass = change.particle_mass;
     if (spec.surface.empty() && change.pin_first)

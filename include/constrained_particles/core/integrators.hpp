@@ -19,6 +19,12 @@ struct StepSettings;
 /// caller then imposes eliminated motion, projects if asked, and advances time and steps).
 using IntegratorStep = void (*)(const Model& model, Data& data, const StepSettings& settings);
 
+/// dopri5's guards: more accepted and rejected internal steps than this in one dt, or an internal
+/// step shorter than DOPRI5_MIN_INTERNAL_STEP dt, and the rest of the dt is taken as one
+/// unchecked step (StepStatistics::forced_internal_steps), so a step ends in bounded work.
+constexpr long DOPRI5_MAX_INTERNAL_STEPS = 100000;
+constexpr double DOPRI5_MIN_INTERNAL_STEP = 1e-12;
+
 /// One row of the table.
 struct IntegratorInfo
 {

@@ -167,6 +167,8 @@ private:
   };
 
   RunnerReply submit(std::function<RunnerReply()> apply);
+  /// Sets stopping_ and wakes the loop (stop() and the destructor).
+  void requestStop();
   /// Waits for a reply, giving up (refused) when the runner stops.
   RunnerReply await(std::future<RunnerReply>& future);
   void loop();

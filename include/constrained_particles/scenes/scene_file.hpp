@@ -75,7 +75,9 @@ struct ChainSpec
 /// What ~set_chain and ~chain/* change in every chain of a scene.
 struct ChainChange
 {
-  int num_particles = 5;       ///< n, limits::PARTICLES (and the node's ~max_particles)
+  /// n, limits::PARTICLES (and the node's ~max_particles); wide enough for any uint32 request,
+  /// so an out-of-range count is refused as it was sent, never wrapped
+  long num_particles = 5;
   double link_length = 0.5;    ///< l [m], limits::LINK_LENGTH
   double particle_mass = 1.0;  ///< [kg], limits::MASS
   /// chains not on a surface: pin (true) or free (false) the first particle; unset keeps it

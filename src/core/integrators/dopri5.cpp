@@ -16,12 +16,6 @@ namespace odeint = boost::numeric::odeint;
 
 namespace
 {
-/// Guards: more accepted and rejected internal steps than this in one dt, or an internal step
-/// shorter than MIN_INTERNAL_STEP dt, and the rest of the dt is taken as one unchecked step
-/// (counted as forced), so a step always ends in bounded work; the node faults on a forced step.
-constexpr long MAX_INTERNAL_STEPS = 100000;
-constexpr double MIN_INTERNAL_STEP = 1e-12;
-
 void step(const Model& model, Data& data, const StepSettings& settings)
 {
   std::unique_ptr<Dopri5Workspace>& workspace = data.dopri5();
@@ -52,7 +46,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
   {
     if ((t + h) - end > std::numeric_limits<double>::epsilon())
       h = end - t;
-    if (++attempts > MAX_INTERNAL_STEPS || h < MIN_INTERNAL_STEP * settings.dt)
+    if (++attempts > DOPRI5_MAX_INTERNAL_STEPS || h < DOPRI5_MIN_INTERNAL_STEP * settings.dt)
     {
       workspace->stepper.stepper().do_step(system, y, t, end - t);
       ++data.statistics.forced_internal_steps;
