@@ -17,4 +17,7 @@ rm -f "$LOG"
 set +u
 source "$ROOT/build/ws/devel/setup.bash"
 set -u
-exec roslaunch constrained_particles simulator.launch "$@"
+# headless, nothing shows the simulation: a status line per second instead (off by default)
+STATUS=()
+[[ -z "${DISPLAY:-}" ]] && STATUS=(status_period:=1.0)
+exec roslaunch constrained_particles simulator.launch "${STATUS[@]}" "$@"
