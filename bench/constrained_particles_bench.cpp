@@ -581,12 +581,103 @@ int scenes(const std::string& out, bool quick)
 
 }  // namespace
 
+// What stability costs on the fine-link chains of issue 14 (pinned, links of 1 cm, 10 g,
+// released horizontally, 10 s): rk4 unsplit (max_substeps = 1, until a step check stops it), rk4
+// and velocity Verlet with the default sub-steps, fast projection at 1 ms and 10 ms. Thread CPU
+// seconds per simulated second, median of `repeats`, and ratios to unsplit rk4's cost per step
+// measured in the same run.
+int stability(const std::string& out, bool quick)
+{
+  const int repeats = quick ? 1 : 3;
+  const double seconds = quick ? 2.0 : 10.0;
+  struct Method
+  {
+    const char* label;
+    const char* integrator;
+    double dt;
+    int max_substeps;
+  };
+  const Method methods[] = { { "rk4 unsplit", "rk4", 1e-3, 1 },
+                             { "rk4 + sub-steps", "rk4", 1e-3, 1024 },
+                             { "velocity_verlet + sub-steps", "velocity_verlet", 1e-3, 1024 },
+                             { "fast_projection, dt 1 ms", "fast_projection", 1e-3, 1024 },
+                             { "fast_projection, dt 10 ms", "fast_projection", 1e-2, 1024 } };
+  std::ofstream csv(out + "/stability.csv");
+  csv << "n,method,dt_s,max_substeps,sim_seconds_reached,failed_check,cpu_s_per_sim_s,"
+         "cost_ratio_to_unsplit_rk4,substeps_per_step,stiff_steps,rejected_steps,"
+         "max_constraint_error_m,energy_change_J\n";
+  std::printf("%6s  %-28s %9s %10s %10s %8s %9s %12s %12s\n", "n", "method", "reached_s",
+              "cpu/sim_s", "x_rk4", "sub/step", "retaken", "max_err_m", "dE_J");
+  for (const int n : { 200, 1000 })
+  {
+    double unsplit_per_step = NAN;
+    for (const Method& method : methods)
+    {
+      std::vector<double> costs;
+      StepStatistics all;
+      double reached = 0, max_error = 0, energy_change = 0;
+      StepCheck failed = StepCheck::None;
+      for (int r = 0; r < repeats; ++r)
+      {
+        Scene scene;
+        scene.masses.assign(n, 0.01);
+        for (int i = 0; i + 1 < n; ++i)
+          scene.constraints.push_back(LinkConstraint{ i, i + 1, 0.01 });
+        scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+        scene.forces = { GravityForce{} };
+        State start;
+        start.positions = Points::Zero(3, n);
+        start.velocities = Points::Zero(3, n);
+        for (int i = 0; i < n; ++i)
+          start.positions(0, i) = 0.01 * i;
+        StepSettings settings;
+        settings.integrator = method.integrator;
+        settings.dt = method.dt;
+        settings.max_substeps = method.max_substeps;
+        Simulator simulator(scene, start, settings);
+        const double e0 = simulator.diagnostics().totalEnergy();
+        all = StepStatistics{};
+        max_error = 0;
+        failed = StepCheck::None;
+        const long steps = std::lround(seconds / method.dt);
+        const double begin = bench::threadCpuSeconds();
+        for (long k = 0; k < steps && failed == StepCheck::None; k += 10)
+        {
+          const StepStatistics s = simulator.step(static_cast<int>(std::min(10L, steps - k)));
+          all.merge(s);
+          failed = s.failed_check;
+          max_error = std::max(max_error, simulator.diagnostics().max_position_error);
+        }
+        const double cpu = bench::threadCpuSeconds() - begin;
+        reached = simulator.state().time;
+        energy_change = simulator.diagnostics().totalEnergy() - e0;
+        costs.push_back(cpu / std::max(reached, 1e-9));
+      }
+      const double cost = bench::median(costs);
+      if (std::string(method.label) == "rk4 unsplit")
+        unsplit_per_step = cost * 1e-3;  // CPU seconds per 1 ms step
+      const double ratio = cost * method.dt / unsplit_per_step / (method.dt / 1e-3);
+      const double per_step = static_cast<double>(all.substeps) / std::max(all.steps, 1L);
+      std::printf("%6d  %-28s %9.3f %10.4f %10.2f %8.2f %9ld %12.2e %12.3g%s\n", n, method.label,
+                  reached, cost, ratio, per_step, all.rejected_steps, max_error, energy_change,
+                  failed == StepCheck::None
+                      ? ""
+                      : (std::string("  stopped: ") + stepCheckName(failed)).c_str());
+      csv << n << "," << method.label << "," << method.dt << "," << method.max_substeps << ","
+          << reached << "," << stepCheckName(failed) << "," << cost << "," << ratio << ","
+          << per_step << "," << all.stiff_steps << "," << all.rejected_steps << "," << max_error
+          << "," << energy_change << "\n";
+    }
+  }
+  return 0;
+}
+
 int main(int argc, char** argv)
 {
   if (argc < 2)
   {
     std::cerr << "usage: " << argv[0]
-              << " work_precision|scaling|peers|scenes [--out DIR] [--quick]\n";
+              << " work_precision|scaling|peers|scenes|stability [--out DIR] [--quick]\n";
     return 2;
   }
   const std::string mode = argv[1];
@@ -613,6 +704,8 @@ int main(int argc, char** argv)
     return peers(out, quick);
   if (mode == "scenes")
     return scenes(out, quick);
+  if (mode == "stability")
+    return stability(out, quick);
   std::cerr << "unknown mode " << mode << "\n";
   return 2;
 }

@@ -5,6 +5,8 @@
 # Usage: scripts/bench.sh [--quick]   (--quick: a small sweep for a smoke test, into build/bench)
 #        scripts/bench.sh --scenes         (only the per-scene and solve-by-structure part, into
 #                                          docs/bench, then the summary again: about 1 minute)
+#        scripts/bench.sh --stability      (only what stability costs on the fine-link chains:
+#                                          docs/bench/stability.csv, about 2 minutes)
 #        scripts/bench.sh --cores [BASE]   (only this core's step cost against commit BASE's,
 #                                          scripts/compare_cores.sh, into docs/bench/cores.csv)
 set -euo pipefail
@@ -17,6 +19,8 @@ if [[ "${1:-}" == "--quick" ]]; then
   OUT="$ROOT/build/bench"
 elif [[ "${1:-}" == "--scenes" ]]; then
   ONLY_SCENES=1
+elif [[ "${1:-}" == "--stability" ]]; then
+  ONLY_SCENES=2
 elif [[ "${1:-}" == "--cores" ]]; then
   exec bash "$ROOT/scripts/compare_cores.sh" ${2:-} --csv "$OUT/cores.csv"
 fi
@@ -26,6 +30,11 @@ CP_BUILD_BENCH=ON bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1 || { cat "$LOG"; ex
 rm -f "$LOG"
 BIN="$ROOT/build/ws/devel/lib/constrained_particles"
 mkdir -p "$OUT"
+if ((ONLY_SCENES == 2)); then
+  "$BIN/constrained_particles_bench" stability --out "$OUT"
+  echo "wrote $OUT/stability.csv" >&2
+  exit 0
+fi
 if ((ONLY_SCENES)); then
   "$BIN/constrained_particles_bench" scenes --out "$OUT"
   /usr/bin/python3 "$ROOT/scripts/bench_report.py" "$OUT" >/dev/null
@@ -38,6 +47,7 @@ fi
 "$BIN/constrained_particles_bench" scenes --out "$OUT" "${QUICK[@]}"
 # peers, side by side in the same run
 "$BIN/constrained_particles_bench" peers --out "$OUT" "${QUICK[@]}"
+"$BIN/constrained_particles_bench" stability --out "$OUT" "${QUICK[@]}"
 for peer in bench_peer_ode bench_peer_mujoco; do
   if [[ -x "$BIN/$peer" ]]; then
     "$BIN/$peer" --out "$OUT" "${QUICK[@]}"

@@ -37,6 +37,8 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
                           &stages.correction, &stages.change, &stages.p_unprojected, &stages.zero })
     buffer->setZero(3, n);
   statistics.solve.method = model.solveMethod();
+  control.start = state;
+  control.stiffness.setZero(n);
 }
 
 Data::~Data() = default;

@@ -17,6 +17,34 @@ bool isFinite(const State& state)
   return state.positions.allFinite() && state.velocities.allFinite() && std::isfinite(state.time);
 }
 
+double kineticEnergy(const Model& model, const State& state)
+{
+  double kinetic = 0.0;
+  const std::vector<double>& masses = model.scene().masses;
+  for (int i = 0; i < model.numParticles(); ++i)
+    kinetic += 0.5 * masses[i] * state.velocities.col(i).squaredNorm();
+  return kinetic;
+}
+
+double totalEnergy(const Model& model, const State& state)
+{
+  double energy = kineticEnergy(model, state);
+  for (const Force& force : model.scene().forces)
+    energy += potentialEnergy(force, model.scene().masses, state.positions);
+  return energy;
+}
+
+double energyScale(const Model& model, const State& state, const Points& forces)
+{
+  if (model.numParticles() == 0)
+    return 0.0;
+  const Vec3 extent = state.positions.rowwise().maxCoeff() - state.positions.rowwise().minCoeff();
+  double force = 0.0;
+  for (int i = 0; i < model.numParticles(); ++i)
+    force += forces.col(i).norm();
+  return kineticEnergy(model, state) + force * extent.norm();
+}
+
 Diagnostics computeDiagnostics(const Model& model, const State& state)
 {
   RowData rows;
@@ -49,8 +77,7 @@ Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& 
     d.max_velocity_error =
         worseError(d.max_velocity_error, (state.velocities.col(i) - motion.velocity).norm());
   }
-  for (int i = 0; i < model.numParticles(); ++i)
-    d.kinetic_energy += 0.5 * scene.masses[i] * state.velocities.col(i).squaredNorm();
+  d.kinetic_energy = kineticEnergy(model, state);
   for (const Force& force : scene.forces)
     d.potential_energy += potentialEnergy(force, scene.masses, state.positions);
   return d;

@@ -3,10 +3,51 @@
 #include "stabilization.hpp"
 #include "stages.hpp"
 
+#include "constrained_particles/core/constraints.hpp"
+#include "constrained_particles/core/forces.hpp"
+#include "constrained_particles/core/stability.hpp"
+
+#include <algorithm>
 #include <string>
 
 namespace constrained_particles
 {
+namespace
+{
+// Only conservative forces and no driven anchor (the one time-dependent kind): energy is kept.
+bool isConservative(const Scene& scene)
+{
+  for (const Force& force : scene.forces)
+    if (!std::visit([](const auto& f) { return std::decay_t<decltype(f)>::CONSERVATIVE; }, force))
+      return false;
+  for (const Constraint& constraint : scene.constraints)
+    if (std::holds_alternative<MovingAnchorConstraint>(constraint))
+      return false;
+  return true;
+}
+
+// Rows or springs: something the stability estimate can see.
+bool hasStiffness(const Model& model)
+{
+  if (model.numRows() > 0)
+    return true;
+  for (const Force& force : model.scene().forces)
+    if (std::holds_alternative<SpringForce>(force))
+      return true;
+  return false;
+}
+
+// Forgets what the checks learnt of the previous state (reset, teleport, new scene).
+void forgetControl(Data& data)
+{
+  data.control.rejection_substeps = 1;
+  data.control.accepted_since_rejection = 0;
+  data.control.singular = false;
+  data.control.multipliers_current = false;
+}
+
+}  // namespace
+
 Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_state,
                                        const StepSettings& settings, SolveMethod method)
 {
@@ -79,26 +120,40 @@ Simulator::Simulator(const Scene& scene, const State& initial_state, const StepS
   data_ = std::move(compiled.data);
   initial_state_ = compiled.initial_state;
   settings_ = settings;
+  substep_settings_ = settings;
   integrator_ = &findIntegrator(settings.integrator);
+  conservative_ = isConservative(model_->scene());
   diagnostic_rows_.resize(*model_);
   diagnostic_rates_.setZero(model_->numRows());
   reset();
 }
 
-StepStatistics Simulator::step(int count)
+StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps,
+                                 StepStatistics& attempt)
 {
   const Model& model = *model_;
   Data& data = *data_;
   State& x = data.state;
-  const EffectCounters before = data.counters;
-  data.statistics = StepStatistics{};
-  data.statistics.solve.method = model.solveMethod();
-  for (int k = 0; k < count; ++k)
+  const State& start = data.control.start;
+  StepSettings& sub = substep_settings_;  // a member: copying the integrator's name allocates
+  const double h = settings_.dt / substeps;
+  double kinetic = 0.0, potential = 0.0, scale = 0.0;
+  if (conservative_)
   {
-    const double end = x.time + settings_.dt;
-    integrator_->step(model, data, settings_);
+    kinetic = kineticEnergy(model, start);
+    potential = totalEnergy(model, start) - kinetic;
+    scale = energyScale(model, start, data.applied_forces);
+  }
+  for (int j = 1; j <= substeps; ++j)
+  {
+    // the last sub-step ends exactly where one step of dt would
+    const double end = j == substeps ? start.time + settings_.dt : start.time + j * h;
+    sub.dt = end - x.time;
+    data.statistics = StepStatistics{};
+    data.statistics.solve.method = model.solveMethod();
+    method.step(model, data, sub);
     imposeEliminated(model, data, end, &x.positions, &x.velocities);
-    if (!integrator_->holds_constraints && settings_.stabilization == Stabilization::Projection)
+    if (!method.holds_constraints && settings_.stabilization == Stabilization::Projection)
     {
       ProjectionReport report =
           projectPositions(model, data, end, x.positions, settings_.projection_tolerance,
@@ -110,11 +165,139 @@ StepStatistics Simulator::step(int count)
       data.statistics.projection.merge(report);
     }
     x.time = end;
-    ++x.steps;
-    ++data.statistics.steps;
+    const StepStatistics& taken = data.statistics;
+    attempt.merge(taken);
+    if (!isFinite(x))
+      return StepCheck::NonFinite;
+    if (taken.forced_internal_steps > 0)
+      return StepCheck::AdaptiveGuard;
+    if (!taken.projection.converged)
+      return StepCheck::Projection;
+    if (conservative_)
+    {
+      const double kinetic_now = kineticEnergy(model, x);
+      const double potential_now = totalEnergy(model, x) - kinetic_now;
+      // the scale includes the energy the sub-step exchanged: a particle alone has no extent
+      const double exchanged =
+          std::abs(kinetic_now - kinetic) + std::abs(potential_now - potential);
+      const double rise = (kinetic_now + potential_now) - (kinetic + potential);
+      // not `<=`: a NaN energy fails too
+      if (!(rise <= ENERGY_RISE_TOLERANCE * (scale + exchanged)))
+        return StepCheck::EnergyRise;
+      kinetic = kinetic_now;
+      potential = potential_now;
+      scale = energyScale(model, x, data.applied_forces);
+    }
+    if ((taken.solve.singular || taken.projection.singular) && !data.control.singular)
+      return StepCheck::SingularSolve;
   }
-  data.statistics.effects = data.counters.since(before);
-  return data.statistics;
+  return StepCheck::None;
+}
+
+StepStatistics Simulator::step(int count)
+{
+  const Model& model = *model_;
+  Data& data = *data_;
+  StepControl& control = data.control;
+  State& x = data.state;
+  const EffectCounters before = data.counters;
+  StepStatistics total;
+  total.solve.method = model.solveMethod();
+  const int max_substeps = settings_.max_substeps;
+  const IntegratorInfo& stiff = findIntegrator(STIFF_FALLBACK);
+  for (int k = 0; k < count; ++k)
+  {
+    const IntegratorInfo* method = integrator_;
+    int substeps = std::min(control.rejection_substeps, max_substeps);
+    const bool estimate = integrator_->stability_limit < UNBOUNDED_STABILITY && max_substeps > 1 &&
+                          hasStiffness(model);
+    // the estimate reads the multipliers of the last step's last stage and the energy check its
+    // applied forces; after a reset or teleport, or where the integrator solves for no
+    // multipliers (velocity Verlet's SHAKE), they are evaluated here
+    if ((!control.multipliers_current && (estimate || conservative_)) ||
+        (estimate && integrator_->holds_constraints))
+    {
+      data.stages.p_stage = x.positions;
+      data.stages.v_stage = x.velocities;
+      data.statistics = StepStatistics{};
+      forward(model, data, settings_, x.time, data.stages.p_stage, data.stages.v_stage,
+              data.accelerations);
+      total.solve.merge(data.statistics.solve);
+    }
+    if (estimate)
+    {
+      const double omega =
+          estimateMaxFrequency(model, data.multipliers, x.positions, x.time, control.stiffness);
+      total.max_frequency = std::max(total.max_frequency, omega);
+      const int wanted = stabilitySubsteps(omega, settings_.dt, integrator_->stability_limit,
+                                           MAX_STABILITY_SUBSTEPS);
+      // more than max_substeps cannot be stable: straight to the stiff-safe method
+      if (wanted > max_substeps)
+      {
+        method = &stiff;
+        substeps = 1;
+      }
+      else
+        substeps = std::max(substeps, wanted);
+    }
+    control.start = x;
+    StepCheck failed = StepCheck::None;
+    StepStatistics attempt;
+    for (;;)
+    {
+      attempt = StepStatistics{};
+      failed = attemptStep(*method, substeps, attempt);
+      const bool finest = substeps >= max_substeps || failed == StepCheck::AdaptiveGuard;
+      if (failed == StepCheck::None || (failed == StepCheck::SingularSolve && finest))
+        break;
+      // the finest split of the chosen method failed: the stiff-safe one takes the step
+      const bool fall_back =
+          finest && max_substeps > 1 && method != &stiff && failed != StepCheck::AdaptiveGuard;
+      if (finest && !fall_back)
+        break;
+      // rejected: its work is counted, its outcome is not
+      ++total.rejected_steps;
+      ++total.rejections[static_cast<int>(failed)];
+      total.solve.factorizations += attempt.solve.factorizations;
+      total.internal_steps += attempt.internal_steps;
+      total.rejected_internal_steps += attempt.rejected_internal_steps;
+      x = control.start;
+      if (fall_back)
+      {
+        method = &stiff;
+        substeps = 1;
+        continue;
+      }
+      substeps = std::min(2 * substeps, max_substeps);
+      control.rejection_substeps = substeps;
+      control.accepted_since_rejection = 0;
+    }
+    total.merge(attempt);
+    if (failed != StepCheck::None && failed != StepCheck::SingularSolve)
+    {
+      total.failed_check = failed;
+      x = control.start;  // put back: the state stays the last accepted one
+      control.multipliers_current = false;
+      break;
+    }
+    ++x.steps;
+    ++total.steps;
+    total.substeps += substeps;
+    total.max_substeps = std::max(total.max_substeps, substeps);
+    control.singular = attempt.solve.singular || attempt.projection.singular;
+    // the stiff-safe method solves for no multipliers: the next step evaluates them
+    control.multipliers_current = method == integrator_;
+    if (method != integrator_)
+      ++total.stiff_steps;
+    if (control.rejection_substeps > 1 && ++control.accepted_since_rejection >= RELAX_AFTER_STEPS)
+    {
+      control.rejection_substeps /= 2;
+      control.accepted_since_rejection = 0;
+    }
+  }
+  total.effects = data.counters.since(before);
+  data.statistics = total;
+  return total;
 }
 
 void Simulator::reset()
@@ -123,6 +306,7 @@ void Simulator::reset()
   data_->state.time = 0.0;
   data_->state.steps = 0;
   data_->statistics = StepStatistics{};
+  forgetControl(*data_);
 }
 
 ProjectionReport Simulator::setState(const State& state)
@@ -147,6 +331,7 @@ ProjectionReport Simulator::setState(const State& state)
   if (!isFinite(projected))
     throw InvalidInput("positions", "projection produced a non-finite state; state unchanged");
   data_->state = projected;
+  forgetControl(*data_);
   return report;
 }
 
@@ -154,6 +339,7 @@ void Simulator::restoreState(const State& state)
 {
   model_->validateState(state);
   data_->state = state;
+  forgetControl(*data_);
 }
 
 void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
@@ -163,6 +349,7 @@ void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMe
   model_ = std::move(compiled.model);
   data_ = std::move(compiled.data);
   initial_state_ = compiled.initial_state;
+  conservative_ = isConservative(model_->scene());
   diagnostic_rows_.resize(*model_);
   diagnostic_rates_.setZero(model_->numRows());
   reset();
@@ -173,6 +360,7 @@ void Simulator::setStepSettings(const StepSettings& settings)
   validateStepSettings(settings);
   integrator_ = &findIntegrator(settings.integrator);
   settings_ = settings;
+  substep_settings_ = settings;
 }
 
 void Simulator::setForces(const std::vector<Force>& forces)
@@ -185,6 +373,7 @@ void Simulator::setForces(const std::vector<Force>& forces)
   data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(model);
   data_ = std::move(data);
+  conservative_ = isConservative(model_->scene());
 }
 
 Diagnostics Simulator::diagnostics() const

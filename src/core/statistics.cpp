@@ -57,7 +57,25 @@ void StepStatistics::merge(const StepStatistics& later)
   internal_steps += later.internal_steps;
   rejected_internal_steps += later.rejected_internal_steps;
   forced_internal_steps += later.forced_internal_steps;
+  substeps += later.substeps;
+  max_substeps = std::max(max_substeps, later.max_substeps);
+  rejected_steps += later.rejected_steps;
+  stiff_steps += later.stiff_steps;
+  for (int k = 0; k < NUM_STEP_CHECKS; ++k)
+    rejections[k] += later.rejections[k];
+  if (failed_check == StepCheck::None)
+    failed_check = later.failed_check;
+  max_frequency = std::max(max_frequency, later.max_frequency);
   effects.add(later.effects);
+}
+
+const char* stepCheckName(StepCheck check)
+{
+  static const char* const NAMES[NUM_STEP_CHECKS] = { "none",           "non_finite",
+                                                      "projection",     "energy_rise",
+                                                      "singular_solve", "adaptive_guard" };
+  const int index = static_cast<int>(check);
+  return index >= 0 && index < NUM_STEP_CHECKS ? NAMES[index] : "(invalid)";
 }
 
 void ProjectionStatistics::merge(const ProjectionReport& report)

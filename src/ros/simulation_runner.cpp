@@ -491,12 +491,35 @@ bool SimulationRunner::runBatch()
 
 std::string SimulationRunner::faultIn(const State& state, const StepStatistics& chunk) const
 {
-  if (chunk.forced_internal_steps > 0)
-    return "dopri5 could not meet ~adaptive_tolerance = " +
-           formatValue(parameters_.step.adaptive_tolerance) + " within " +
-           formatValue(parameters_.step.dt) + " s at t = " + formatValue(state.time) + " s (over " +
-           std::to_string(DOPRI5_MAX_INTERNAL_STEPS) + " internal steps, or one under " +
-           formatValue(DOPRI5_MIN_INTERNAL_STEP) + " dt): loosen the tolerance or shorten ~dt";
+  const StepSettings& step = parameters_.step;
+  const std::string split =
+      step.max_substeps > 1
+          ? " even in ~max_substeps = " + std::to_string(step.max_substeps) + " sub-steps"
+          : " (~max_substeps = 1: no sub-steps)";
+  const std::string when = " at t = " + formatValue(state.time) + " s";
+  switch (chunk.failed_check)
+  {
+    case StepCheck::AdaptiveGuard:
+      return "dopri5 could not meet ~adaptive_tolerance = " + formatValue(step.adaptive_tolerance) +
+             " within " + formatValue(step.dt) + " s" + when + " (over " +
+             std::to_string(DOPRI5_MAX_INTERNAL_STEPS) + " internal steps, or one under " +
+             formatValue(DOPRI5_MIN_INTERNAL_STEP) + " dt): loosen the tolerance or shorten ~dt";
+    case StepCheck::NonFinite:
+      return "step check non_finite failed" + split + when +
+             ": the state became non-finite; shorten ~dt, raise ~max_substeps or use "
+             "~integrator fast_projection";
+    case StepCheck::Projection:
+      return "step check projection failed" + split + when + ": a projection did not reach " +
+             "~projection_tolerance = " + formatValue(step.projection_tolerance) + " m in " +
+             "~projection_max_iterations = " + std::to_string(step.projection_max_iterations);
+    case StepCheck::EnergyRise:
+      return "step check energy_rise failed" + split + when +
+             ": the total energy of this conservative scene rose by more than " +
+             formatValue(Simulator::ENERGY_RISE_TOLERANCE) + " of its scale in one sub-step; " +
+             "shorten ~dt, raise ~max_substeps or change ~integrator";
+    default:
+      break;
+  }
   if (!isFinite(state))
     return "the state became non-finite between t = " + formatValue(last_good_.time) +
            " s and t = " + formatValue(state.time) + " s";

@@ -29,6 +29,7 @@ SimulatorConfig configFrom(const NodeParameters& p, const SceneDescription& scen
   c.baumgarte_frequency = p.step.baumgarte_frequency;
   c.baumgarte_damping_ratio = p.step.baumgarte_damping_ratio;
   c.adaptive_tolerance = p.step.adaptive_tolerance;
+  c.max_substeps = p.step.max_substeps;
   const Vec3 gravity = sceneGravity(scene);
   c.gravity_x = gravity.x();
   c.gravity_y = gravity.y();
@@ -337,6 +338,17 @@ void SimulatorNode::publish()
     msg.internal_steps = static_cast<std::uint32_t>(statistics.internal_steps);
     msg.rejected_internal_steps = static_cast<std::uint32_t>(statistics.rejected_internal_steps);
     msg.forced_internal_steps = static_cast<std::uint32_t>(statistics.forced_internal_steps);
+    msg.substeps = static_cast<std::uint32_t>(statistics.substeps);
+    msg.max_substeps_per_step = static_cast<std::uint32_t>(statistics.max_substeps);
+    msg.rejected_steps = static_cast<std::uint32_t>(statistics.rejected_steps);
+    msg.stiff_steps = static_cast<std::uint32_t>(statistics.stiff_steps);
+    for (int k = 0; k < NUM_STEP_CHECKS; ++k)
+      if (statistics.rejections[k] > 0)
+      {
+        msg.rejection_checks.push_back(stepCheckName(static_cast<StepCheck>(k)));
+        msg.rejection_counts.push_back(static_cast<std::uint32_t>(statistics.rejections[k]));
+      }
+    msg.max_frequency = statistics.max_frequency;
     forEachEffectCount(statistics.effects,
                        [&msg](const char* name, std::uint64_t count)
                        {
@@ -501,6 +513,8 @@ bool SimulatorNode::reconfigureCallback(const SimulatorConfig& shown,
           candidate.step.baumgarte_damping_ratio = r.baumgarte_damping_ratio;
         if (changed(r.adaptive_tolerance, shown.adaptive_tolerance))
           candidate.step.adaptive_tolerance = r.adaptive_tolerance;
+        if (changed(r.max_substeps, shown.max_substeps))
+          candidate.step.max_substeps = r.max_substeps;
         if (changed(r.real_time_factor, shown.real_time_factor))
           candidate.real_time_factor = r.real_time_factor;
         if (changed(r.publish_rate, shown.publish_rate))
@@ -598,6 +612,18 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   add("projections converged", statistics.projection.converged ? "yes" : "no");
   add("internal steps", std::to_string(statistics.internal_steps));
   add("rejected internal steps", std::to_string(statistics.rejected_internal_steps));
+  add("max_substeps", std::to_string(p.step.max_substeps));
+  add("sub-steps", std::to_string(statistics.substeps));
+  add("most sub-steps per step", std::to_string(statistics.max_substeps));
+  add("steps taken by fast_projection (stiff fallback)", std::to_string(statistics.stiff_steps));
+  std::string rejections;
+  for (int k = 0; k < NUM_STEP_CHECKS; ++k)
+    if (statistics.rejections[k] > 0)
+      rejections += (rejections.empty() ? "" : " ") +
+                    std::string(stepCheckName(static_cast<StepCheck>(k))) + ":" +
+                    std::to_string(statistics.rejections[k]);
+  add("steps retaken, by check", rejections.empty() ? "-" : rejections);
+  add("max_frequency estimate [rad/s]", formatValue(statistics.max_frequency));
   std::string effects;
   forEachEffectCount(statistics.effects,
                      [&effects](const char* name, std::uint64_t count) {

@@ -48,6 +48,17 @@ struct StageBuffers
   Points zero;            ///< zeros: the velocities of position-only evaluations
 };
 
+/// What the step's checks and sub-steps carry from one step to the next (simulator.hpp).
+struct StepControl
+{
+  State start;                       ///< the state the step being taken started from
+  Eigen::VectorXd stiffness;         ///< the stability estimate's workspace (n) [N/m]
+  int rejection_substeps = 1;        ///< sub-steps the last rejection asked for; relaxes back
+  int accepted_since_rejection = 0;  ///< steps accepted since it was last changed
+  bool singular = false;             ///< the last accepted step had a singular solve
+  bool multipliers_current = false;  ///< `multipliers` are of the last step's last stage
+};
+
 /// Everything that changes. Made for one model (Data(model)); valid while that model lives.
 class Data
 {
@@ -70,6 +81,7 @@ public:
   StageBuffers stages;                 ///< the integrators' buffers
   EffectCounters counters;             ///< evaluations since this data was made
   StepStatistics statistics;           ///< of the batch being stepped
+  StepControl control;                 ///< the step checks' and sub-steps' memory
 
   /// The factorisation of J W J^T (src/core/solvers).
   ConstraintSolver& solver()

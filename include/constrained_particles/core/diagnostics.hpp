@@ -23,6 +23,18 @@ struct Diagnostics
   bool finite() const;
 };
 
+/// Sum 1/2 m |v|^2 [J].
+double kineticEnergy(const Model& model, const State& state);
+
+/// Kinetic plus potential energy of a state [J], without the rows (cheap: one pass over the
+/// particles and the forces).
+double totalEnergy(const Model& model, const State& state);
+
+/// The energy a step could move about [J]: kinetic energy plus sum |f_i| D, the applied forces
+/// `forces` (3 x n) [N] times the diagonal D of the particles' bounding box [m] (for gravity
+/// M |g| D, the potential energy the scene could turn into motion). The step checks' scale.
+double energyScale(const Model& model, const State& state, const Points& forces);
+
 /// Evaluates the diagnostics of a state of the model. Allocates its row workspace.
 Diagnostics computeDiagnostics(const Model& model, const State& state);
 

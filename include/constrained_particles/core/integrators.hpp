@@ -24,14 +24,22 @@ using IntegratorStep = void (*)(const Model& model, Data& data, const StepSettin
 /// unchecked step (StepStatistics::forced_internal_steps), so a step ends in bounded work.
 constexpr long DOPRI5_MAX_INTERNAL_STEPS = 100000;
 constexpr double DOPRI5_MIN_INTERNAL_STEP = 1e-12;
+/// No stability bound (IntegratorInfo::stability_limit).
+constexpr double UNBOUNDED_STABILITY = 1e300;
 
 /// One row of the table.
 struct IntegratorInfo
 {
-  const char* name;         ///< as in parameters, scene files and dynamic_reconfigure
-  int order;                ///< global order of accuracy in dt
-  bool holds_constraints;   ///< projects onto the constraints itself: `stabilization` is ignored
-  bool adaptive;            ///< chooses its own internal steps within dt (adaptive_tolerance)
+  const char* name;        ///< as in parameters, scene files and dynamic_reconfigure
+  int order;               ///< global order of accuracy in dt
+  bool holds_constraints;  ///< projects onto the constraints itself: `stabilization` is ignored
+  bool adaptive;           ///< chooses its own internal steps within dt (adaptive_tolerance)
+  /// Largest omega dt [rad] at which an undamped oscillation of frequency omega stays bounded
+  /// (the method's stability interval on the imaginary axis: RK4 2 sqrt(2), leapfrog 2;
+  /// Hairer & Wanner, Solving ODEs II, IV.2), or for the methods unstable on that axis the omega
+  /// dt that keeps growth per step under 0.5 %; infinity: no bound (implicit, or adapts itself).
+  /// The stability estimate keeps omega_max dt_sub under STABILITY_SAFETY times it.
+  double stability_limit;
   const char* description;  ///< one line, for help texts and dynamic_reconfigure
   IntegratorStep step;      ///< the step function
 };

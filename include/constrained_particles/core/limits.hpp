@@ -116,6 +116,9 @@ constexpr Range PROJECTION_TOLERANCE{ 1e-15, false, 1.0, "m", false };
 constexpr Range PROJECTION_MAX_ITERATIONS{ 1.0, false, 1000.0, "1", true };
 /// dopri5's error per internal step [1]; tighter than 1e-14 asks for more than double gives.
 constexpr Range ADAPTIVE_TOLERANCE{ 1e-14, false, 1.0, "1", false };
+/// Most sub-steps a step may be split into (powers of two up to it; 1 = never split) [1]:
+/// 65,536 keeps one step's work bounded (a rejected step costs up to twice this many sub-steps).
+constexpr Range MAX_SUBSTEPS{ 1.0, false, 65536.0, "1", true };
 
 // --- the node ---
 /// Simulated seconds per wall second [1].

@@ -39,6 +39,9 @@ struct StepSettings
   double projection_tolerance = 1e-10;  ///< max position error after projection [m]
   int projection_max_iterations = 20;   ///< Newton iterations per projection
   double adaptive_tolerance = 1e-8;     ///< dopri5 absolute and relative tolerance [1]
+  /// Most sub-steps of dt/2^k a step is split into when its checks fail or the stability
+  /// estimate asks for them (simulator.hpp); 1 = never split [1]
+  int max_substeps = 1024;
 
   /// Every field: name (as in parameters and scene files), member, kind and range.
   static constexpr auto fields()
@@ -59,7 +62,9 @@ struct StepSettings
               FieldKind::Number, &limits::PROJECTION_MAX_ITERATIONS,
               "Newton iterations per projection"),
         field("adaptive_tolerance", &StepSettings::adaptive_tolerance, FieldKind::Number,
-              &limits::ADAPTIVE_TOLERANCE, "dopri5 error per internal step"));
+              &limits::ADAPTIVE_TOLERANCE, "dopri5 error per internal step"),
+        field("max_substeps", &StepSettings::max_substeps, FieldKind::Number, &limits::MAX_SUBSTEPS,
+              "most sub-steps a step is split into, 1 = never"));
   }
 };
 

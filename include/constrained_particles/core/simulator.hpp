@@ -23,8 +23,24 @@ public:
   Simulator(const Scene& scene, const State& initial_state, const StepSettings& settings,
             SolveMethod method = SolveMethod::Automatic);
 
-  /// Takes `count` steps of stepSettings().dt.
-  /// @return the worst and the totals over all `count` steps
+  /// Takes `count` steps of stepSettings().dt, each checked and split into sub-steps when needed:
+  ///  - before a step, the stability estimate (stability.hpp) splits it into the fewest
+  ///    2^k sub-steps that keep omega_max dt_sub inside the integrator's stability limit;
+  ///  - after each (sub-)step, the checks (StepCheck): finite; every projection converged;
+  ///    for a conservative scene (only conservative forces, no driven anchor) total energy
+  ///    rose by at most ENERGY_RISE_TOLERANCE of energyScale(); no singular solve where the last
+  ///    accepted step had none; dopri5 within its guards. A failed step is put back and retaken
+  ///    as twice the sub-steps, up to max_substeps; the count then relaxes back, halving after
+  ///    RELAX_AFTER_STEPS accepted steps;
+  ///  - a step the estimate says needs more than max_substeps, or that fails at max_substeps, is
+  ///    taken by the stiff-safe STIFF_FALLBACK (fast projection: bounded at any dt, first order,
+  ///    dissipative) with its own sub-steps from 1 (StepStatistics::stiff_steps counts them);
+  ///  - dopri5's guard is final at once (it adapts its internal steps already: sub-steps would
+  ///    repeat them), and so is a check the fallback fails at max_substeps, or any with
+  ///    max_substeps = 1 (no sub-steps, no fallback): StepStatistics::failed_check names it and
+  ///    the batch ends there, that step put back (the state is the last accepted step's). A
+  ///    singular solve at max_substeps is accepted (regularised).
+  /// @return the worst and the totals over the steps taken
   StepStatistics step(int count = 1);
 
   /// Back to the initial state (time 0, step count 0).
@@ -86,7 +102,20 @@ public:
   /// them (computed on demand).
   void constraintForces(Points& forces, Eigen::VectorXd& multipliers);
 
+  /// A conservative scene's energy may rise by this fraction of energyScale() in one sub-step.
+  static constexpr double ENERGY_RISE_TOLERANCE = 1e-3;
+  /// The stiff-safe method a step falls back to (integrators.hpp).
+  static constexpr const char* STIFF_FALLBACK = "fast_projection";
+  /// Most sub-steps the stability estimate computes when it decides on the fallback.
+  static constexpr int MAX_STABILITY_SUBSTEPS = 1 << 30;
+  /// Accepted steps at a rejection's sub-step count before it is halved again.
+  static constexpr int RELAX_AFTER_STEPS = 16;
+
 private:
+  /// One step of dt as `substeps` sub-steps from data.control.start, checked; the statistics of
+  /// its sub-steps merged into `attempt`. @return the first check a sub-step failed, or None
+  StepCheck attemptStep(const IntegratorInfo& method, int substeps, StepStatistics& attempt);
+
   /// Everything a scene change replaces together.
   struct Compiled
   {
@@ -101,8 +130,10 @@ private:
   std::unique_ptr<Data> data_;
   State initial_state_;
   StepSettings settings_;
+  StepSettings substep_settings_;               // settings_ with a sub-step's dt (attemptStep)
   const IntegratorInfo* integrator_ = nullptr;  // settings_.integrator's row
-  mutable RowData diagnostic_rows_;             // workspaces of diagnostics()
+  bool conservative_ = false;  // only conservative forces, no driven anchor: energy is checked
+  mutable RowData diagnostic_rows_;  // workspaces of diagnostics()
   mutable Eigen::VectorXd diagnostic_rates_;
 };
 

@@ -128,6 +128,20 @@ struct ProjectionStatistics
   void merge(const ProjectionStatistics& other);
 };
 
+/// The checks a step (or sub-step) must pass to be accepted (Simulator::step).
+enum class StepCheck
+{
+  None,           ///< passed every check
+  NonFinite,      ///< a position or velocity is not finite
+  Projection,     ///< a projection (or SHAKE) did not reach projection_tolerance
+  EnergyRise,     ///< a conservative scene's energy rose by more than ENERGY_RISE_TOLERANCE
+  SingularSolve,  ///< J W J^T became singular where the previous step's was not
+  AdaptiveGuard,  ///< dopri5 hit its internal step guard
+};
+constexpr int NUM_STEP_CHECKS = 6;
+/// "none", "non_finite", "projection", "energy_rise", "singular_solve", "adaptive_guard".
+const char* stepCheckName(StepCheck check);
+
 /// Statistics of a batch of steps (Simulator::step(count)): the worst and the totals over all of
 /// them, not only the last.
 struct StepStatistics
@@ -140,7 +154,20 @@ struct StepStatistics
   /// dopri5: dt ends taken unchecked because a guard was hit (over 100,000 internal steps in one
   /// dt, or an internal step under 1e-12 dt): the tolerance cannot be met at this dt
   long forced_internal_steps = 0;
-  EffectCounters effects;            ///< evaluations during the batch
+  long substeps = 0;        ///< accepted sub-steps (1 per step when none was split)
+  int max_substeps = 0;     ///< the most sub-steps any one step was split into
+  long rejected_steps = 0;  ///< steps (or splits of them) rejected and retaken finer
+  /// steps the chosen integrator could not take stably within max_substeps, taken by the
+  /// stiff-safe fast_projection instead (Simulator::step)
+  long stiff_steps = 0;
+  /// rejections by the check that failed (index: StepCheck), each retaken with twice the
+  /// sub-steps; the stability estimate's splits are not rejections
+  std::array<long, NUM_STEP_CHECKS> rejections{};
+  /// the check the finest allowed split still failed (StepCheck::None: every step accepted); the
+  /// step was kept as taken: a caller that trusts no such step stops (the node faults)
+  StepCheck failed_check = StepCheck::None;
+  double max_frequency = 0;  ///< largest estimated omega_max [rad/s] (stability.hpp)
+  EffectCounters effects;    ///< evaluations during the batch
 
   /// Takes in the statistics of a later batch, as if both had been one.
   void merge(const StepStatistics& later);

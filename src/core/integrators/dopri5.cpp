@@ -64,7 +64,12 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 }  // namespace
 
 extern const IntegratorInfo DOPRI5_INTEGRATOR = {
-  "dopri5", 5, false, true, "adaptive Dormand-Prince 5(4), error per internal step <= tolerance",
+  "dopri5",
+  5,
+  false,
+  true,
+  UNBOUNDED_STABILITY,
+  "adaptive Dormand-Prince 5(4), error per internal step <= tolerance",
   &step
 };
 

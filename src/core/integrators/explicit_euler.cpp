@@ -20,7 +20,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 }  // namespace
 
 extern const IntegratorInfo EXPLICIT_EULER_INTEGRATOR = {
-  "explicit_euler", 1, false, false, "first order, energy grows", &step
+  "explicit_euler", 1, false, false, 0.1, "first order, energy grows", &step
 };
 
 }  // namespace constrained_particles

@@ -10,6 +10,7 @@ extern const IntegratorInfo MIDPOINT_INTEGRATOR;             // midpoint.cpp
 extern const IntegratorInfo RK4_INTEGRATOR;                  // rk4.cpp
 extern const IntegratorInfo VELOCITY_VERLET_INTEGRATOR;      // velocity_verlet.cpp
 extern const IntegratorInfo DOPRI5_INTEGRATOR;               // dopri5.cpp
+extern const IntegratorInfo FAST_PROJECTION_INTEGRATOR;      // fast_projection.cpp
 
 const std::vector<const IntegratorInfo*>& integratorTable()
 {
@@ -17,6 +18,7 @@ const std::vector<const IntegratorInfo*>& integratorTable()
     &EXPLICIT_EULER_INTEGRATOR,  &SEMI_IMPLICIT_EULER_INTEGRATOR,
     &MIDPOINT_INTEGRATOR,        &RK4_INTEGRATOR,
     &VELOCITY_VERLET_INTEGRATOR, &DOPRI5_INTEGRATOR,
+    &FAST_PROJECTION_INTEGRATOR,
   };
   return TABLE;
 }

@@ -24,7 +24,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 }  // namespace
 
 extern const IntegratorInfo MIDPOINT_INTEGRATOR = {
-  "midpoint", 2, false, false, "explicit midpoint (RK2), second order", &step
+  "midpoint", 2, false, false, 0.45, "explicit midpoint (RK2), second order", &step
 };
 
 }  // namespace constrained_particles

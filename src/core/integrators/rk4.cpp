@@ -32,8 +32,8 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 
 }  // namespace
 
-extern const IntegratorInfo RK4_INTEGRATOR = {
-  "rk4", 4, false, false, "classical Runge-Kutta, fourth order", &step
-};
+extern const IntegratorInfo RK4_INTEGRATOR = { "rk4", 4,     false,
+                                               false, 2.828, "classical Runge-Kutta, fourth order",
+                                               &step };
 
 }  // namespace constrained_particles

@@ -21,7 +21,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 }  // namespace
 
 extern const IntegratorInfo SEMI_IMPLICIT_EULER_INTEGRATOR = {
-  "semi_implicit_euler", 1, false, false, "first order, symplectic", &step
+  "semi_implicit_euler", 1, false, false, 2.0, "first order, symplectic", &step
 };
 
 }  // namespace constrained_particles

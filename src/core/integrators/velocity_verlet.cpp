@@ -49,7 +49,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 }  // namespace
 
 extern const IntegratorInfo VELOCITY_VERLET_INTEGRATOR = {
-  "velocity_verlet", 2, true, false, "symplectic, SHAKE/RATTLE projections", &step
+  "velocity_verlet", 2, true, false, 2.0, "symplectic, SHAKE/RATTLE projections", &step
 };
 
 }  // namespace constrained_particles

@@ -96,6 +96,23 @@ inline void evaluateRows(const AngleConstraint& constraint, const EffectContext&
   out.jdot_v[0] = ri.dot(va) + rk.dot(vb);
 }
 
+/// Geometric stiffness (stability.hpp), a rough bound: theta's Hessian is of order
+/// 1 / (|a| |b| sin theta) and smaller; 4 |lambda| / (min(|a|, |b|)^2 max(sin theta, 1e-3)) is
+/// added at each of i, j, k [N/m].
+inline void addGeometricStiffness(const AngleConstraint& constraint,
+                                  const EffectContext& /*context*/, const Points& positions,
+                                  const double* multipliers, double* stiffness)
+{
+  const auto [i, j, k] = constraint.particles;
+  const Vec3 a = positions.col(i) - positions.col(j), b = positions.col(k) - positions.col(j);
+  const double shorter = std::min(a.norm(), b.norm());
+  const double sine = a.cross(b).norm() / std::max(a.norm() * b.norm(), 1e-300);
+  const double bound =
+      4.0 * std::abs(multipliers[0]) / std::max(shorter * shorter * std::max(sine, 1e-3), 1e-300);
+  for (int particle : constraint.particles)
+    stiffness[particle] += bound;
+}
+
 /// |dtheta/dt| times the shorter segment [m/s].
 inline void violationRates(const AngleConstraint& constraint, const EffectContext& context,
                            const Points& positions, const Points& velocities, double* rates)

@@ -9,6 +9,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
@@ -108,6 +109,22 @@ inline void evaluateRows(const CollinearConstraint& constraint, const EffectCont
     out.jacobian[3 * row + 2] = e_value;
     out.jdot_v[row] = dual::rateOf(g[row]).dot(va) + dual::rateOf(e[row]).dot(vd);
   }
+}
+
+/// Geometric stiffness (stability.hpp), a rough bound: C = e_r.d turns with a = p_j - p_i, so its
+/// Hessian is of order 1 / |a| + |d| / |a|^2; twice that times |lambda_1| + |lambda_2| is added
+/// at each of i, j, k [N/m].
+inline void addGeometricStiffness(const CollinearConstraint& constraint,
+                                  const EffectContext& /*context*/, const Points& positions,
+                                  const double* multipliers, double* stiffness)
+{
+  const auto [i, j, k] = constraint.particles;
+  const double a = std::max((positions.col(j) - positions.col(i)).norm(), 1e-300);
+  const double d = (positions.col(k) - positions.col(j)).norm();
+  const double bound =
+      2.0 * (std::abs(multipliers[0]) + std::abs(multipliers[1])) * (1.0 / a + d / (a * a));
+  for (int particle : constraint.particles)
+    stiffness[particle] += bound;
 }
 
 /// hypot(J_1 v, J_2 v) for both rows [m/s]: how fast k leaves the line, whatever the pair.

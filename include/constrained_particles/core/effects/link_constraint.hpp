@@ -57,6 +57,16 @@ inline void evaluateRows(const LinkConstraint& constraint, const EffectContext& 
   out.violation[0] = std::abs(std::sqrt(squared) - constraint.length);
 }
 
+/// Geometric stiffness (stability.hpp): lambda times the Hessian of C, [[I, -I], [-I, I]], has
+/// row sums 2 |lambda| at i and at j [N/m] (|lambda| = T / l, T the tension).
+inline void addGeometricStiffness(const LinkConstraint& constraint,
+                                  const EffectContext& /*context*/, const Points& /*positions*/,
+                                  const double* multipliers, double* stiffness)
+{
+  stiffness[constraint.first] += 2.0 * std::abs(multipliers[0]);
+  stiffness[constraint.second] += 2.0 * std::abs(multipliers[0]);
+}
+
 /// Rate of change of the distance |d.dv|/|d| [m/s] (the relative speed if the particles
 /// coincide, which have no defined direction).
 inline void violationRates(const LinkConstraint& constraint, const EffectContext& /*context*/,

@@ -72,6 +72,13 @@ inline void evaluateRows(const PointOnLineConstraint& constraint, const EffectCo
   }
 }
 
+/// Geometric stiffness (stability.hpp): C is linear in p, none.
+inline void addGeometricStiffness(const PointOnLineConstraint& /*constraint*/,
+                                  const EffectContext& /*context*/, const Points& /*positions*/,
+                                  const double* /*multipliers*/, double* /*stiffness*/)
+{
+}
+
 /// |e_r . v_i| [m/s].
 inline void violationRates(const PointOnLineConstraint& constraint,
                            const EffectContext& /*context*/, const Points& /*positions*/,

@@ -52,6 +52,13 @@ inline void evaluateRows(const PointOnPlaneConstraint& constraint, const EffectC
   out.violation[0] = std::abs(out.value[0]);
 }
 
+/// Geometric stiffness (stability.hpp): C is linear in p, none.
+inline void addGeometricStiffness(const PointOnPlaneConstraint& /*constraint*/,
+                                  const EffectContext& /*context*/, const Points& /*positions*/,
+                                  const double* /*multipliers*/, double* /*stiffness*/)
+{
+}
+
 /// |n^ . v_i| [m/s].
 inline void violationRates(const PointOnPlaneConstraint& constraint,
                            const EffectContext& /*context*/, const Points& /*positions*/,

@@ -5,6 +5,7 @@
 #include "constrained_particles/core/effect_fields.hpp"
 #include "constrained_particles/core/effects/row_block.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -47,6 +48,19 @@ inline void evaluateRows(const SurfaceConstraint& constraint, const EffectContex
   out.value[0] = s.z - p[2];
   out.jdot_v[0] = s.zxx * v[0] * v[0] + 2.0 * s.zxy * v[0] * v[1] + s.zyy * v[1] * v[1];
   out.violation[0] = std::abs(out.value[0]);
+}
+
+/// Geometric stiffness (stability.hpp): |lambda| times the largest row sum of the Hessian of Z at
+/// the particle [N/m] (the normal force times the curvature it slides over).
+inline void addGeometricStiffness(const SurfaceConstraint& constraint, const EffectContext& context,
+                                  const Points& positions, const double* multipliers,
+                                  double* stiffness)
+{
+  const double* p = positions.data() + 3 * constraint.particle;
+  const SurfaceSample s = evaluateSurface(context.surfaces[constraint.surface], p[0], p[1]);
+  const double rows =
+      std::max(std::abs(s.zxx) + std::abs(s.zxy), std::abs(s.zxy) + std::abs(s.zyy));
+  stiffness[constraint.particle] += std::abs(multipliers[0]) * rows;
 }
 
 /// |dC/dt| [m/s].

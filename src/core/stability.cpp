@@ -1,0 +1,51 @@
+#include "constrained_particles/core/stability.hpp"
+
+#include "constrained_particles/core/constraints.hpp"
+#include "constrained_particles/core/forces.hpp"
+
+#include <cmath>
+#include <type_traits>
+
+namespace constrained_particles
+{
+double estimateMaxFrequency(const Model& model, const Eigen::VectorXd& multipliers,
+                            const Points& positions, double time, Eigen::VectorXd& stiffness)
+{
+  const Scene& scene = model.scene();
+  const EffectContext context{ scene.surfaces, time };
+  stiffness.setZero(model.numParticles());
+  for (const RowRecord& record : model.rowRecords())
+    std::visit(
+        [&](const auto& constraint)
+        {
+          using Kind = std::decay_t<decltype(constraint)>;
+          if constexpr (!Kind::ELIMINATED)
+            addGeometricStiffness(constraint, context, positions,
+                                  multipliers.data() + record.first_row, stiffness.data());
+        },
+        scene.constraints[record.constraint]);
+  // springs: k (I) blocks at i and j, row sum 2 k (their own geometric part is smaller)
+  for (const Force& force : scene.forces)
+    if (const auto* spring = std::get_if<SpringForce>(&force))
+    {
+      stiffness[spring->first] += 2.0 * spring->stiffness;
+      stiffness[spring->second] += 2.0 * spring->stiffness;
+    }
+  const auto& w = model.inverseMasses();
+  double squared = 0.0;
+  for (int i = 0; i < model.numParticles(); ++i)
+    squared = std::max(squared, w[i] * stiffness[i]);
+  return std::sqrt(squared);
+}
+
+int stabilitySubsteps(double omega, double dt, double stability_limit, int max_substeps)
+{
+  const double allowed = STABILITY_SAFETY * stability_limit;
+  int substeps = 1;
+  // a NaN omega asks for nothing: the step's checks see what went wrong
+  while (substeps < max_substeps && omega * dt > allowed * substeps)
+    substeps *= 2;
+  return std::min(substeps, max_substeps);
+}
+
+}  // namespace constrained_particles
