@@ -50,6 +50,7 @@ class BlowUpTest(WallClockWaits, unittest.TestCase):
             lambda: next((s for s in self.states if s.status == SimState.STATUS_FAULT), None),
             "FAULT status", 60.0)
         self.assertTrue("constraint error" in fault.status_message or
+                        "step check" in fault.status_message or
                         "non-finite" in fault.status_message, fault.status_message)
         self.assertIn("~reset", fault.status_message)
 

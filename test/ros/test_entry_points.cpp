@@ -452,6 +452,44 @@ TEST_F(EntryPoints, Reconfigure)
     }
     reconfigure(name, parameter.value);
   }
+  // the whole numbers (max_substeps): one past each end refused, the ends and middle taken
+  auto reconfigureInt = [](const std::string& name, int value) -> int
+  {
+    dynamic_reconfigure::Reconfigure service;
+    dynamic_reconfigure::IntParameter parameter;
+    parameter.name = name;
+    parameter.value = value;
+    service.request.config.ints.push_back(parameter);
+    EXPECT_TRUE(ros::service::call(NODE + "/set_parameters", service));
+    for (const auto& p : service.response.config.ints)
+      if (p.name == name)
+        return p.value;
+    ADD_FAILURE() << name << " missing from the answer";
+    return -1;
+  };
+  for (const auto& parameter : description.dflt.ints)
+  {
+    const std::string& name = parameter.name;
+    const Range* range = settingRange(name);
+    ASSERT_NE(range, nullptr) << name;
+    ASSERT_TRUE(range->integer) << name;
+    const int kept = reconfigureInt(name, parameter.value);
+    EXPECT_EQ(kept, parameter.value) << name;
+    for (double bad : { range->low - 1, range->high + 1 })
+    {
+      EXPECT_EQ(reconfigureInt(name, static_cast<int>(bad)), kept)
+          << name << " = " << show(bad) << " was not refused";
+      ++checked;
+    }
+    for (double good : goodValues(*range))
+    {
+      EXPECT_EQ(reconfigureInt(name, static_cast<int>(good)), static_cast<int>(good))
+          << name << " = " << show(good) << " was rewritten";
+      ++checked;
+    }
+    reconfigureInt(name, parameter.value);
+  }
+  EXPECT_FALSE(description.dflt.ints.empty());
   // a new dt is the step the node takes, to the last bit
   const double dt = goodValues(limits::DT)[0];
   ASSERT_EQ(reconfigure("dt", dt), dt);
