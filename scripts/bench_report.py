@@ -33,13 +33,15 @@ def fit_slope(xs, ys):
 
 
 COLORS = {"explicit_euler": "C0", "semi_implicit_euler": "C1", "midpoint": "C2", "rk4": "C3",
-          "velocity_verlet": "C4", "dopri5": "C5"}
+          "velocity_verlet": "C4", "dopri5": "C5", "fast_projection": "C6"}
 STYLES = {"none": ":", "baumgarte": "--", "projection": "-", "rattle": "-"}
 
 
 def method_label(row):
     if row["integrator"] == "velocity_verlet":
         return "velocity_verlet (rattle)"
+    if row["integrator"] == "fast_projection":
+        return "fast_projection"
     return f"{row['integrator']} + {row['stabilization']}"
 
 
@@ -57,7 +59,9 @@ def work_precision(out, rows):
             # a diverged run (error above 1 m) is in the CSV, not on the curve
             if not (math.isfinite(error) and 0 < error <= DIVERGED and cost > 0):
                 continue
-            stabilization = "rattle" if r["integrator"] == "velocity_verlet" else r["stabilization"]
+            # the methods that hold the constraints themselves are drawn solid like projection
+            holds = r["integrator"] in ("velocity_verlet", "fast_projection")
+            stabilization = "rattle" if holds else r["stabilization"]
             curves.setdefault((method_label(r), r["integrator"], stabilization), []).append((cost, error))
         for (label, integrator, stabilization), points in sorted(curves.items()):
             points.sort()

@@ -122,13 +122,14 @@ Simulator::Simulator(const Scene& scene, const State& initial_state, const StepS
   settings_ = settings;
   substep_settings_ = settings;
   integrator_ = &findIntegrator(settings.integrator);
+  stiff_ = &findIntegrator(STIFF_FALLBACK);
   conservative_ = isConservative(model_->scene());
   diagnostic_rows_.resize(*model_);
   diagnostic_rates_.setZero(model_->numRows());
   reset();
 }
 
-StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps,
+StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, bool accept_singular,
                                  StepStatistics& attempt)
 {
   const Model& model = *model_;
@@ -137,13 +138,9 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps,
   const State& start = data.control.start;
   StepSettings& sub = substep_settings_;  // a member: copying the integrator's name allocates
   const double h = settings_.dt / substeps;
-  double kinetic = 0.0, potential = 0.0, scale = 0.0;
-  if (conservative_)
-  {
-    kinetic = kineticEnergy(model, start);
-    potential = totalEnergy(model, start) - kinetic;
-    scale = energyScale(model, start, data.applied_forces);
-  }
+  // the start's energies, taken once per step: a rejected attempt's forces may be anything
+  double kinetic = data.control.start_kinetic, potential = data.control.start_potential;
+  double scale = data.control.start_scale;
   for (int j = 1; j <= substeps; ++j)
   {
     // the last sub-step ends exactly where one step of dt would
@@ -188,7 +185,8 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps,
       potential = potential_now;
       scale = energyScale(model, x, data.applied_forces);
     }
-    if ((taken.solve.singular || taken.projection.singular) && !data.control.singular)
+    if ((taken.solve.singular || taken.projection.singular) && !data.control.singular &&
+        !accept_singular)
       return StepCheck::SingularSolve;
   }
   return StepCheck::None;
@@ -204,7 +202,7 @@ StepStatistics Simulator::step(int count)
   StepStatistics total;
   total.solve.method = model.solveMethod();
   const int max_substeps = settings_.max_substeps;
-  const IntegratorInfo& stiff = findIntegrator(STIFF_FALLBACK);
+  const IntegratorInfo& stiff = *stiff_;
   for (int k = 0; k < count; ++k)
   {
     const IntegratorInfo* method = integrator_;
@@ -213,9 +211,11 @@ StepStatistics Simulator::step(int count)
                           hasStiffness(model);
     // the estimate reads the multipliers of the last step's last stage and the energy check its
     // applied forces; after a reset or teleport, or where the integrator solves for no
-    // multipliers (velocity Verlet's SHAKE), they are evaluated here
-    if ((!control.multipliers_current && (estimate || conservative_)) ||
-        (estimate && integrator_->holds_constraints))
+    // multipliers (velocity Verlet's SHAKE), they are evaluated here (fast projection, with no
+    // estimate, keeps the applied forces of its own last stage for the energy check)
+    const bool own_forces = integrator_->holds_constraints;
+    if ((!control.multipliers_current && (estimate || (conservative_ && !own_forces))) ||
+        (estimate && own_forces))
     {
       data.stages.p_stage = x.positions;
       data.stages.v_stage = x.velocities;
@@ -241,14 +241,21 @@ StepStatistics Simulator::step(int count)
         substeps = std::max(substeps, wanted);
     }
     control.start = x;
+    if (conservative_)
+    {
+      control.start_kinetic = kineticEnergy(model, x);
+      control.start_potential = totalEnergy(model, x) - control.start_kinetic;
+      control.start_scale = energyScale(model, x, data.applied_forces);
+    }
     StepCheck failed = StepCheck::None;
     StepStatistics attempt;
     for (;;)
     {
       attempt = StepStatistics{};
-      failed = attemptStep(*method, substeps, attempt);
+      // at the finest split a new singular solve is accepted (regularised) and the step finished
+      failed = attemptStep(*method, substeps, substeps >= max_substeps, attempt);
       const bool finest = substeps >= max_substeps || failed == StepCheck::AdaptiveGuard;
-      if (failed == StepCheck::None || (failed == StepCheck::SingularSolve && finest))
+      if (failed == StepCheck::None)
         break;
       // the finest split of the chosen method failed: the stiff-safe one takes the step
       const bool fall_back =
@@ -259,8 +266,10 @@ StepStatistics Simulator::step(int count)
       ++total.rejected_steps;
       ++total.rejections[static_cast<int>(failed)];
       total.solve.factorizations += attempt.solve.factorizations;
-      total.internal_steps += attempt.internal_steps;
-      total.rejected_internal_steps += attempt.rejected_internal_steps;
+      total.solve.singular_count += attempt.solve.singular_count;
+      total.projection.projections += attempt.projection.projections;
+      total.projection.iterations += attempt.projection.iterations;
+      total.rejected_internal_steps += attempt.internal_steps + attempt.rejected_internal_steps;
       x = control.start;
       if (fall_back)
       {
@@ -269,11 +278,14 @@ StepStatistics Simulator::step(int count)
         continue;
       }
       substeps = std::min(2 * substeps, max_substeps);
-      control.rejection_substeps = substeps;
-      control.accepted_since_rejection = 0;
+      if (method == integrator_)  // the fallback's own retakes leave the integrator's memory
+      {
+        control.rejection_substeps = substeps;
+        control.accepted_since_rejection = 0;
+      }
     }
     total.merge(attempt);
-    if (failed != StepCheck::None && failed != StepCheck::SingularSolve)
+    if (failed != StepCheck::None)
     {
       total.failed_check = failed;
       x = control.start;  // put back: the state stays the last accepted one
@@ -285,10 +297,21 @@ StepStatistics Simulator::step(int count)
     total.substeps += substeps;
     total.max_substeps = std::max(total.max_substeps, substeps);
     control.singular = attempt.solve.singular || attempt.projection.singular;
-    // the stiff-safe method solves for no multipliers: the next step evaluates them
-    control.multipliers_current = method == integrator_;
+    // velocity Verlet and fast projection solve for no multipliers
+    control.multipliers_current = method == integrator_ && !integrator_->holds_constraints;
     if (method != integrator_)
+    {
+      // the stiff-safe method solves for no multipliers: the forces of the failed attempt are
+      // left in data, so they are evaluated at the accepted state
       ++total.stiff_steps;
+      data.stages.p_stage = x.positions;
+      data.stages.v_stage = x.velocities;
+      data.statistics = StepStatistics{};
+      forward(model, data, settings_, x.time, data.stages.p_stage, data.stages.v_stage,
+              data.accelerations);
+      total.solve.merge(data.statistics.solve);
+      control.multipliers_current = true;
+    }
     if (control.rejection_substeps > 1 && ++control.accepted_since_rejection >= RELAX_AFTER_STEPS)
     {
       control.rejection_substeps /= 2;
@@ -361,6 +384,7 @@ void Simulator::setStepSettings(const StepSettings& settings)
   integrator_ = &findIntegrator(settings.integrator);
   settings_ = settings;
   substep_settings_ = settings;
+  data_->control.multipliers_current = false;  // another integrator may have left none
 }
 
 void Simulator::setForces(const std::vector<Force>& forces)

@@ -33,6 +33,7 @@ double estimateMaxFrequency(const Model& model, const Eigen::VectorXd& multiplie
     }
   const auto& w = model.inverseMasses();
   double squared = 0.0;
+  // a NaN stiffness (non-finite state) is skipped here: the step's checks see that state
   for (int i = 0; i < model.numParticles(); ++i)
     squared = std::max(squared, w[i] * stiffness[i]);
   return std::sqrt(squared);

@@ -462,8 +462,13 @@ bool SimulationRunner::runBatch()
   // the last step's forces, once per batch (after a fault, fault() took them at the good state)
   if (!faulted_)
   {
-    forces_ = simulator_->data().constraint_forces;
-    multipliers_ = simulator_->data().multipliers;
+    if (simulator_->data().control.multipliers_current)
+    {
+      forces_ = simulator_->data().constraint_forces;
+      multipliers_ = simulator_->data().multipliers;
+    }
+    else  // velocity Verlet and fast projection solve for none: one evaluation per batch
+      simulator_->constraintForces(forces_, multipliers_);
   }
   step_time_ =
       seconds(Clock::now() - start) / static_cast<double>(std::max<std::uint64_t>(taken, 1));

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace constrained_particles
 {
@@ -348,7 +349,10 @@ void SimulatorNode::publish()
         msg.rejection_checks.push_back(stepCheckName(static_cast<StepCheck>(k)));
         msg.rejection_counts.push_back(static_cast<std::uint32_t>(statistics.rejections[k]));
       }
-    msg.max_frequency = statistics.max_frequency;
+    // an estimate overflows only in degenerate geometry: shown as the largest double, not inf
+    msg.max_frequency = std::isfinite(statistics.max_frequency)
+                            ? statistics.max_frequency
+                            : std::numeric_limits<double>::max();
     forEachEffectCount(statistics.effects,
                        [&msg](const char* name, std::uint64_t count)
                        {

@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 using namespace constrained_particles;
 using namespace constrained_particles::testing;
@@ -70,10 +71,11 @@ StepSettings withIntegrator(const std::string& integrator, double dt = 1e-3,
 struct Outcome
 {
   StepCheck failed = StepCheck::None;
-  double failed_at = NAN;    // sim time of the last accepted step when a check failed [s]
-  double max_error = 0;      // max position error [m]
-  double max_rise = 0;       // max E(t) - E(0) [J]
-  double energy_change = 0;  // E(end) - E(0) [J]
+  double failed_at = NAN;     // sim time after the call whose step failed a check [s]
+  double accepted_end = NAN;  // where that call's accepted steps ended: the failed one put back [s]
+  double max_error = 0;       // max position error [m]
+  double max_rise = 0;        // max E(t) - E(0) [J]
+  double energy_change = 0;   // E(end) - E(0) [J]
   bool finite = true;
   StepStatistics statistics;
 };
@@ -85,6 +87,7 @@ Outcome runFor(Simulator& simulator, double seconds, int every = 100)
   const long steps = std::lround(seconds / simulator.stepSettings().dt);
   for (long k = 0; k < steps; k += every)
   {
+    const double before = simulator.state().time;
     const StepStatistics s = simulator.step(static_cast<int>(std::min<long>(every, steps - k)));
     o.statistics.merge(s);
     const Diagnostics d = simulator.diagnostics();
@@ -96,6 +99,7 @@ Outcome runFor(Simulator& simulator, double seconds, int every = 100)
     {
       o.failed = s.failed_check;
       o.failed_at = simulator.state().time;
+      o.accepted_end = before + static_cast<double>(s.steps) * simulator.stepSettings().dt;
       break;
     }
   }
@@ -105,7 +109,7 @@ Outcome runFor(Simulator& simulator, double seconds, int every = 100)
 }  // namespace
 
 // The estimate from the solver's own multipliers bounds the closed-form highest transverse
-// frequency from above, within the Gershgorin bound's 1.3 % at n = 10 (1 / sin(9 pi / 20)).
+// frequency from above, within the Gershgorin bound's 1.25 % at n = 10 (1 / sin(9 pi / 20)).
 TEST(StabilityEstimate, BoundsTheTransverseModesOfAStretchedChain)
 {
   for (const int n : { 2, 10, 50 })
@@ -186,7 +190,7 @@ TEST(StepChecks, FineChainFailsUnsplitAndRunsSplit)
   EXPECT_LT(off.failed_at, 2.5);
   // the failed step was put back: the state is the last accepted one, finite and on the links
   EXPECT_TRUE(isFinite(unsplit.state()));
-  EXPECT_DOUBLE_EQ(unsplit.state().time, off.failed_at);
+  EXPECT_NEAR(off.failed_at, off.accepted_end, 1e-9);
   EXPECT_LE(unsplit.diagnostics().max_position_error, 1e-9);
 
   Simulator split = fineChain(200, 0.01, 0.01, withIntegrator("rk4"));
@@ -231,6 +235,29 @@ TEST(StepChecks, VerletEnergyJumpIsDetectedAndSubstepped)
       static_cast<double>(on.statistics.substeps) / on.statistics.steps, on.max_rise);
 }
 
+// A chain taut between two pins is singular at every step, from the first one after a reset
+// (when no earlier step was): the singular step is retaken finer up to max_substeps, then
+// accepted whole (regularised), and the time stays on the dt grid.
+TEST(StepChecks, ASingularSceneStepsWholeSteps)
+{
+  const int n = 20;
+  Scene scene = pinnedChain(std::vector<double>(n, 0.1), 0.1);
+  scene.constraints.push_back(PinConstraint{ n - 1, Vec3((n - 1) * 0.1, 0, 0) });
+  scene.forces = { ExternalForce{ 1, Vec3(-5, 0, 0) }, ExternalForce{ n - 2, Vec3(5, 0, 0) } };
+  for (const int max_substeps : { 1, 4, 1024 })
+  {
+    Simulator simulator(scene, straightAlongX(n, 0.1), withIntegrator("rk4", 1e-3, max_substeps));
+    const StepStatistics s = simulator.step(100);
+    EXPECT_EQ(s.failed_check, StepCheck::None) << max_substeps;
+    EXPECT_EQ(s.steps, 100) << max_substeps;
+    EXPECT_NEAR(simulator.state().time, 0.1, 1e-12) << max_substeps;
+    EXPECT_GT(s.solve.singular_count, 0) << max_substeps;
+    // only the first step is retaken: after it the singularity is expected
+    EXPECT_LE(s.rejected_steps, max_substeps > 1 ? 11 : 0) << max_substeps;
+    EXPECT_LE(simulator.diagnostics().max_position_error, 1e-9) << max_substeps;
+  }
+}
+
 // Fast projection: bounded at large dt (here up to 50 ms, where unsplit rk4 fails), the links
 // held, energy only lost (first order, dissipative). Its projection from far off the links may
 // not converge in projection_max_iterations: the step check then splits the step.
@@ -268,11 +295,12 @@ TEST(StepChecks, StepsBeyondMaxSubstepsFallBackToFastProjection)
 // (light at the first particle, heavy at the last), default settings, 2 s: no failed check,
 // finite, links held to 1e-9 m, and energy never above its start by more than 1e-2 of
 // T(0) + M |g| D (the energy the scene could turn over) for these conservative scenes.
-// Left out, for time: pinned chains of 100 and 1,000 with mass ratio 1e6 and links under 10 cm
-// need over 1,024 rk4 sub-steps per 1 ms; the fast-projection fallback takes them, at 10-60 s
-// each (one, n = 1,000 with 1 mm links, fails its projection at 1,024 sub-steps; README).
+// Left out unless CP_STRESS_FULL is set (scripts/stress.sh), for time: pinned chains of 100 and
+// 1,000 with mass ratio 1e6 and links under 10 cm need over 1,024 rk4 sub-steps per 1 ms; the
+// fast-projection fallback carries them at 3 to 200 s of CPU each.
 TEST(StressSweep, ChainsStayStableAtDefaultSettings)
 {
+  const bool full = std::getenv("CP_STRESS_FULL") != nullptr;
   // rk4 + projection gains no energy on average, but a kicked free chain's light links can
   // gain a little over 2,000 steps (each sub-step may rise 1e-3 of the scale, none does)
   constexpr double ENERGY_BOUND = 1e-2;
@@ -284,7 +312,7 @@ TEST(StressSweep, ChainsStayStableAtDefaultSettings)
         for (const bool pinned : { false, true })
         {
           const double ratio = pose == 0 ? 1.0 : pose == 1 ? 1e3 : 1e6;
-          if (pinned && ratio == 1e6 && n >= 100 && l < 0.1)
+          if (!full && pinned && ratio == 1e6 && n >= 100 && l < 0.1)
             continue;
           std::vector<double> masses(n);
           double total_mass = 0.0;
@@ -332,7 +360,7 @@ TEST(StressSweep, ChainsStayStableAtDefaultSettings)
           worst_substeps = std::max(worst_substeps, o.statistics.max_substeps);
           ++cases;
         }
-  EXPECT_EQ(cases, 50);
+  EXPECT_EQ(cases, full ? 54 : 50);
   std::printf(
       "[stability] stress sweep: %d cases, worst energy rise %.2g of the scale, at most "
       "%d sub-steps per step\n",

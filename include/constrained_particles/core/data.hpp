@@ -57,6 +57,9 @@ struct StepControl
   int accepted_since_rejection = 0;  ///< steps accepted since it was last changed
   bool singular = false;             ///< the last accepted step had a singular solve
   bool multipliers_current = false;  ///< `multipliers` are of the last step's last stage
+  double start_kinetic = 0.0;        ///< kinetic energy at `start` [J] (conservative scenes)
+  double start_potential = 0.0;      ///< potential energy at `start` [J]
+  double start_scale = 0.0;          ///< energyScale() at `start` [J]
 };
 
 /// Everything that changes. Made for one model (Data(model)); valid while that model lives.

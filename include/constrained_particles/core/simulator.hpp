@@ -102,7 +102,8 @@ public:
   /// them (computed on demand).
   void constraintForces(Points& forces, Eigen::VectorXd& multipliers);
 
-  /// A conservative scene's energy may rise by this fraction of energyScale() in one sub-step.
+  /// A conservative scene's energy may rise in one sub-step by this fraction of energyScale() at
+  /// its start plus the energy it exchanged (|dT| + |dU|).
   static constexpr double ENERGY_RISE_TOLERANCE = 1e-3;
   /// The stiff-safe method a step falls back to (integrators.hpp).
   static constexpr const char* STIFF_FALLBACK = "fast_projection";
@@ -114,7 +115,9 @@ public:
 private:
   /// One step of dt as `substeps` sub-steps from data.control.start, checked; the statistics of
   /// its sub-steps merged into `attempt`. @return the first check a sub-step failed, or None
-  StepCheck attemptStep(const IntegratorInfo& method, int substeps, StepStatistics& attempt);
+  /// `accept_singular`: a new singular solve passes (the finest split).
+  StepCheck attemptStep(const IntegratorInfo& method, int substeps, bool accept_singular,
+                        StepStatistics& attempt);
 
   /// Everything a scene change replaces together.
   struct Compiled
@@ -132,6 +135,7 @@ private:
   StepSettings settings_;
   StepSettings substep_settings_;               // settings_ with a sub-step's dt (attemptStep)
   const IntegratorInfo* integrator_ = nullptr;  // settings_.integrator's row
+  const IntegratorInfo* stiff_ = nullptr;       // STIFF_FALLBACK's row
   bool conservative_ = false;  // only conservative forces, no driven anchor: energy is checked
   mutable RowData diagnostic_rows_;  // workspaces of diagnostics()
   mutable Eigen::VectorXd diagnostic_rates_;

@@ -146,11 +146,13 @@ const char* stepCheckName(StepCheck check);
 /// them, not only the last.
 struct StepStatistics
 {
-  long steps = 0;                    ///< steps taken
-  SolveStatistics solve;             ///< every constraint-force and projection factorisation
-  ProjectionStatistics projection;   ///< every projection
-  long internal_steps = 0;           ///< dopri5: accepted internal steps (fixed-step: 1 per step)
-  long rejected_internal_steps = 0;  ///< dopri5: internal steps rejected and retaken smaller
+  long steps = 0;                   ///< steps taken
+  SolveStatistics solve;            ///< every constraint-force and projection factorisation
+  ProjectionStatistics projection;  ///< every projection
+  long internal_steps = 0;          ///< dopri5: accepted internal steps (fixed-step: 1 per step)
+  /// dopri5: internal steps rejected and retaken smaller; and every internal step of a step
+  /// that failed a check and was retaken (Simulator::step)
+  long rejected_internal_steps = 0;
   /// dopri5: dt ends taken unchecked because a guard was hit (over 100,000 internal steps in one
   /// dt, or an internal step under 1e-12 dt): the tolerance cannot be met at this dt
   long forced_internal_steps = 0;
@@ -163,8 +165,8 @@ struct StepStatistics
   /// rejections by the check that failed (index: StepCheck), each retaken with twice the
   /// sub-steps; the stability estimate's splits are not rejections
   std::array<long, NUM_STEP_CHECKS> rejections{};
-  /// the check the finest allowed split still failed (StepCheck::None: every step accepted); the
-  /// step was kept as taken: a caller that trusts no such step stops (the node faults)
+  /// the check the finest allowed split (and the stiff fallback) still failed (StepCheck::None:
+  /// every step accepted); that step was put back and the batch ended: the node faults
   StepCheck failed_check = StepCheck::None;
   double max_frequency = 0;  ///< largest estimated omega_max [rad/s] (stability.hpp)
   EffectCounters effects;    ///< evaluations during the batch

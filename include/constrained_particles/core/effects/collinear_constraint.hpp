@@ -122,7 +122,7 @@ inline void addGeometricStiffness(const CollinearConstraint& constraint,
   const double a = std::max((positions.col(j) - positions.col(i)).norm(), 1e-300);
   const double d = (positions.col(k) - positions.col(j)).norm();
   const double bound =
-      2.0 * (std::abs(multipliers[0]) + std::abs(multipliers[1])) * (1.0 / a + d / (a * a));
+      2.0 * (std::abs(multipliers[0]) + std::abs(multipliers[1])) * (1.0 / a) * (1.0 + d / a);
   for (int particle : constraint.particles)
     stiffness[particle] += bound;
 }
