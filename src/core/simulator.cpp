@@ -192,6 +192,17 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
   return StepCheck::None;
 }
 
+void Simulator::evaluateCurrentState(StepStatistics& total)
+{
+  Data& data = *data_;
+  data.stages.p_stage = data.state.positions;
+  data.stages.v_stage = data.state.velocities;
+  data.statistics = StepStatistics{};
+  forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
+          data.accelerations);
+  total.solve.merge(data.statistics.solve);
+}
+
 StepStatistics Simulator::step(int count)
 {
   const Model& model = *model_;
@@ -217,12 +228,7 @@ StepStatistics Simulator::step(int count)
     if ((!control.multipliers_current && (estimate || (conservative_ && !own_forces))) ||
         (estimate && own_forces))
     {
-      data.stages.p_stage = x.positions;
-      data.stages.v_stage = x.velocities;
-      data.statistics = StepStatistics{};
-      forward(model, data, settings_, x.time, data.stages.p_stage, data.stages.v_stage,
-              data.accelerations);
-      total.solve.merge(data.statistics.solve);
+      evaluateCurrentState(total);
     }
     if (estimate)
     {
@@ -287,10 +293,15 @@ StepStatistics Simulator::step(int count)
     total.merge(attempt);
     if (failed != StepCheck::None)
     {
-      total.failed_check = failed;
-      x = control.start;  // put back: the state stays the last accepted one
-      control.multipliers_current = false;
-      break;
+      if (total.failed_check == StepCheck::None)
+        total.failed_check = failed;
+      if (max_substeps > 1)
+      {
+        x = control.start;  // put back: the state stays the last accepted one
+        control.multipliers_current = false;
+        break;
+      }
+      // max_substeps = 1: the checks only report; the step stands as taken (as before checks)
     }
     ++x.steps;
     ++total.steps;
@@ -304,12 +315,7 @@ StepStatistics Simulator::step(int count)
       // the stiff-safe method solves for no multipliers: the forces of the failed attempt are
       // left in data, so they are evaluated at the accepted state
       ++total.stiff_steps;
-      data.stages.p_stage = x.positions;
-      data.stages.v_stage = x.velocities;
-      data.statistics = StepStatistics{};
-      forward(model, data, settings_, x.time, data.stages.p_stage, data.stages.v_stage,
-              data.accelerations);
-      total.solve.merge(data.statistics.solve);
+      evaluateCurrentState(total);
       control.multipliers_current = true;
     }
     if (control.rejection_substeps > 1 && ++control.accepted_since_rejection >= RELAX_AFTER_STEPS)

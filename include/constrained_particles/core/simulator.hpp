@@ -36,9 +36,12 @@ public:
   ///    taken by the stiff-safe STIFF_FALLBACK (fast projection: bounded at any dt, first order,
   ///    dissipative) with its own sub-steps from 1 (StepStatistics::stiff_steps counts them);
   ///  - dopri5's guard is final at once (it adapts its internal steps already: sub-steps would
-  ///    repeat them), and so is a check the fallback fails at max_substeps, or any with
-  ///    max_substeps = 1 (no sub-steps, no fallback): StepStatistics::failed_check names it and
-  ///    the batch ends there, that step put back (the state is the last accepted step's). A
+  ///    repeat them), and so is a check the fallback fails at max_substeps:
+  ///    StepStatistics::failed_check names it and the batch ends there, that step put back (the
+  ///    state is the last accepted step's);
+  ///  - max_substeps = 1 takes each step as asked, as before the checks existed (no sub-steps, no
+  ///    fallback, nothing put back): a failed check is only reported in failed_check (the node
+  ///    faults on it). A
   ///    singular solve at max_substeps is accepted (regularised).
   /// @return the worst and the totals over the steps taken
   StepStatistics step(int count = 1);
@@ -115,6 +118,9 @@ public:
 private:
   /// One step of dt as `substeps` sub-steps from data.control.start, checked; the statistics of
   /// its sub-steps merged into `attempt`. @return the first check a sub-step failed, or None
+  /// Every stage at the current state (forces, multipliers), its solve merged into `total`.
+  void evaluateCurrentState(StepStatistics& total);
+
   /// `accept_singular`: a new singular solve passes (the finest split).
   StepCheck attemptStep(const IntegratorInfo& method, int substeps, bool accept_singular,
                         StepStatistics& attempt);

@@ -166,7 +166,8 @@ struct StepStatistics
   /// sub-steps; the stability estimate's splits are not rejections
   std::array<long, NUM_STEP_CHECKS> rejections{};
   /// the check the finest allowed split (and the stiff fallback) still failed (StepCheck::None:
-  /// every step accepted); that step was put back and the batch ended: the node faults
+  /// every step accepted); that step was put back and the batch ended (with max_substeps = 1
+  /// the step stands and the batch goes on: the checks only report). The node faults on it
   StepCheck failed_check = StepCheck::None;
   double max_frequency = 0;  ///< largest estimated omega_max [rad/s] (stability.hpp)
   EffectCounters effects;    ///< evaluations during the batch
