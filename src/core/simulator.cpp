@@ -143,9 +143,10 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
   double scale = data.control.start_scale;
   for (int j = 1; j <= substeps; ++j)
   {
-    // the last sub-step ends exactly where one step of dt would
+    // each sub-step takes h exactly (dt / 2^k is exact; (t + dt) - t is not, and its round-off
+    // would jitter every step's length), and the last ends where one step of dt would
     const double end = j == substeps ? start.time + settings_.dt : start.time + j * h;
-    sub.dt = end - x.time;
+    sub.dt = h;
     data.statistics = StepStatistics{};
     data.statistics.solve.method = model.solveMethod();
     method.step(model, data, sub);
