@@ -607,8 +607,8 @@ int stability(const std::string& out, bool quick)
   const Method methods[] = { { "rk4 unsplit", "rk4", 1e-3, 1 },
                              { "rk4 + sub-steps", "rk4", 1e-3, 1024 },
                              { "velocity_verlet + sub-steps", "velocity_verlet", 1e-3, 1024 },
-                             { "fast_projection, dt 1 ms", "fast_projection", 1e-3, 1024 },
-                             { "fast_projection, dt 10 ms", "fast_projection", 1e-2, 1024 } };
+                             { "fast_projection dt 1 ms", "fast_projection", 1e-3, 1024 },
+                             { "fast_projection dt 10 ms", "fast_projection", 1e-2, 1024 } };
   std::ofstream csv(out + "/stability.csv");
   csv << "n,method,dt_s,max_substeps,sim_seconds_reached,failed_check,cpu_s_per_sim_s,"
          "cost_ratio_to_unsplit_rk4,substeps_per_step,stiff_steps,rejected_steps,"
