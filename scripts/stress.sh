@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The full stress sweep of test/core/test_stability.cpp: the default test run's 50 chains plus the
 # 4 it leaves out for time (pinned chains of 100 and 1,000 particles, mass ratio 1e6, links of
-# 1 mm and 1 cm: the stiff fallback carries them). About 5 minutes on 2 cores.
+# 1 mm and 1 cm: the stiff fallback carries them). About 7 minutes on a busy 2-core machine.
 # Ends with gtest's verdict; exits non-zero on a failure.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
