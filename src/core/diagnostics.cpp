@@ -26,9 +26,9 @@ double kineticEnergy(const Model& model, const State& state)
   return kinetic;
 }
 
-double totalEnergy(const Model& model, const State& state)
+double potentialEnergy(const Model& model, const State& state)
 {
-  double energy = kineticEnergy(model, state);
+  double energy = 0.0;
   for (const Force& force : model.scene().forces)
     energy += potentialEnergy(force, model.scene().masses, state.positions);
   return energy;
@@ -78,8 +78,7 @@ Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& 
         worseError(d.max_velocity_error, (state.velocities.col(i) - motion.velocity).norm());
   }
   d.kinetic_energy = kineticEnergy(model, state);
-  for (const Force& force : scene.forces)
-    d.potential_energy += potentialEnergy(force, scene.masses, state.positions);
+  d.potential_energy = potentialEnergy(model, state);
   return d;
 }
 

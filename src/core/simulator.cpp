@@ -123,7 +123,7 @@ Simulator::Simulator(const Scene& scene, const State& initial_state, const StepS
   substep_settings_ = settings;
   integrator_ = &findIntegrator(settings.integrator);
   stiff_ = &findIntegrator(STIFF_FALLBACK);
-  conservative_ = isConservative(model_->scene());
+  readSceneKind();
   diagnostic_rows_.resize(*model_);
   diagnostic_rates_.setZero(model_->numRows());
   reset();
@@ -153,14 +153,10 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     imposeEliminated(model, data, end, &x.positions, &x.velocities);
     if (!method.holds_constraints && settings_.stabilization == Stabilization::Projection)
     {
-      ProjectionReport report =
+      const ProjectionReport report =
           projectPositions(model, data, end, x.positions, settings_.projection_tolerance,
                            settings_.projection_max_iterations);
-      bool singular = false;
-      report.max_velocity_change =
-          projectVelocities(model, data, end, x.positions, x.velocities, true, false, &singular);
-      report.singular |= singular;
-      data.statistics.projection.merge(report);
+      finishProjection(model, data, end, x.positions, x.velocities, true, false, report);
     }
     x.time = end;
     const StepStatistics& taken = data.statistics;
@@ -174,7 +170,7 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     if (conservative_)
     {
       const double kinetic_now = kineticEnergy(model, x);
-      const double potential_now = totalEnergy(model, x) - kinetic_now;
+      const double potential_now = potentialEnergy(model, x);
       // the scale includes the energy the sub-step exchanged: a particle alone has no extent
       const double exchanged =
           std::abs(kinetic_now - kinetic) + std::abs(potential_now - potential);
@@ -191,6 +187,12 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
       return StepCheck::SingularSolve;
   }
   return StepCheck::None;
+}
+
+void Simulator::readSceneKind()
+{
+  conservative_ = isConservative(model_->scene());
+  has_stiffness_ = hasStiffness(*model_);
 }
 
 void Simulator::evaluateCurrentState(StepStatistics& total)
@@ -219,8 +221,8 @@ StepStatistics Simulator::step(int count)
   {
     const IntegratorInfo* method = integrator_;
     int substeps = std::min(control.rejection_substeps, max_substeps);
-    const bool estimate = integrator_->stability_limit < UNBOUNDED_STABILITY && max_substeps > 1 &&
-                          hasStiffness(model);
+    const bool estimate =
+        integrator_->stability_limit < UNBOUNDED_STABILITY && max_substeps > 1 && has_stiffness_;
     // the estimate reads the multipliers of the last step's last stage and the energy check its
     // applied forces; after a reset or teleport, or where the integrator solves for no
     // multipliers (velocity Verlet's SHAKE), they are evaluated here (fast projection, with no
@@ -251,7 +253,7 @@ StepStatistics Simulator::step(int count)
     if (conservative_)
     {
       control.start_kinetic = kineticEnergy(model, x);
-      control.start_potential = totalEnergy(model, x) - control.start_kinetic;
+      control.start_potential = potentialEnergy(model, x);
       control.start_scale = energyScale(model, x, data.applied_forces);
     }
     StepCheck failed = StepCheck::None;
@@ -379,7 +381,7 @@ void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMe
   model_ = std::move(compiled.model);
   data_ = std::move(compiled.data);
   initial_state_ = compiled.initial_state;
-  conservative_ = isConservative(model_->scene());
+  readSceneKind();
   diagnostic_rows_.resize(*model_);
   diagnostic_rates_.setZero(model_->numRows());
   reset();
@@ -404,7 +406,7 @@ void Simulator::setForces(const std::vector<Force>& forces)
   data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(model);
   data_ = std::move(data);
-  conservative_ = isConservative(model_->scene());
+  readSceneKind();
 }
 
 Diagnostics Simulator::diagnostics() const

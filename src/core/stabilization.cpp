@@ -108,4 +108,15 @@ ProjectionReport shakePositions(const Model& model, Data& data, double time,
   return report;
 }
 
+void finishProjection(const Model& model, Data& data, double time, const Points& positions,
+                      Points& velocities, bool rows_current, bool measure_change,
+                      ProjectionReport report)
+{
+  bool singular = false;
+  report.max_velocity_change = projectVelocities(model, data, time, positions, velocities,
+                                                 rows_current, measure_change, &singular);
+  report.singular |= singular;
+  data.statistics.projection.merge(report);
+}
+
 }  // namespace constrained_particles

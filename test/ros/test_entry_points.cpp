@@ -28,6 +28,7 @@
 #include <limits>
 #include <mutex>
 #include <thread>
+#include <type_traits>
 
 using namespace constrained_particles;
 using constrained_particles::testing::badValues;
@@ -415,20 +416,32 @@ TEST_F(EntryPoints, ResetTakesEachScenesSettingsAndTheUsersChoices)
 // dynamic_reconfigure: every reconfigurable number, through ~set_parameters as dynparam sends it
 TEST_F(EntryPoints, Reconfigure)
 {
-  auto reconfigure = [](const std::string& name, double value) -> double
+  // one set_parameters call with a double (DoubleParameter) or an int (IntParameter): the value
+  // the answer shows for `name`
+  auto set = [](const std::string& name, auto value)
   {
+    using Value = decltype(value);
+    constexpr bool whole = std::is_same_v<Value, int>;
+    auto numbers = [](dynamic_reconfigure::Config & config) -> auto&
+    {
+      if constexpr (whole)
+        return config.ints;
+      else
+        return config.doubles;
+    };
     dynamic_reconfigure::Reconfigure service;
-    dynamic_reconfigure::DoubleParameter parameter;
+    typename std::decay_t<decltype(numbers(service.request.config))>::value_type parameter;
     parameter.name = name;
     parameter.value = value;
-    service.request.config.doubles.push_back(parameter);
+    numbers(service.request.config).push_back(parameter);
     EXPECT_TRUE(ros::service::call(NODE + "/set_parameters", service));
-    for (const auto& p : service.response.config.doubles)
+    for (const auto& p : numbers(service.response.config))
       if (p.name == name)
-        return p.value;
+        return static_cast<Value>(p.value);
     ADD_FAILURE() << name << " missing from the answer";
-    return NAN;
+    return whole ? Value(-1) : Value(NAN);
   };
+  auto reconfigure = [&set](const std::string& name, double value) { return set(name, value); };
   const dynamic_reconfigure::ConfigDescription description =
       SimulatorConfig::__getDescriptionMessage__();
   int checked = 0;
@@ -453,20 +466,7 @@ TEST_F(EntryPoints, Reconfigure)
     reconfigure(name, parameter.value);
   }
   // the whole numbers (max_substeps): one past each end refused, the ends and middle taken
-  auto reconfigureInt = [](const std::string& name, int value) -> int
-  {
-    dynamic_reconfigure::Reconfigure service;
-    dynamic_reconfigure::IntParameter parameter;
-    parameter.name = name;
-    parameter.value = value;
-    service.request.config.ints.push_back(parameter);
-    EXPECT_TRUE(ros::service::call(NODE + "/set_parameters", service));
-    for (const auto& p : service.response.config.ints)
-      if (p.name == name)
-        return p.value;
-    ADD_FAILURE() << name << " missing from the answer";
-    return -1;
-  };
+  auto reconfigureInt = [&set](const std::string& name, int value) { return set(name, value); };
   for (const auto& parameter : description.dflt.ints)
   {
     const std::string& name = parameter.name;

@@ -26,9 +26,9 @@ struct Diagnostics
 /// Sum 1/2 m |v|^2 [J].
 double kineticEnergy(const Model& model, const State& state);
 
-/// Kinetic plus potential energy of a state [J], without the rows (cheap: one pass over the
-/// particles and the forces).
-double totalEnergy(const Model& model, const State& state);
+/// Sum of the conservative forces' potentials at a state [J], without the rows (cheap: one pass
+/// over the forces).
+double potentialEnergy(const Model& model, const State& state);
 
 /// The energy a step could move about [J]: kinetic energy plus sum |f_i| D, the applied forces
 /// `forces` (3 x n) [N] times the diagonal D of the particles' bounding box [m] (for gravity

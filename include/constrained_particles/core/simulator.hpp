@@ -118,6 +118,9 @@ public:
 private:
   /// One step of dt as `substeps` sub-steps from data.control.start, checked; the statistics of
   /// its sub-steps merged into `attempt`. @return the first check a sub-step failed, or None
+  /// Sets conservative_ and has_stiffness_ from the model's scene (after any scene change).
+  void readSceneKind();
+
   /// Every stage at the current state (forces, multipliers), its solve merged into `total`.
   void evaluateCurrentState(StepStatistics& total);
 
@@ -142,7 +145,8 @@ private:
   StepSettings substep_settings_;               // settings_ with a sub-step's dt (attemptStep)
   const IntegratorInfo* integrator_ = nullptr;  // settings_.integrator's row
   const IntegratorInfo* stiff_ = nullptr;       // STIFF_FALLBACK's row
-  bool conservative_ = false;  // only conservative forces, no driven anchor: energy is checked
+  bool conservative_ = false;   // only conservative forces, no driven anchor: energy is checked
+  bool has_stiffness_ = false;  // rows or springs: the stability estimate has something to see
   mutable RowData diagnostic_rows_;  // workspaces of diagnostics()
   mutable Eigen::VectorXd diagnostic_rates_;
 };

@@ -35,15 +35,12 @@ void step(const Model& model, Data& data, const StepSettings& settings)
     v.col(i) += (dt * w[i]) * data.applied_forces.col(i);
   p += dt * v;
   s.p_unprojected = p;  // p*
-  ProjectionReport report =
+  const ProjectionReport report =
       projectPositions(model, data, t_end, p, settings.projection_tolerance,
                        std::max(settings.projection_max_iterations, MIN_ITERATIONS));
   // v = (p_new - p_n) / dt = v* + (p_new - p*) / dt
   v += (p - s.p_unprojected) / dt;
-  bool singular = false;
-  report.max_velocity_change = projectVelocities(model, data, t_end, p, v, true, true, &singular);
-  report.singular |= singular;
-  data.statistics.projection.merge(report);
+  finishProjection(model, data, t_end, p, v, true, true, report);
   ++data.statistics.internal_steps;
 }
 

@@ -33,16 +33,13 @@ void step(const Model& model, Data& data, const StepSettings& settings)
   // v_n+1/2 = (p_n+1 - p_n) / dt, formed as v + correction / dt: subtracting positions would
   // turn their round-off into a velocity error that grows like 1 / dt
   s.correction.setZero();
-  ProjectionReport report =
+  const ProjectionReport report =
       shakePositions(model, data, t_end, s.p_start, p, settings.projection_tolerance,
                      settings.projection_max_iterations, &s.correction);
   v += s.correction / dt;
   appliedForceStage(model, data, p, v);
   halfKick(model, data, dt, v);
-  bool singular = false;
-  report.max_velocity_change = projectVelocities(model, data, t_end, p, v, false, true, &singular);
-  report.singular |= singular;
-  data.statistics.projection.merge(report);
+  finishProjection(model, data, t_end, p, v, false, true, report);
   ++data.statistics.internal_steps;
 }
 
