@@ -105,7 +105,11 @@ class TfStampsTest(WallClockWaits, unittest.TestCase):
         time.sleep(1.5)
         self.assert_not_frozen("paused")
 
-        self.assertTrue(self.step(300).success)
+        stepped = self.step(300)
+        self.assertTrue(stepped.success)
+        # the ~step's last state, not one published during it: `before` below must be the newest
+        self.wait_until(lambda: abs(self.latest_state().sim_time - stepped.sim_time) < 1e-9,
+                        "~state at the end of the ~step")
         self.assert_not_frozen("~step")
 
         # a teleport at the same sim time: sent once, with a new stamp
