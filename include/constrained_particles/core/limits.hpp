@@ -135,6 +135,14 @@ constexpr Range MAX_CONSTRAINT_ERROR{ 0.0, true, 1e3, "m", false };
 constexpr Range MESH_CELLS{ 2.0, false, 200.0, "1", true };
 /// Steps one ~step call may ask for.
 constexpr Range STEPS_PER_CALL{ 1.0, false, 1e6, "1", true };
+/// ~compare_methods: simulated time each method runs [s]; 0 = 1 s.
+constexpr Range STUDY_HORIZON{ 0.0, false, 3600.0, "s", false };
+/// ~compare_methods: position error the recommendation must meet [m]; 0 = 1e-6 m.
+constexpr Range STUDY_ERROR_TARGET{ 0.0, false, 1e3, "m", false };
+/// ~compare_methods: methods one study may list (0 = the default set).
+constexpr Range STUDY_METHODS{ 0.0, false, 256.0, "1", true };
+/// Window of the live accuracy estimate against a shadow reference [s]; 0 = off.
+constexpr Range ACCURACY_WINDOW{ 0.0, false, 60.0, "s", false };
 
 }  // namespace limits
 
