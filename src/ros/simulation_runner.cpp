@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <ctime>
 
 namespace constrained_particles
 {
@@ -16,6 +17,18 @@ double seconds(std::chrono::steady_clock::duration d)
 {
   return std::chrono::duration<double>(d).count();
 }
+
+double threadCpuSeconds()
+{
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+/// Live accuracy samples per window: about one per publish period, 4 to 64 (4 for large scenes:
+/// each sample holds the positions twice until compared).
+constexpr int MIN_WINDOW_SAMPLES = 4, MAX_WINDOW_SAMPLES = 64;
+constexpr int MANY_PARTICLES = 10000;
 
 RunnerReply refused(const std::string& message)
 {
@@ -208,6 +221,7 @@ RunnerReply SimulationRunner::setState(const Points& positions, const Points& ve
                          limits::VELOCITY);
         }
         const ProjectionReport report = simulator_->setState(state);
+        abandonWindow();
         faulted_ = false;
         fault_reason_.clear();
         clock_base_ += TIME_JUMP;
@@ -322,6 +336,8 @@ RunnerReply SimulationRunner::reconfigure(
         // a later reconfigure would bring back into another scene
         candidate.overrides.gravity.reset();
         candidate.overrides.damping.reset();
+        // a window measures one method on one scene: any reconfigure ends it unmeasured
+        abandonWindow();
         parameters_ = candidate;
         step_time_estimate_ = 0;
         last_chunk_ = 1;
@@ -338,6 +354,7 @@ void SimulationRunner::loop()
   {
     const bool applied = applyRequests();
     const bool stepped = !stopping_ && runBatch();
+    updateAccuracy();
     const Clock::time_point now = Clock::now();
     updateRate(now);
     if (snapshot_due_ || applied ||
@@ -443,18 +460,37 @@ bool SimulationRunner::runBatch()
         static_cast<int>(std::clamp<double>(std::floor(fit), 1.0,
                                             std::min({ static_cast<double>(wanted - taken), 1e6,
                                                        2.0 * static_cast<double>(last_chunk_) })));
+    // a live accuracy sample ends a chunk exactly on its step
+    int steps_now = chunk;
+    if (window_ && window_->recorded < static_cast<int>(window_->sample_steps.size()))
+      steps_now = static_cast<int>(std::min<std::uint64_t>(
+          static_cast<std::uint64_t>(chunk),
+          window_->sample_steps[window_->recorded] - simulator_->state().steps));
+    steps_now = std::max(steps_now, 1);
     last_chunk_ = chunk;
     const Clock::time_point chunk_start = Clock::now();
-    const StepStatistics statistics = simulator_->step(chunk);
-    step_time_estimate_ = seconds(Clock::now() - chunk_start) / chunk;
+    const double cpu_start = window_ ? threadCpuSeconds() : 0.0;
+    const StepStatistics statistics = simulator_->step(steps_now);
+    if (window_)
+      window_->live_cpu += threadCpuSeconds() - cpu_start;
+    reference_now_.reset();
+    step_time_estimate_ = seconds(Clock::now() - chunk_start) / steps_now;
     // an undone chunk's statistics go with it: reports count the steps that stand
     if (const std::string reason = faultIn(simulator_->state(), statistics); !reason.empty())
       fault(reason, last_good_);
     else
     {
       batch.merge(statistics);
-      taken += static_cast<std::uint64_t>(chunk);
+      taken += static_cast<std::uint64_t>(steps_now);
       last_good_ = simulator_->state();
+      if (window_ && window_->recorded < static_cast<int>(window_->sample_steps.size()) &&
+          simulator_->state().steps == window_->sample_steps[window_->recorded])
+      {
+        window_->live[window_->recorded++] = simulator_->state().positions;
+        // the batch ends on a sample: its snapshot can carry the reference beside it
+        snapshot_due_ = true;
+        break;
+      }
     }
     if (seconds(Clock::now() - start) >= BATCH_WALL_TIME || stopping_)
       break;
@@ -539,6 +575,7 @@ std::string SimulationRunner::faultIn(const State& state, const StepStatistics& 
 
 void SimulationRunner::fault(const std::string& reason, const State& good)
 {
+  abandonWindow();
   faulted_ = true;
   fault_reason_ = reason +
                   "; stepping stopped at the last good state (t = " + formatValue(good.time) +
@@ -586,6 +623,7 @@ void SimulationRunner::rebuild(const SceneDescription& description, const StepSe
     simulator_->setStepSettings(saved);
     throw;
   }
+  abandonWindow();
   // the clock runs on across the reset: stamps never go back (see Snapshot::stamp)
   clock_base_ += time_before + TIME_JUMP;
   parameters_.step = settings;
@@ -655,6 +693,9 @@ void SimulationRunner::makeSnapshot()
   s->stepping = step_request_.has_value();
   s->faulted = faulted_;
   s->fault_reason = fault_reason_;
+  s->accuracy = accuracy_;
+  s->reference_positions = reference_now_;
+  s->skipped_windows = skippedWindows();
   {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
     snapshot_ = std::move(s);
@@ -664,6 +705,129 @@ void SimulationRunner::makeSnapshot()
   pending_ = StepStatistics{};
   last_snapshot_wall_ = Clock::now();
   snapshot_due_ = false;
+}
+
+void SimulationRunner::abandonWindow()
+{
+  reference_now_.reset();
+  waiting_since_ = -1.0;
+  if (!window_)
+    return;
+  window_.reset();
+  ++abandoned_windows_;
+  if (shadow_)
+    shadow_->cancel();
+}
+
+std::uint64_t SimulationRunner::skippedWindows() const
+{
+  const double length = parameters_.accuracy_window;
+  if (!(length > 0.0))
+    return skipped_windows_;
+  const double now = simulator_->state().time;
+  double behind_since = waiting_since_;  // no window open: the shadow still busy
+  if (window_ && window_->recorded == static_cast<int>(window_->sample_steps.size()))
+    behind_since = window_->sample_times.back();  // live done, the shadow not yet
+  if (behind_since < 0.0 || now <= behind_since)
+    return skipped_windows_;
+  return skipped_windows_ + static_cast<std::uint64_t>(std::floor((now - behind_since) / length));
+}
+
+void SimulationRunner::updateAccuracy()
+{
+  const double length = parameters_.accuracy_window;
+  if (window_ && shadow_)
+  {
+    AccuracyWindow& w = *window_;
+    // compare what both sides have; the shadow never holds up stepping
+    const int both = std::min(w.recorded, shadow_->ready());
+    for (; w.compared < both; ++w.compared)
+    {
+      const int k = w.compared;
+      auto reference = std::make_shared<const Points>(shadow_->take(k));
+      w.errors[k] = (w.live[k] - *reference).colwise().norm().maxCoeff();
+      w.live[k] = Points();
+      if (w.sample_steps[k] == simulator_->state().steps)
+        reference_now_ = reference;
+    }
+    const int samples = static_cast<int>(w.sample_steps.size());
+    if (w.compared == samples)
+    {
+      auto report = std::make_shared<AccuracyReport>();
+      report->serial = accuracy_ ? accuracy_->serial + 1 : 1;
+      report->window_start = w.start_time;
+      report->window = w.sample_times.back() - w.start_time;
+      report->stamp = clock_base_ + w.sample_times.back();
+      report->integrator = w.settings.integrator;
+      report->stabilization = w.settings.stabilization;
+      report->dt = w.settings.dt;
+      report->sample_times = w.sample_times;
+      report->position_errors = w.errors;
+      report->position_error = w.errors.back();
+      report->error_growth_rate = report->position_error / report->window;
+      report->live_cpu_per_sim_second = w.live_cpu / report->window;
+      report->reference_cpu_per_sim_second = shadow_->cpuSeconds() / report->window;
+      report->windows = ++windows_;
+      skipped_windows_ = skippedWindows();
+      report->skipped = skipped_windows_;
+      report->abandoned = abandoned_windows_;
+      accuracy_ = report;
+      window_.reset();
+      snapshot_due_ = true;
+    }
+    else if (!shadow_->busy() && shadow_->ready() < samples)
+    {
+      // the shadow gave up (its failure says why): this window cannot be measured
+      abandonWindow();
+    }
+  }
+  // the next window starts from the state now, when there is stepping to measure
+  const bool stepping = !faulted_ && (!paused_ || step_request_);
+  if (window_ || !(length > 0.0) || !stepping)
+    return;
+  if (!shadow_)
+    shadow_ = std::make_unique<ShadowReference>();
+  const State& now = simulator_->state();
+  if (shadow_->busy())
+  {
+    if (waiting_since_ < 0.0)
+      waiting_since_ = now.time;
+    return;
+  }
+  if (waiting_since_ >= 0.0)
+  {
+    // the windows that would have run while the shadow was busy
+    skipped_windows_ = skippedWindows();
+    waiting_since_ = -1.0;
+  }
+  AccuracyWindow w;
+  w.settings = parameters_.step;
+  const double dt = w.settings.dt;
+  const int wanted_samples = simulator_->model().numParticles() > MANY_PARTICLES
+                                 ? MIN_WINDOW_SAMPLES
+                                 : static_cast<int>(std::lround(length * parameters_.publish_rate));
+  const auto steps = static_cast<std::uint64_t>(std::max(1L, std::lround(length / dt)));
+  const auto samples = static_cast<int>(std::min<std::uint64_t>(
+      steps, static_cast<std::uint64_t>(
+                 std::clamp(wanted_samples, MIN_WINDOW_SAMPLES, MAX_WINDOW_SAMPLES))));
+  w.start_time = now.time;
+  w.start_steps = now.steps;
+  for (int k = 1; k <= samples; ++k)
+  {
+    const std::uint64_t offset = (steps * static_cast<std::uint64_t>(k)) /
+                                 static_cast<std::uint64_t>(samples);
+    w.sample_steps.push_back(now.steps + offset);
+    w.sample_times.push_back(now.time + static_cast<double>(offset) * dt);
+  }
+  w.live.assign(samples, Points());
+  w.errors.assign(samples, 0.0);
+  ShadowReference::Job job;
+  job.scene = scene_;
+  job.base = w.settings;
+  job.start = now;
+  job.sample_times = w.sample_times;
+  if (shadow_->start(std::move(job)))
+    window_ = std::move(w);
 }
 
 bool BehindMonitor::update(double lag)

@@ -318,4 +318,75 @@ TEST(SimulationRunner, StopRefusesWaitingRequestsAndEndsAStep)
 }
 
 }  // namespace
+
+/// Runs `runner` until a new accuracy report (after `after`) arrives; null at the deadline.
+std::shared_ptr<const AccuracyReport> nextReport(SimulationRunner& runner, std::uint64_t after)
+{
+  std::shared_ptr<const AccuracyReport> report;
+  waitFor(
+      [&]
+      {
+        report = runner.snapshot()->accuracy;
+        return report && report->serial > after;
+      });
+  return report && report->serial > after ? report : nullptr;
+}
+
+// The live accuracy: explicit Euler's error against the shadow grows over a window and with a
+// longer window, and switching to rk4 shrinks it by orders of magnitude.
+TEST(SimulationRunner, AccuracyWindowMeasuresTheLiveMethod)
+{
+  NodeParameters p = parametersFor("chain");
+  p.step.integrator = "explicit_euler";
+  p.step_given = { "integrator" };
+  p.real_time_factor = 5.0;  // windows come faster; the shadow still keeps up
+  p.accuracy_window = 0.2;
+  SimulationRunner runner(p, scene("chain"));
+  runner.start();
+  const auto euler = nextReport(runner, 0);
+  ASSERT_TRUE(euler);
+  EXPECT_EQ(euler->integrator, "explicit_euler");
+  EXPECT_NEAR(euler->window, 0.2, 1e-9);
+  ASSERT_GE(euler->position_errors.size(), 4u);
+  EXPECT_GT(euler->position_error, 1e-5);
+  // the error grows within the window: the last sample's is over the first's
+  EXPECT_GT(euler->position_errors.back(), euler->position_errors.front());
+  EXPECT_NEAR(euler->error_growth_rate, euler->position_error / euler->window, 1e-12);
+  EXPECT_GT(euler->reference_cpu_per_sim_second, 0.0);
+  EXPECT_GT(euler->live_cpu_per_sim_second, 0.0);
+
+  // a longer window: a larger error at its end
+  ASSERT_TRUE(runner.reconfigure([](NodeParameters& c, const SceneDescription&)
+                                 { c.accuracy_window = 0.8; })
+                  .success);
+  const auto longer = nextReport(runner, euler->serial);
+  ASSERT_TRUE(longer);
+  EXPECT_NEAR(longer->window, 0.8, 1e-9);
+  EXPECT_GT(longer->position_error, euler->position_error);
+  EXPECT_GE(longer->abandoned, 1u);  // the reconfigure cut the open window short
+
+  ASSERT_TRUE(runner.reconfigure([](NodeParameters& c, const SceneDescription&)
+                                 { c.step.integrator = "rk4"; })
+                  .success);
+  auto rk4 = nextReport(runner, longer->serial);
+  ASSERT_TRUE(rk4);
+  EXPECT_EQ(rk4->integrator, "rk4");
+  EXPECT_LT(rk4->position_error, 1e-3 * longer->position_error);
+}
+
+// A shadow that cannot keep up never slows stepping: windows are skipped and counted instead.
+TEST(SimulationRunner, AccuracyWindowsAreSkippedNotWaitedFor)
+{
+  NodeParameters p = parametersFor("chain");
+  p.real_time_factor = 100.0;
+  p.accuracy_window = 0.01;  // ten live steps per window against a reference run each time
+  SimulationRunner runner(p, chainOf(500));
+  runner.start();
+  const double start = runner.snapshot()->state.time;
+  // the shadow's first window (a stiff chain to 1e-12) takes longer than the live one
+  ASSERT_TRUE(waitFor([&] { return runner.snapshot()->skipped_windows > 0; }));
+  // and stepping went on meanwhile, windows past the first one's end
+  EXPECT_GT(runner.snapshot()->state.time, start + 2 * p.accuracy_window);
+}
+
 }  // namespace constrained_particles

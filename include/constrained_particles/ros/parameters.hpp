@@ -53,6 +53,8 @@ struct NodeParameters
   double max_constraint_error = 0.1;       ///< fault beyond this constraint error [m]
   int mesh_cells = 40;                     ///< surface mesh cells per side
   bool publish_clock = false;              ///< publish /clock from sim time and stamp with it
+  /// Live accuracy window against a shadow reference [s], 0 = off (SimulationRunner)
+  double accuracy_window = 0.0;
 
   /// The node's own settings (the step's are StepSettings::fields()): name, member, range.
   static constexpr auto fields()
@@ -72,6 +74,8 @@ struct NodeParameters
               &limits::MAX_CONSTRAINT_ERROR, "stepping stops beyond this constraint error"),
         field("mesh_cells", &NodeParameters::mesh_cells, FieldKind::Number, &limits::MESH_CELLS,
               "surface mesh cells per side"),
+        field("accuracy_window", &NodeParameters::accuracy_window, FieldKind::Number,
+              &limits::ACCURACY_WINDOW, "live accuracy window against a shadow reference, 0 = off"),
         field("scenario", &NodeParameters::scenario, FieldKind::Name, nullptr,
               "scene name or scene file path"),
         field("scene_directory", &NodeParameters::scene_directory, FieldKind::Name, nullptr,

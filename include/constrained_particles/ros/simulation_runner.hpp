@@ -8,6 +8,7 @@
 
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/ros/parameters.hpp"
+#include "constrained_particles/ros/shadow_reference.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
 #include <atomic>
@@ -39,6 +40,27 @@ struct RunnerReply
   std::uint64_t batches_waited = 0;
 };
 
+/// The live method's error over one window against the shadow reference (~accuracy).
+struct AccuracyReport
+{
+  std::uint64_t serial = 0;  ///< one more per report, from 1
+  double stamp = 0;          ///< Snapshot::stamp at the window's end [s]
+  double window_start = 0;   ///< sim time [s]
+  double window = 0;         ///< length: whole live steps [s]
+  std::string integrator;    ///< the live method over the window
+  Stabilization stabilization = Stabilization::Projection;
+  double dt = 0;                       ///< [s]
+  std::vector<double> sample_times;    ///< [s]
+  std::vector<double> position_errors;  ///< max_i |p_live - p_ref| at each sample time [m]
+  double position_error = 0;           ///< at the window's end [m]
+  double error_growth_rate = 0;        ///< position_error / window [m/s]
+  double live_cpu_per_sim_second = 0;  ///< live stepping's thread CPU [s/s]
+  double reference_cpu_per_sim_second = 0;  ///< the shadow's [s/s]
+  std::uint64_t windows = 0;    ///< measured since start
+  std::uint64_t skipped = 0;    ///< not measured: the shadow was still busy
+  std::uint64_t abandoned = 0;  ///< cut short by a reset, scene change, teleport, fault, reconfigure
+};
+
 /// Everything publishing needs, taken after a batch or a request; never changed afterwards.
 struct Snapshot
 {
@@ -64,6 +86,13 @@ struct Snapshot
   bool stepping = false;  ///< a ~step request is running
   bool faulted = false;   ///< stepping stopped until a reset (fault_reason says why)
   std::string fault_reason;
+  /// The last live accuracy report (null before the first, or with ~accuracy_window 0 before).
+  std::shared_ptr<const AccuracyReport> accuracy;
+  /// The shadow reference's positions (3 x n) [m] at this snapshot's time, when a window sample
+  /// fell on it (null otherwise): the ghosts drawn beside the particles.
+  std::shared_ptr<const Points> reference_positions;
+  /// Live accuracy windows skipped so far because the shadow was busy (counted as they pass).
+  std::uint64_t skipped_windows = 0;
 };
 
 /// Whether stepping is behind its real-time factor, with hysteresis: a single slow window of a
@@ -192,6 +221,27 @@ private:
   void reanchor();
   void updateRate(Clock::time_point now);
   void makeSnapshot();
+  /// Live accuracy: compares the samples both sides have, reports a finished window and opens the
+  /// next one (never waiting for the shadow).
+  void updateAccuracy();
+  /// Ends the open window unmeasured (the state or settings changed under it).
+  void abandonWindow();
+  /// Windows skipped so far, with those passing now while the shadow is behind.
+  std::uint64_t skippedWindows() const;
+
+  /// One live accuracy window: its sample steps and what was measured at them so far.
+  struct AccuracyWindow
+  {
+    double start_time = 0;
+    std::uint64_t start_steps = 0;
+    std::vector<std::uint64_t> sample_steps;  // absolute step counts
+    std::vector<double> sample_times;         // nominal: start + steps dt [s]
+    std::vector<Points> live;                 // live positions at each sample, until compared
+    std::vector<double> errors;
+    int recorded = 0, compared = 0;
+    double live_cpu = 0;  // [s]
+    StepSettings settings;
+  };
 
   // owned by the physics thread once started (the constructor and stop() before it)
   NodeParameters parameters_;
@@ -212,6 +262,12 @@ private:
   Clock::time_point anchor_wall_, window_wall_, last_snapshot_wall_;
   double anchor_sim_ = 0, window_sim_ = 0, window_dropped_ = 0, achieved_rtf_ = 0;
   BehindMonitor behind_monitor_;
+  std::optional<AccuracyWindow> window_;
+  std::unique_ptr<ShadowReference> shadow_;  // made when ~accuracy_window is first on
+  std::shared_ptr<const AccuracyReport> accuracy_;
+  std::shared_ptr<const Points> reference_now_;  // the shadow at the current state, if compared
+  std::uint64_t windows_ = 0, skipped_windows_ = 0, abandoned_windows_ = 0;
+  double waiting_since_ = -1.0;  // sim time a window was due while the shadow was busy [s]
   bool behind_ = false, window_valid_ = false, snapshot_due_ = true;
 
   mutable std::mutex queue_mutex_;  // guards the queue and the wake-up
