@@ -14,6 +14,8 @@ PACKAGES=(
   python3-std-srvs python3-catkin-pkg python3-tf2-ros python3-dynamic-reconfigure
   libdiagnostic-msgs-dev python3-diagnostic-msgs libyaml-cpp-dev libroslib-dev
   libros-rosgraph-msgs-dev python3-rosgraph-msgs
+  libactionlib-dev libactionlib-msgs-dev python3-actionlib python3-actionlib-msgs
+  libsensor-msgs-dev python3-sensor-msgs python3-matplotlib
 )
 # Optional extras: rviz and Xvfb (WITH_RVIZ=1); the benchmark's peers and plots (WITH_BENCH=1);
 # clang with libFuzzer for scripts/fuzz.sh (WITH_FUZZ=1).
@@ -24,7 +26,7 @@ if [[ "${WITH_FUZZ:-0}" == 1 ]]; then
   PACKAGES+=(clang libclang-rt-14-dev)
 fi
 if [[ "${WITH_BENCH:-0}" == 1 ]]; then
-  PACKAGES+=(libode-dev libmujoco-dev python3-matplotlib)
+  PACKAGES+=(libode-dev libmujoco-dev)
 fi
 
 missing=()

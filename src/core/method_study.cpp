@@ -257,10 +257,16 @@ void validateStudyRequest(const StudyRequest& request)
   }
 }
 
-StudyResult runMethodStudy(const Scene& scene, const State& start, const StudyRequest& request,
-                           const StudyProgress& progress, const std::atomic<bool>* cancel)
+StudyResult runMethodStudy(const Scene& scene, const State& given_start,
+                           const StudyRequest& request, const StudyProgress& progress,
+                           const std::atomic<bool>* cancel)
 {
   validateStudyRequest(request);
+  // every run starts from the same state on the constraints, at the given state's time
+  Simulator projector(scene, given_start, request.base);
+  projector.restoreState(given_start);
+  projector.setState(given_start);
+  const State start = projector.state();
   StudyResult result;
   result.horizon = request.horizon > 0.0 ? request.horizon : DEFAULT_STUDY_HORIZON;
   result.error_target =

@@ -158,4 +158,31 @@ visualization_msgs::MarkerArray sceneMarkers(const std_msgs::Header& header, con
   return array;
 }
 
+visualization_msgs::MarkerArray referenceMarkers(const std_msgs::Header& header, const Model& model,
+                                                 const Points& live, const Points& reference,
+                                                 double lifetime)
+{
+  visualization_msgs::MarkerArray array;
+  const double size = 0.3 * typicalLength(model);
+  visualization_msgs::Marker ghosts =
+      makeMarker(header, REFERENCE_NAMESPACE, 0, visualization_msgs::Marker::SPHERE_LIST);
+  ghosts.scale.x = ghosts.scale.y = ghosts.scale.z = 1.2 * size;
+  ghosts.color = color(0.6f, 0.9f, 1.0f, 0.35f);
+  ghosts.lifetime = ros::Duration(lifetime);
+  visualization_msgs::Marker errors =
+      makeMarker(header, REFERENCE_ERROR_NAMESPACE, 0, visualization_msgs::Marker::LINE_LIST);
+  errors.scale.x = 0.1 * size;
+  errors.color = color(1.0f, 0.2f, 0.6f, 0.9f);
+  errors.lifetime = ros::Duration(lifetime);
+  for (int i = 0; i < reference.cols() && i < live.cols(); ++i)
+  {
+    ghosts.points.push_back(tf2::toMsg(Eigen::Vector3d(reference.col(i))));
+    errors.points.push_back(tf2::toMsg(Eigen::Vector3d(live.col(i))));
+    errors.points.push_back(tf2::toMsg(Eigen::Vector3d(reference.col(i))));
+  }
+  array.markers.push_back(ghosts);
+  array.markers.push_back(errors);
+  return array;
+}
+
 }  // namespace constrained_particles

@@ -1,5 +1,6 @@
 #include "constrained_particles/ros/simulator_node.hpp"
 
+#include "constrained_particles/Accuracy.h"
 #include "constrained_particles/SimState.h"
 #include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/ros/conversions.hpp"
@@ -8,6 +9,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/master.h>
+#include <ros/package.h>
 #include <ros/network.h>
 #include <xmlrpcpp/XmlRpcClient.h>
 
@@ -31,6 +33,7 @@ SimulatorConfig configFrom(const NodeParameters& p, const SceneDescription& scen
   c.baumgarte_damping_ratio = p.step.baumgarte_damping_ratio;
   c.adaptive_tolerance = p.step.adaptive_tolerance;
   c.max_substeps = p.step.max_substeps;
+  c.accuracy_window = p.accuracy_window;
   const Vec3 gravity = sceneGravity(scene);
   c.gravity_x = gravity.x();
   c.gravity_y = gravity.y();
@@ -181,6 +184,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   state_publisher_ = nh_.advertise<SimState>("state", 10, parameters_.publish_clock);
   force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 10);
   scene_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("scene", 1, true);
+  accuracy_publisher_ = nh_.advertise<Accuracy>("accuracy", 10, true);
   diagnostics_publisher_ =
       ros::NodeHandle().advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 1);
 
@@ -194,6 +198,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   services_.push_back(nh_.advertiseService("pause", &SimulatorNode::pauseCallback, this));
   services_.push_back(nh_.advertiseService("unpause", &SimulatorNode::unpauseCallback, this));
   services_.push_back(nh_.advertiseService("step", &SimulatorNode::stepCallback, this));
+  compare_methods_ = std::make_unique<CompareMethodsServer>(
+      nh_, *runner_, ros::package::getPath("constrained_particles") + "/scripts/plot_compare_methods.py");
 
   reconfigure_server_ = std::make_unique<ReconfigureServer<SimulatorConfig>>(
       nh_, configFrom(first->parameters, *first->scene),
@@ -228,6 +234,7 @@ bool SimulatorNode::shutdown(std::chrono::milliseconds timeout)
   publish_timer_.stop();
   diagnostics_timer_.stop();
   status_timer_.stop();
+  compare_methods_.reset();  // cancels a running study: it ends within milliseconds
   return runner_->stop(timeout);
 }
 
@@ -359,6 +366,14 @@ void SimulatorNode::publish()
                          msg.effect_names.push_back(name);
                          msg.effect_counts.push_back(count);
                        });
+    if (snap->accuracy)
+    {
+      msg.accuracy_window_end =
+          snap->accuracy->window_start + snap->accuracy->window;
+      msg.accuracy_position_error = snap->accuracy->position_error;
+      msg.accuracy_error_growth_rate = snap->accuracy->error_growth_rate;
+    }
+    msg.accuracy_skipped_windows = static_cast<std::uint32_t>(snap->skipped_windows);
     state_publisher_.publish(msg);
   }
   if (force_marker_publisher_.getNumSubscribers() > 0)
@@ -374,7 +389,50 @@ void SimulatorNode::publish()
     markers_scene_serial_ = snap->scene_serial;
     scene_marker_publisher_.publish(
         sceneMarkers(header, *snap->model, snap->state.positions, mesh_cache_, scene_changed));
+    // ghosts only where the shadow's sample is at this snapshot's time: the distance is the error
+    if (snap->reference_positions && snap->reference_positions->cols() == n &&
+        snap->reference_positions->allFinite())
+      scene_marker_publisher_.publish(
+          referenceMarkers(header, *snap->model, snap->state.positions,
+                           *snap->reference_positions,
+                           std::max(0.2, 3.0 / snap->parameters.publish_rate)));
   }
+  publishAccuracy(*snap, header);
+}
+
+void SimulatorNode::publishAccuracy(const Snapshot& snap, const std_msgs::Header& header)
+{
+  const std::shared_ptr<const AccuracyReport>& a = snap.accuracy;
+  if (!a || a->serial == published_accuracy_serial_)
+    return;
+  published_accuracy_serial_ = a->serial;
+  Accuracy msg;
+  msg.header = header;
+  if (parameters_.publish_clock)
+    msg.header.stamp = ros::Time(a->stamp);
+  msg.scenario = snap.scene->name;
+  msg.window_start = a->window_start;
+  msg.window = a->window;
+  msg.integrator = a->integrator;
+  msg.stabilization = stabilizationName(a->stabilization);
+  msg.dt = a->dt;
+  msg.sample_times = a->sample_times;
+  msg.position_errors = a->position_errors;
+  msg.position_error = a->position_error;
+  msg.error_growth_rate = a->error_growth_rate;
+  msg.live_cpu_time_per_sim_second = a->live_cpu_per_sim_second;
+  msg.reference_cpu_time_per_sim_second = a->reference_cpu_per_sim_second;
+  msg.windows = static_cast<std::uint32_t>(a->windows);
+  msg.skipped_windows = static_cast<std::uint32_t>(a->skipped);
+  msg.abandoned_windows = static_cast<std::uint32_t>(a->abandoned);
+  // nothing non-finite leaves the node
+  bool finite = std::isfinite(msg.position_error) && std::isfinite(msg.error_growth_rate);
+  for (const double e : msg.position_errors)
+    finite = finite && std::isfinite(e);
+  if (finite)
+    accuracy_publisher_.publish(msg);
+  else
+    ROS_WARN_THROTTLE(5.0, "simulator: a non-finite accuracy window was not published");
 }
 
 void SimulatorNode::pushReconfigure()
@@ -523,6 +581,8 @@ bool SimulatorNode::reconfigureCallback(const SimulatorConfig& shown,
           candidate.real_time_factor = r.real_time_factor;
         if (changed(r.publish_rate, shown.publish_rate))
           candidate.publish_rate = r.publish_rate;
+        if (changed(r.accuracy_window, shown.accuracy_window))
+          candidate.accuracy_window = r.accuracy_window;
         if (changed(r.damping, shown.damping))
           candidate.overrides.damping = r.damping;
         Vec3 gravity = candidate.overrides.gravity.value_or(sceneGravity(scene));

@@ -47,4 +47,16 @@ visualization_msgs::MarkerArray sceneMarkers(const std_msgs::Header& header, con
                                              const Points& positions, SurfaceMeshCache& mesh_cache,
                                              bool scene_changed);
 
+/// Namespaces of the live accuracy's ghosts: the shadow reference's particles and the segments
+/// from each live particle to its reference (their length is the error).
+constexpr const char* REFERENCE_NAMESPACE = "reference";
+constexpr const char* REFERENCE_ERROR_NAMESPACE = "reference_error";
+
+/// The shadow reference as faint ghost spheres (SPHERE_LIST, ns "reference") and a line from each
+/// live particle to its ghost (LINE_LIST, ns "reference_error"), both at the same sim time;
+/// `lifetime` [s] lets them fade when the live accuracy is turned off.
+visualization_msgs::MarkerArray referenceMarkers(const std_msgs::Header& header, const Model& model,
+                                                 const Points& live, const Points& reference,
+                                                 double lifetime);
+
 }  // namespace constrained_particles

@@ -5,6 +5,7 @@
 
 #include "constrained_particles/SimulatorConfig.h"
 #include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/ros/compare_methods_server.hpp"
 #include "constrained_particles/ros/markers.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 #include "constrained_particles/ros/reconfigure_server.hpp"
@@ -52,6 +53,8 @@ public:
   void publish();
 
 private:
+  /// Publishes the snapshot's accuracy report on ~accuracy once (latched).
+  void publishAccuracy(const Snapshot& snap, const std_msgs::Header& header);
   /// Shows the settings, gravity and damping in force in dynamic_reconfigure.
   void pushReconfigure();
 
@@ -80,6 +83,7 @@ private:
   ros::NodeHandle publish_nh_;
   ros::AsyncSpinner publish_spinner_;
   std::unique_ptr<SimulationRunner> runner_;
+  std::unique_ptr<CompareMethodsServer> compare_methods_;  // reads runner_: goes first
 
   std::mutex publish_mutex_;  // publish() only: timer callbacks may overlap on the spinner
   double last_stamp_ = -1.0;  // ~publish_clock: the last stamp sent [s]
@@ -87,11 +91,12 @@ private:
   std::uint64_t frames_scene_serial_ = 0, markers_scene_serial_ = 0;
   tf2_msgs::TFMessage tf_message_;  // frame names filled once per scene
   int published_arrows_ = 0;
+  std::uint64_t published_accuracy_serial_ = 0;
   std::string logged_fault_;  // diagnostics timer: the fault last logged
   SurfaceMeshCache mesh_cache_;
 
   ros::Publisher clock_publisher_, tf_publisher_, state_publisher_, force_marker_publisher_,
-      scene_marker_publisher_, diagnostics_publisher_;
+      scene_marker_publisher_, diagnostics_publisher_, accuracy_publisher_;
   std::vector<ros::ServiceServer> services_;
   ros::WallTimer publish_timer_, status_timer_, diagnostics_timer_;
   std::unique_ptr<ReconfigureServer<SimulatorConfig>> reconfigure_server_;
