@@ -1,0 +1,190 @@
+#!/usr/bin/python3
+"""~compare_methods and ~accuracy seen from outside (compare_methods.test). Waits are wall-clock
+deadlines with polling; rates are compared within one run (before / during the study)."""
+import math
+import os
+import shutil
+import tempfile
+import threading
+import time
+import unittest
+
+import actionlib
+import rospy
+import rostest
+from actionlib_msgs.msg import GoalStatus
+from constrained_particles.msg import (Accuracy, CompareMethodsAction, CompareMethodsGoal, Method,
+                                       SimState)
+from dynamic_reconfigure.client import Client
+from sensor_msgs.msg import Image
+from wall_clock import WallClockWaits
+
+NODE = "/simulator"
+LIVE = "/live"
+
+
+class Recorder:
+    """Keeps the messages of a topic with their wall arrival times."""
+
+    def __init__(self, topic, kind, keep=2000):
+        self.lock = threading.Lock()
+        self.items = []
+        self.keep = keep
+        self.subscriber = rospy.Subscriber(topic, kind, self, queue_size=200)
+
+    def __call__(self, message):
+        with self.lock:
+            self.items.append((time.monotonic(), message))
+            del self.items[:-self.keep]
+
+    def since(self, start, end=math.inf):
+        with self.lock:
+            return [m for t, m in self.items if start <= t <= end]
+
+    def latest(self):
+        with self.lock:
+            return self.items[-1][1] if self.items else None
+
+
+class CompareMethodsTest(WallClockWaits, unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("compare_methods_test")
+        cls.client = actionlib.SimpleActionClient(NODE + "/compare_methods", CompareMethodsAction)
+        assert cls.client.wait_for_server(rospy.Duration(60.0)), "no ~compare_methods server"
+        cls.states = Recorder(NODE + "/state", SimState)
+        cls.tf = Recorder("/tf", rospy.AnyMsg, keep=5000)
+        cls.reports = Recorder(LIVE + "/accuracy", Accuracy, keep=100)
+        cls.reconfigure = Client(LIVE, timeout=60.0)
+
+    def run_goal(self, goal, timeout=240.0):
+        feedback = []
+        self.client.send_goal(goal, feedback_cb=feedback.append)
+        self.wait_until(lambda: self.client.wait_for_result(rospy.Duration(0.05)),
+                        "the study's result", timeout=timeout)
+        return self.client.get_state(), self.client.get_result(), feedback
+
+    def test_study_keeps_real_time_and_tf_and_writes_its_outputs(self):
+        self.wait_until(lambda: self.states.latest() is not None and
+                        self.states.latest().real_time_factor > 0.9, "the node at real time")
+        # the rate before, measured in this run
+        before_start = time.monotonic()
+        time.sleep(3.0)
+        tf_before = len(self.tf.since(before_start)) / (time.monotonic() - before_start)
+        output = tempfile.mkdtemp(prefix="compare_methods_")
+        diagrams = Recorder(NODE + "/compare_methods/diagram", Image, keep=5)
+        try:
+            goal = CompareMethodsGoal(horizon=3.0, error_target=1e-6, output_directory=output)
+            start = time.monotonic()
+            state, result, feedback = self.run_goal(goal)
+            end = time.monotonic()
+            self.assertEqual(state, GoalStatus.SUCCEEDED, self.client.get_goal_status_text())
+            self.assertGreater(end - start, 2.5, "the study must last for the rates to mean much")
+            # the node kept real time: every achieved factor taken wholly inside the study
+            inside = self.states.since(start + 1.2, end)
+            self.assertGreater(len(inside), 10)
+            factors = [s.real_time_factor for s in inside]
+            self.assertGreaterEqual(min(factors), 0.95, factors)
+            # and tf its rate
+            tf_during = len(self.tf.since(start, end)) / (end - start)
+            self.assertGreaterEqual(tf_during, 0.9 * tf_before, (tf_during, tf_before))
+            # feedback advanced to the end, one run at a time
+            done = [f.done for f in feedback]
+            self.assertEqual(done, sorted(done))
+            self.assertEqual(done[-1], feedback[-1].total)
+            self.assertEqual(feedback[-1].total, len(result.runs) + 2)
+            self.assertGreaterEqual(len(set(done)), 10)
+            # the result, its recommendation and its files
+            self.assertGreaterEqual(result.recommended, 0)
+            chosen = result.runs[result.recommended]
+            self.assertLessEqual(chosen.position_error, 1e-6)
+            self.assertEqual(result.scenario, "surface_chain")
+            self.assertTrue(os.path.isfile(result.csv_path), result.message)
+            with open(result.csv_path) as f:
+                self.assertEqual(len(f.read().strip().splitlines()), len(result.runs) + 1)
+            self.assertTrue(os.path.getsize(result.diagram_path) > 10000, result.message)
+            image = self.wait_until(diagrams.latest, "the diagram on ~compare_methods/diagram")
+            self.assertEqual(image.encoding, "rgba8")
+            self.assertEqual(len(image.data), image.step * image.height)
+            self.assertGreater(image.width * image.height, 100000)
+        finally:
+            diagrams.subscriber.unregister()
+            shutil.rmtree(output, ignore_errors=True)
+
+    def test_cancel_stops_within_one_run(self):
+        # runs that would take hours: only a cancel inside a run ends this in time
+        slow = Method(integrator="explicit_euler", stabilization="none", dt=1e-6)
+        goal = CompareMethodsGoal(horizon=3600.0, methods=[slow, slow])
+        feedback = []
+        self.client.send_goal(goal, feedback_cb=feedback.append)
+        self.wait_until(lambda: feedback and feedback[-1].done >= 1, "the study under way")
+        time.sleep(0.5)
+        done_at_cancel = feedback[-1].done
+        self.client.cancel_goal()
+        self.wait_until(lambda: self.client.wait_for_result(rospy.Duration(0.05)),
+                        "the cancelled study's result", timeout=30.0)
+        self.assertEqual(self.client.get_state(), GoalStatus.PREEMPTED)
+        result = self.client.get_result()
+        # the references count as runs 1 and 2: no method's run finished after the cancel
+        self.assertLessEqual(len(result.runs), max(0, done_at_cancel - 2) + 1)
+        self.assertLessEqual(feedback[-1].done, done_at_cancel + 1)
+
+    def test_bad_goals_are_rejected_naming_the_field(self):
+        before = self.wait_until(self.states.latest, "~state")
+        ok = Method(integrator="rk4", stabilization="none", dt=1e-3)
+        cases = [
+            (CompareMethodsGoal(horizon=-1.0), "horizon"),
+            (CompareMethodsGoal(horizon=float("nan")), "horizon"),
+            (CompareMethodsGoal(horizon=4000.0), "horizon"),
+            (CompareMethodsGoal(error_target=-1.0), "error_target"),
+            (CompareMethodsGoal(methods=[ok, Method(integrator="leapfrog", dt=1e-3)]),
+             "methods[1].integrator"),
+            (CompareMethodsGoal(methods=[Method(integrator="rk4", stabilization="glue", dt=1e-3)]),
+             "methods[0].stabilization"),
+            (CompareMethodsGoal(methods=[Method(integrator="rk4", dt=0.0)]), "methods[0].dt"),
+            (CompareMethodsGoal(methods=[Method(integrator="rk4", dt=1e-3, tolerance=1e-6)]),
+             "methods[0].tolerance"),
+            (CompareMethodsGoal(output_directory="/proc/not_here"), "output_directory"),
+            (CompareMethodsGoal(part=2, parts=2), "part"),
+        ]
+        for goal, field in cases:
+            state, _, feedback = self.run_goal(goal, timeout=30.0)
+            self.assertEqual(state, GoalStatus.REJECTED, field)
+            self.assertTrue(self.client.get_goal_status_text().startswith(field),
+                            self.client.get_goal_status_text())
+            self.assertEqual(feedback, [])
+        # nothing else changed: same scene, still running, time went on
+        after = self.wait_until(lambda: self.states.latest().sim_time > before.sim_time and
+                                self.states.latest(), "~state after the refusals")
+        self.assertEqual(after.scenario, before.scenario)
+        self.assertEqual(after.status, SimState.STATUS_RUNNING)
+
+    def next_report(self, after, **expect):
+        """The first report after wall time `after` whose fields match `expect`."""
+        def found():
+            for report in self.reports.since(after):
+                if all(getattr(report, k) == v for k, v in expect.items()):
+                    return report
+            return None
+        return self.wait_until(found, "an ~accuracy report with %s" % expect, timeout=120.0)
+
+    def test_error_grows_with_the_window_and_shrinks_with_rk4(self):
+        self.reconfigure.update_configuration({"accuracy_window": 0.2})
+        short = self.next_report(time.monotonic(), integrator="explicit_euler")
+        self.assertAlmostEqual(short.window, 0.2, places=9)
+        self.assertAlmostEqual(short.dt, 1e-3, places=12)
+        self.assertGreater(short.position_errors[-1], short.position_errors[0])
+        self.reconfigure.update_configuration({"accuracy_window": 1.0})
+        long = self.next_report(time.monotonic(), integrator="explicit_euler")
+        self.assertAlmostEqual(long.window, 1.0, places=9)
+        self.assertGreater(long.position_error, short.position_error)
+        self.assertGreater(long.reference_cpu_time_per_sim_second, 0.0)
+        self.assertGreater(long.live_cpu_time_per_sim_second, 0.0)
+        self.reconfigure.update_configuration({"integrator": "rk4"})
+        rk4 = self.next_report(time.monotonic(), integrator="rk4")
+        self.assertLess(rk4.position_error, 1e-3 * long.position_error)
+        self.reconfigure.update_configuration({"accuracy_window": 0.0})
+
+
+if __name__ == "__main__":
+    rostest.rosrun("constrained_particles", "compare_methods", CompareMethodsTest)
