@@ -170,8 +170,8 @@ bool referenceAt(const Scene& scene, const State& start, const StepSettings& bas
           throw std::runtime_error(
               std::string("the reference (dopri5 + projection, tolerance ") +
               formatValue(tolerance) + ") failed step check " +
-              stepCheckName(statistics.failed_check) + " at t = " +
-              formatValue(simulator.state().time) +
+              stepCheckName(statistics.failed_check) +
+              " at t = " + formatValue(simulator.state().time) +
               " s: this scene cannot be resolved to the reference's tolerance");
       }
     }
@@ -250,10 +250,10 @@ void validateStudyRequest(const StudyRequest& request)
         requireInRange(field + ".tolerance", m.tolerance, limits::ADAPTIVE_TOLERANCE);
     }
     else if (m.tolerance != 0.0)
-      throw InvalidInput(field + ".tolerance",
-                         "= " + formatValue(m.tolerance) + ", must be 0: only adaptive " +
-                             "integrators (dopri5) take a tolerance, '" + m.integrator +
-                             "' steps with dt");
+      throw InvalidInput(field + ".tolerance", "= " + formatValue(m.tolerance) +
+                                                   ", must be 0: only adaptive " +
+                                                   "integrators (dopri5) take a tolerance, '" +
+                                                   m.integrator + "' steps with dt");
   }
 }
 
@@ -322,8 +322,7 @@ StudyResult runMethodStudy(const Scene& scene, const State& given_start,
   for (std::size_t k = 0; k < distinct.size(); ++k)
     result.reference_error = std::max(result.reference_error, maxDistance(reference[k], check[k]));
   result.reference_cpu_time_per_sim_second = reference_cpu / (distinct.back() - start.time);
-  result.reference_positions =
-reference[endIndex(start.time + result.horizon)];
+  result.reference_positions = reference[endIndex(start.time + result.horizon)];
 
   for (std::size_t k = 0; k < methods.size(); ++k)
   {
@@ -347,8 +346,7 @@ reference[endIndex(start.time + result.horizon)];
     run.cpu_time_per_sim_second = sim > 0 ? first.cpu / sim : 0.0;
     if (run.finite && run.steps > 0)
     {
-      run.position_error =
-          maxDistance(run.final_positions, reference[endIndex(run.end_time)]);
+      run.position_error = maxDistance(run.final_positions, reference[endIndex(run.end_time)]);
       // a short run's CPU time is noise-dominated: the median of three
       if (first.cpu < STUDY_REPEAT_BELOW_CPU)
       {
@@ -376,8 +374,8 @@ reference[endIndex(start.time + result.horizon)];
     {
       const StudyRun& r = result.runs[k];
       if (r.finite && r.position_error <= result.error_target &&
-          (result.recommended < 0 || r.cpu_time_per_sim_second <
-                                         result.runs[result.recommended].cpu_time_per_sim_second))
+          (result.recommended < 0 ||
+           r.cpu_time_per_sim_second < result.runs[result.recommended].cpu_time_per_sim_second))
         result.recommended = static_cast<int>(k);
     }
   report(total, "");

@@ -74,9 +74,9 @@ StudyMethod fromMsg(const Method& m, std::size_t k)
   const std::string field = "methods[" + std::to_string(k) + "]";
   StudyMethod method;
   method.integrator = findIntegrator(m.integrator, field + ".integrator").name;
-  method.stabilization =
-      m.stabilization.empty() ? Stabilization::Projection
-                              : parseStabilization(m.stabilization, field + ".stabilization");
+  method.stabilization = m.stabilization.empty()
+                             ? Stabilization::Projection
+                             : parseStabilization(m.stabilization, field + ".stabilization");
   method.dt = m.dt;
   method.tolerance = m.tolerance;
   return method;
@@ -100,8 +100,9 @@ CompareMethodsServer::CompareMethodsServer(const ros::NodeHandle& private_nh,
   , runner_(runner)
   , plot_script_(std::move(plot_script))
   , diagram_publisher_(nh_.advertise<sensor_msgs::Image>("compare_methods/diagram", 1, true))
-  , server_(nh_, "compare_methods", [this](GoalHandle g) { goalCallback(g); },
-            [this](GoalHandle g) { cancelCallback(g); }, false)
+  , server_(
+        nh_, "compare_methods", [this](GoalHandle g) { goalCallback(g); },
+        [this](GoalHandle g) { cancelCallback(g); }, false)
 {
   server_.start();
 }
@@ -143,8 +144,8 @@ CompareMethodsServer::Job CompareMethodsServer::jobFor(const CompareMethodsGoal&
     for (std::size_t k = goal.part; k < all.size(); k += parts)
       job.request.methods.push_back(all[k]);
     if (job.request.methods.empty())
-      throw InvalidInput("part", "= " + std::to_string(goal.part) + " of " +
-                                     std::to_string(parts) + " holds no method (the study has " +
+      throw InvalidInput("part", "= " + std::to_string(goal.part) + " of " + std::to_string(parts) +
+                                     " holds no method (the study has " +
                                      std::to_string(all.size()) + ")");
   }
   if (!goal.output_directory.empty())
@@ -157,8 +158,8 @@ CompareMethodsServer::Job CompareMethodsServer::jobFor(const CompareMethodsGoal&
     const bool writable = !error && out.good() && (out << "x") && (out.close(), true);
     fs::remove(probe, error);
     if (!writable)
-      throw InvalidInput("output_directory", "= '" + goal.output_directory +
-                                                 "' cannot be created or written to");
+      throw InvalidInput("output_directory",
+                         "= '" + goal.output_directory + "' cannot be created or written to");
     job.output_directory = fs::absolute(goal.output_directory).string();
   }
   const BuiltScene built = buildScene(*snap->scene);

@@ -132,8 +132,8 @@ void ShadowReference::loop()
           const StepStatistics statistics = simulator.step(1);
           if (statistics.failed_check != StepCheck::None || !isFinite(simulator.state()))
             throw std::runtime_error(std::string("the shadow reference failed step check ") +
-                                     stepCheckName(statistics.failed_check) + " at t = " +
-                                     formatValue(simulator.state().time) + " s");
+                                     stepCheckName(statistics.failed_check) +
+                                     " at t = " + formatValue(simulator.state().time) + " s");
         }
         t = job.sample_times[k];
         std::lock_guard<std::mutex> guard(mutex_);

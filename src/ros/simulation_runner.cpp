@@ -807,15 +807,15 @@ void SimulationRunner::updateAccuracy()
                                  ? MIN_WINDOW_SAMPLES
                                  : static_cast<int>(std::lround(length * parameters_.publish_rate));
   const auto steps = static_cast<std::uint64_t>(std::max(1L, std::lround(length / dt)));
-  const auto samples = static_cast<int>(std::min<std::uint64_t>(
-      steps, static_cast<std::uint64_t>(
-                 std::clamp(wanted_samples, MIN_WINDOW_SAMPLES, MAX_WINDOW_SAMPLES))));
+  const auto samples = static_cast<int>(
+      std::min<std::uint64_t>(steps, static_cast<std::uint64_t>(std::clamp(
+                                         wanted_samples, MIN_WINDOW_SAMPLES, MAX_WINDOW_SAMPLES))));
   w.start_time = now.time;
   w.start_steps = now.steps;
   for (int k = 1; k <= samples; ++k)
   {
-    const std::uint64_t offset = (steps * static_cast<std::uint64_t>(k)) /
-                                 static_cast<std::uint64_t>(samples);
+    const std::uint64_t offset =
+        (steps * static_cast<std::uint64_t>(k)) / static_cast<std::uint64_t>(samples);
     w.sample_steps.push_back(now.steps + offset);
     w.sample_times.push_back(now.time + static_cast<double>(offset) * dt);
   }

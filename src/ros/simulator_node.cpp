@@ -199,7 +199,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   services_.push_back(nh_.advertiseService("unpause", &SimulatorNode::unpauseCallback, this));
   services_.push_back(nh_.advertiseService("step", &SimulatorNode::stepCallback, this));
   compare_methods_ = std::make_unique<CompareMethodsServer>(
-      nh_, *runner_, ros::package::getPath("constrained_particles") + "/scripts/plot_compare_methods.py");
+      nh_, *runner_,
+      ros::package::getPath("constrained_particles") + "/scripts/plot_compare_methods.py");
 
   reconfigure_server_ = std::make_unique<ReconfigureServer<SimulatorConfig>>(
       nh_, configFrom(first->parameters, *first->scene),
@@ -368,8 +369,7 @@ void SimulatorNode::publish()
                        });
     if (snap->accuracy)
     {
-      msg.accuracy_window_end =
-          snap->accuracy->window_start + snap->accuracy->window;
+      msg.accuracy_window_end = snap->accuracy->window_start + snap->accuracy->window;
       msg.accuracy_position_error = snap->accuracy->position_error;
       msg.accuracy_error_growth_rate = snap->accuracy->error_growth_rate;
     }
@@ -393,8 +393,7 @@ void SimulatorNode::publish()
     if (snap->reference_positions && snap->reference_positions->cols() == n &&
         snap->reference_positions->allFinite())
       scene_marker_publisher_.publish(
-          referenceMarkers(header, *snap->model, snap->state.positions,
-                           *snap->reference_positions,
+          referenceMarkers(header, *snap->model, snap->state.positions, *snap->reference_positions,
                            std::max(0.2, 3.0 / snap->parameters.publish_rate)));
   }
   publishAccuracy(*snap, header);

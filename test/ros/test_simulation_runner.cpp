@@ -356,17 +356,19 @@ TEST(SimulationRunner, AccuracyWindowMeasuresTheLiveMethod)
   EXPECT_GT(euler->live_cpu_per_sim_second, 0.0);
 
   // a longer window: a larger error at its end
-  ASSERT_TRUE(runner.reconfigure([](NodeParameters& c, const SceneDescription&)
-                                 { c.accuracy_window = 0.8; })
-                  .success);
+  ASSERT_TRUE(
+      runner
+          .reconfigure([](NodeParameters& c, const SceneDescription&) { c.accuracy_window = 0.8; })
+          .success);
   const auto longer = nextReport(runner, euler->serial);
   ASSERT_TRUE(longer);
   EXPECT_NEAR(longer->window, 0.8, 1e-9);
   EXPECT_GT(longer->position_error, euler->position_error);
   EXPECT_GE(longer->abandoned, 1u);  // the reconfigure cut the open window short
 
-  ASSERT_TRUE(runner.reconfigure([](NodeParameters& c, const SceneDescription&)
-                                 { c.step.integrator = "rk4"; })
+  ASSERT_TRUE(runner
+                  .reconfigure([](NodeParameters& c, const SceneDescription&)
+                               { c.step.integrator = "rk4"; })
                   .success);
   auto rk4 = nextReport(runner, longer->serial);
   ASSERT_TRUE(rk4);

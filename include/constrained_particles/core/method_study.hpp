@@ -20,11 +20,11 @@
 
 namespace constrained_particles
 {
-constexpr double DEFAULT_STUDY_HORIZON = 1.0;         ///< [s]
-constexpr double DEFAULT_STUDY_ERROR_TARGET = 1e-6;   ///< [m]
+constexpr double DEFAULT_STUDY_HORIZON = 1.0;        ///< [s]
+constexpr double DEFAULT_STUDY_ERROR_TARGET = 1e-6;  ///< [m]
 /// The reference: dopri5 + projection at these tolerances and output step (the check takes half
 /// the output step and ten times the tolerance: the same sequence would agree whatever its error).
-constexpr double STUDY_REFERENCE_TOLERANCE = 1e-13;  ///< dopri5 adaptive_tolerance [1]
+constexpr double STUDY_REFERENCE_TOLERANCE = 1e-13;   ///< dopri5 adaptive_tolerance [1]
 constexpr double STUDY_REFERENCE_PROJECTION = 1e-13;  ///< projection_tolerance [m]
 constexpr double STUDY_REFERENCE_DT = 1e-3;           ///< output step [s]
 /// A run whose timed part took less CPU than this is repeated (3 runs, median) [s].
@@ -51,9 +51,9 @@ std::vector<StudyMethod> studyDefaultMethods(double dt);
 /// What to study.
 struct StudyRequest
 {
-  double horizon = 0.0;                ///< [s]; 0 = DEFAULT_STUDY_HORIZON
-  std::vector<StudyMethod> methods;    ///< empty = studyDefaultMethods(base.dt)
-  double error_target = 0.0;           ///< [m]; 0 = DEFAULT_STUDY_ERROR_TARGET
+  double horizon = 0.0;              ///< [s]; 0 = DEFAULT_STUDY_HORIZON
+  std::vector<StudyMethod> methods;  ///< empty = studyDefaultMethods(base.dt)
+  double error_target = 0.0;         ///< [m]; 0 = DEFAULT_STUDY_ERROR_TARGET
   /// Everything else a run takes from here (sub-steps, projection and Baumgarte settings): the
   /// settings the user runs with.
   StepSettings base;
@@ -67,16 +67,16 @@ void validateStudyRequest(const StudyRequest& request);
 struct StudyRun
 {
   StudyMethod method;
-  double position_error = 0.0;        ///< max_i |p_i - p_ref_i| at the run's end [m]
-  double max_constraint_error = 0.0;  ///< largest |C| seen over the run (sampled) [m]
-  double energy_drift = 0.0;          ///< largest |E(t) - E(0)| over the run (sampled) [J]
+  double position_error = 0.0;           ///< max_i |p_i - p_ref_i| at the run's end [m]
+  double max_constraint_error = 0.0;     ///< largest |C| seen over the run (sampled) [m]
+  double energy_drift = 0.0;             ///< largest |E(t) - E(0)| over the run (sampled) [J]
   double cpu_time_per_sim_second = 0.0;  ///< thread CPU of stepping alone (median of 3 if short)
-  long steps = 0;                     ///< steps of dt taken
-  long substeps = 0;                  ///< accepted sub-steps (stability splits and retakes)
-  bool finite = true;                 ///< false: the run blew up or a check failed; error unknown
-  std::string failure;                ///< why it stopped early, if it did
-  double end_time = 0.0;              ///< nominal end: start + steps dt (not the summed clock) [s]
-  Points final_positions;             ///< at end_time (3 x n) [m]
+  long steps = 0;                        ///< steps of dt taken
+  long substeps = 0;                     ///< accepted sub-steps (stability splits and retakes)
+  bool finite = true;      ///< false: the run blew up or a check failed; error unknown
+  std::string failure;     ///< why it stopped early, if it did
+  double end_time = 0.0;   ///< nominal end: start + steps dt (not the summed clock) [s]
+  Points final_positions;  ///< at end_time (3 x n) [m]
 };
 
 /// A study's outcome.

@@ -49,16 +49,17 @@ struct AccuracyReport
   double window = 0;         ///< length: whole live steps [s]
   std::string integrator;    ///< the live method over the window
   Stabilization stabilization = Stabilization::Projection;
-  double dt = 0;                       ///< [s]
-  std::vector<double> sample_times;    ///< [s]
-  std::vector<double> position_errors;  ///< max_i |p_live - p_ref| at each sample time [m]
-  double position_error = 0;           ///< at the window's end [m]
-  double error_growth_rate = 0;        ///< position_error / window [m/s]
-  double live_cpu_per_sim_second = 0;  ///< live stepping's thread CPU [s/s]
+  double dt = 0;                            ///< [s]
+  std::vector<double> sample_times;         ///< [s]
+  std::vector<double> position_errors;      ///< max_i |p_live - p_ref| at each sample time [m]
+  double position_error = 0;                ///< at the window's end [m]
+  double error_growth_rate = 0;             ///< position_error / window [m/s]
+  double live_cpu_per_sim_second = 0;       ///< live stepping's thread CPU [s/s]
   double reference_cpu_per_sim_second = 0;  ///< the shadow's [s/s]
-  std::uint64_t windows = 0;    ///< measured since start
-  std::uint64_t skipped = 0;    ///< not measured: the shadow was still busy
-  std::uint64_t abandoned = 0;  ///< cut short by a reset, scene change, teleport, fault, reconfigure
+  std::uint64_t windows = 0;                ///< measured since start
+  std::uint64_t skipped = 0;                ///< not measured: the shadow was still busy
+  std::uint64_t abandoned =
+      0;  ///< cut short by a reset, scene change, teleport, fault, reconfigure
 };
 
 /// Everything publishing needs, taken after a batch or a request; never changed afterwards.
