@@ -15,6 +15,7 @@ import unittest
 
 import rospy
 import rostest
+import yaml
 from wall_clock import WallClockWaits
 from constrained_particles.msg import SimState
 from constrained_particles.srv import ListScenes, Reset, SetChain, SetState, SetSurface, Step
@@ -39,7 +40,17 @@ CHAIN_COUNTS = {"chain": 5, "surface_chain": 5, "pinned_pendulum": 4, "two_chain
 FIXED_COUNT = {"two_chains_on_surface", "mobile", "shaken_chain", "stiff_rod"}
 # pinning these chains' first particles over-constrains them (the hub; the driven top): refused
 NO_PIN_FIRST = {"mobile", "shaken_chain"}
-WITH_SURFACE = {"bead", "surface_chain", "bead_with_drag", "two_chains_on_surface"}
+
+
+def scenes_with_a_surface(directory):
+    """The scenes in `directory` whose files declare surfaces (read, so a new scene counts)."""
+    names = set()
+    for entry in os.listdir(directory):
+        if entry.endswith(".yaml"):
+            with open(os.path.join(directory, entry)) as f:
+                if (yaml.safe_load(f) or {}).get("surfaces"):
+                    names.add(entry[:-len(".yaml")])
+    return names
 
 
 class Tally:
@@ -105,7 +116,10 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
     def test_fuzz_every_service(self):
         rng = random.Random(SEED)
         tally = Tally()
-        scenes = list(self.list_scenes().names)
+        listing = self.list_scenes()
+        scenes = list(listing.names)
+        with_surface = scenes_with_a_surface(listing.directory)
+        self.assertIn("surface_chain", with_surface)
         folder = tempfile.mkdtemp()
         bad_files = self.write_bad_scene_files(folder, rng)
         self.pause()
@@ -171,12 +185,12 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
                     if kind_name == "gaussian" and count >= 2:
                         coefficients[1] = rng.uniform(0.2, 2.0)  # width > 0
                     r = self.set_surface(kind_name, coefficients, "")
-                    tally.record("set_surface", scene in WITH_SURFACE, r.success, r.message)
+                    tally.record("set_surface", scene in with_surface, r.success, r.message)
                 elif choice < 0.5:
                     formula = rng.choice(["0.3*sin(2*x)*cos(y)", "x^2/4 + y^2/4", "0.1*x - 0.2*y",
                                           "tanh(x)*0.2", "exp(-(x^2+y^2))"])
                     r = self.set_surface("expression", [], formula)
-                    tally.record("set_surface", scene in WITH_SURFACE, r.success, r.message)
+                    tally.record("set_surface", scene in with_surface, r.success, r.message)
                 else:
                     bad = rng.choice([
                         ("cone", [], ""), ("", [], ""), ("bowl", [NAN], ""),
