@@ -1,14 +1,17 @@
 #!/usr/bin/python3
 """Runs the simulator node at several sizes, stepping as fast as the machine allows, and reports
-per size the achieved real-time factor, steps/s, the /tf and ~state rates and the node's CPU use.
+per size the achieved real-time factor, steps/s, the /tf, ~state and ~particles rates and the
+node's CPU use.
 
 Starts its own roscore on a free port and a chain of N particles at real_time_factor 100 (the
-largest allowed) per size; counts /tf and /simulator/state with rospy.AnyMsg (no deserialising)
+largest allowed) per size; counts /tf, /simulator/state and /simulator/particles with rospy.AnyMsg
+(no deserialising)
 and reads sim time and steps from /diagnostics. Prints a markdown table of medians over --repeats
 consecutive windows of --seconds each.
 Usage: node_rates.py [--sizes N ...] [--seconds S] [--warmup S] [--repeats R] [--publish-rate HZ]
                      [--workspace DIR] [--start-timeout S] [--check-state-hz HZ]
-Exit status: 0; 1 if --check-state-hz failed; 2 if a node died or never published, or no
+                     [--check-particles-hz HZ]
+Exit status: 0; 1 if --check-state-hz or --check-particles-hz failed; 2 if a node died or never published, or no
 workspace or roscore.
 """
 import argparse
@@ -44,6 +47,8 @@ def parse_args():
                    help="wall seconds for a node's first /tf, ~state and /diagnostics")
     p.add_argument("--check-state-hz", type=float, default=None,
                    help="exit 1 if the largest size's ~state median is below this")
+    p.add_argument("--check-particles-hz", type=float, default=None,
+                   help="exit 1 if the largest size's ~particles median is below this")
     a = p.parse_args()
     if a.repeats < 1 or a.seconds <= 0 or a.warmup < 0 or any(n < 1 for n in a.sizes):
         p.error("--repeats, --seconds and --sizes must be positive, --warmup not negative")
@@ -143,12 +148,14 @@ class Counters:
         self.lock = threading.Lock()
         self.tf = 0
         self.state = 0
+        self.particles = 0
         self.diagnostics = []  # (receipt monotonic, stamp [s], sim_time [s], steps)
 
     def reset(self):
         with self.lock:
             self.tf = 0
             self.state = 0
+            self.particles = 0
             self.diagnostics = []
 
     def on_tf(self, _):
@@ -158,6 +165,10 @@ class Counters:
     def on_state(self, _):
         with self.lock:
             self.state += 1
+
+    def on_particles(self, _):
+        with self.lock:
+            self.particles += 1
 
     def on_diagnostics(self, msg):
         now = time.monotonic()
@@ -177,10 +188,11 @@ class Counters:
         with self.lock:
             self.tf = 0
             self.state = 0
+            self.particles = 0
 
     def snapshot(self):
         with self.lock:
-            return self.tf, self.state, list(self.diagnostics)
+            return self.tf, self.state, self.particles, list(self.diagnostics)
 
 
 def measure_size(n, args, env, counters, log_dir):
@@ -198,15 +210,16 @@ def measure_size(n, args, env, counters, log_dir):
     try:
         deadline = time.monotonic() + args.start_timeout
         while True:
-            tf, state, diags = counters.snapshot()
-            if tf and state and diags:
+            tf, state, particles, diags = counters.snapshot()
+            if tf and state and particles and diags:
                 break
             if proc.poll() is not None:
                 return [], (f"node died before publishing (exit {proc.returncode}):\n"
                             f"{tail(log_path)}")
             if time.monotonic() > deadline:
-                return [], (f"no /tf, ~state and /diagnostics within {args.start_timeout:g} s "
-                            f"(counts {tf}, {state}, {len(diags)}):\n{tail(log_path)}")
+                return [], (f"no /tf, ~state, ~particles and /diagnostics within "
+                            f"{args.start_timeout:g} s (counts {tf}, {state}, {particles}, "
+                            f"{len(diags)}):\n{tail(log_path)}")
             time.sleep(0.1)
         time.sleep(args.warmup)
         windows = []
@@ -214,7 +227,7 @@ def measure_size(n, args, env, counters, log_dir):
             counters.reset_counts()
             t0, cpu0 = time.monotonic(), cpu_seconds(proc.pid)
             time.sleep(args.seconds)
-            tf, state, diags = counters.snapshot()
+            tf, state, particles, diags = counters.snapshot()
             t1, cpu1 = time.monotonic(), cpu_seconds(proc.pid)
             if proc.poll() is not None:
                 return windows, (f"node died while measured (exit {proc.returncode}):\n"
@@ -232,7 +245,8 @@ def measure_size(n, args, env, counters, log_dir):
                 rtf = (inside[-1][2] - inside[0][2]) / span
                 steps_per_s = (inside[-1][3] - inside[0][3]) / span
             windows.append({"steps/s": steps_per_s, "rtf": rtf, "tf": tf / wall,
-                            "state": state / wall, "cpu": 100.0 * (cpu1 - cpu0) / wall})
+                            "state": state / wall, "particles": particles / wall,
+                            "cpu": 100.0 * (cpu1 - cpu0) / wall})
         return windows, None
     finally:
         stop(proc)
@@ -304,6 +318,8 @@ def main():
         rospy.Subscriber("/tf", rospy.AnyMsg, counters.on_tf, queue_size=None, buff_size=1 << 20)
         rospy.Subscriber(f"/{NODE_NAME}/state", rospy.AnyMsg, counters.on_state,
                          queue_size=None, buff_size=1 << 20)
+        rospy.Subscriber(f"/{NODE_NAME}/particles", rospy.AnyMsg, counters.on_particles,
+                         queue_size=None, buff_size=1 << 24)
         rospy.Subscriber("/diagnostics", DiagnosticArray, counters.on_diagnostics, queue_size=None)
 
         rows = []
@@ -317,32 +333,37 @@ def main():
                 failed = True
                 print(f"{n:,} particles: {error}", file=sys.stderr)
             rows.append((n, {key: median([w[key] for w in windows])
-                             for key in ("steps/s", "rtf", "tf", "state", "cpu")}, error))
+                             for key in ("steps/s", "rtf", "tf", "state", "particles", "cpu")},
+                         error))
 
-        print("| particles | steps/s | real-time factor | /tf [Hz] | ~state [Hz] | node CPU [%] |")
-        print("|---:|---:|---:|---:|---:|---:|")
+        print("| particles | steps/s | real-time factor | /tf [Hz] | ~state [Hz] | ~particles [Hz] "
+              "| node CPU [%] |")
+        print("|---:|---:|---:|---:|---:|---:|---:|")
         for n, m, error in rows:
             if error and math.isnan(m["tf"]):
                 reason = "node died" if "died" in error else "never published"
-                print(f"| {n:,} | {reason} | | | | |")
+                print(f"| {n:,} | {reason} | | | | | |")
                 continue
             died = " (node died later)" if error else ""
             print(f"| {n:,}{died} | {fmt(m['steps/s'], 0)} | {fmt_sig(m['rtf'])} "
-                  f"| {fmt(m['tf'], 1)} | {fmt(m['state'], 1)} | {fmt(m['cpu'], 0)} |")
+                  f"| {fmt(m['tf'], 1)} | {fmt(m['state'], 1)} | {fmt(m['particles'], 1)} "
+                  f"| {fmt(m['cpu'], 0)} |")
         asked = (f"{args.publish_rate:g} Hz" if args.publish_rate is not None
                  else "30 Hz (the node's default)")
         print(f"\nPublish rate asked: {asked}; real_time_factor 100 asked; medians of "
               f"{args.repeats} x {args.seconds:g} s after {args.warmup:g} s warm-up; "
               f"100 % CPU = one core; machine: {machine()}; "
+              f"/tf carries at most 1,000 frames (~tf_frames -1); "
               f"measuring process CPU {fmt(max(self_cpu), 0)} % at most; "
               f"command: {shlex.join(['scripts/node_rates.py'] + sys.argv[1:])}")
 
-        if args.check_state_hz is not None:
-            largest = max(rows, key=lambda r: r[0])
-            hz = largest[1]["state"]
-            if math.isnan(hz) or hz < args.check_state_hz:
-                print(f"check failed: ~state at {largest[0]:,} particles is {fmt(hz, 1)} Hz, "
-                      f"below {args.check_state_hz:g} Hz", file=sys.stderr)
+        largest = max(rows, key=lambda r: r[0])
+        for topic, key, wanted in (("~state", "state", args.check_state_hz),
+                                   ("~particles", "particles", args.check_particles_hz)):
+            hz = largest[1][key]
+            if wanted is not None and (math.isnan(hz) or hz < wanted):
+                print(f"check failed: {topic} at {largest[0]:,} particles is {fmt(hz, 1)} Hz, "
+                      f"below {wanted:g} Hz", file=sys.stderr)
                 return 2 if failed else 1
         return 2 if failed else 0
     finally:

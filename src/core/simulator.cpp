@@ -26,14 +26,15 @@ bool isConservative(const Scene& scene)
   return true;
 }
 
-// Rows or springs: something the stability estimate can see.
-bool hasStiffness(const Model& model)
+// Rows or springs (the model's or applied from outside): something the stability estimate sees.
+bool hasStiffness(const Model& model, const std::vector<Force>& perturbations)
 {
   if (model.numRows() > 0)
     return true;
-  for (const Force& force : model.scene().forces)
-    if (std::holds_alternative<SpringForce>(force))
-      return true;
+  for (const std::vector<Force>* forces : { &model.scene().forces, &perturbations })
+    for (const Force& force : *forces)
+      if (forceHasStiffness(force))
+        return true;
   return false;
 }
 
@@ -191,8 +192,9 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
 
 void Simulator::readSceneKind()
 {
-  conservative_ = isConservative(model_->scene());
-  has_stiffness_ = hasStiffness(*model_);
+  // a force from outside does work on the system: its energy is not kept while one acts
+  conservative_ = isConservative(model_->scene()) && data_->perturbations.empty();
+  has_stiffness_ = hasStiffness(*model_, data_->perturbations);
 }
 
 void Simulator::evaluateCurrentState(StepStatistics& total)
@@ -235,8 +237,8 @@ StepStatistics Simulator::step(int count)
     }
     if (estimate)
     {
-      const double omega =
-          estimateMaxFrequency(model, data.multipliers, x.positions, x.time, control.stiffness);
+      const double omega = estimateMaxFrequency(model, data.multipliers, x.positions, x.time,
+                                                control.stiffness, data.perturbations);
       total.max_frequency = std::max(total.max_frequency, omega);
       const int wanted = stabilitySubsteps(omega, settings_.dt, integrator_->stability_limit,
                                            MAX_STABILITY_SUBSTEPS);
@@ -403,9 +405,21 @@ void Simulator::setForces(const std::vector<Force>& forces)
   auto model = std::make_unique<Model>(Model::compile(scene, model_->solveMethod()));
   auto data = std::make_unique<Data>(*model);
   data->state = data_->state;
+  data->perturbations = data_->perturbations;  // they come from outside the scene: kept
   data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(model);
   data_ = std::move(data);
+  readSceneKind();
+}
+
+void Simulator::setPerturbations(const std::vector<Force>& perturbations)
+{
+  for (std::size_t k = 0; k < perturbations.size(); ++k)
+    validateForce(perturbations[k], model_->numParticles(),
+                  "perturbations[" + std::to_string(k) + "]");
+  data_->perturbations = perturbations;
+  // the forces the next step starts from are no longer those of the last step
+  data_->control.multipliers_current = false;
   readSceneKind();
 }
 

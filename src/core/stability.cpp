@@ -9,7 +9,8 @@
 namespace constrained_particles
 {
 double estimateMaxFrequency(const Model& model, const Eigen::VectorXd& multipliers,
-                            const Points& positions, double time, Eigen::VectorXd& stiffness)
+                            const Points& positions, double time, Eigen::VectorXd& stiffness,
+                            const std::vector<Force>& perturbations)
 {
   const Scene& scene = model.scene();
   const EffectContext context{ scene.surfaces, time };
@@ -24,13 +25,10 @@ double estimateMaxFrequency(const Model& model, const Eigen::VectorXd& multiplie
                                   multipliers.data() + record.first_row, stiffness.data());
         },
         scene.constraints[record.constraint]);
-  // springs: k (I) blocks at i and j, row sum 2 k (their own geometric part is smaller)
-  for (const Force& force : scene.forces)
-    if (const auto* spring = std::get_if<SpringForce>(&force))
-    {
-      stiffness[spring->first] += 2.0 * spring->stiffness;
-      stiffness[spring->second] += 2.0 * spring->stiffness;
-    }
+  // position-dependent forces (springs), the model's and those applied from outside
+  for (const std::vector<Force>* forces : { &scene.forces, &perturbations })
+    for (const Force& force : *forces)
+      addForceStiffness(force, stiffness.data());
   const auto& w = model.inverseMasses();
   double squared = 0.0;
   // a NaN stiffness (non-finite state) is skipped here: the step's checks see that state

@@ -93,11 +93,16 @@ void appliedForceStage(const Model& model, Data& data, const Points& positions,
 {
   const Scene& scene = model.scene();
   data.applied_forces.setZero();
-  for (const Force& force : scene.forces)
+  auto accumulate = [&](const std::vector<Force>& forces)
   {
-    accumulateForce(force, scene.masses, positions, velocities, data.applied_forces);
-    ++data.counters.forces[force.index()];
-  }
+    for (const Force& force : forces)
+    {
+      accumulateForce(force, scene.masses, positions, velocities, data.applied_forces);
+      ++data.counters.forces[force.index()];
+    }
+  };
+  accumulate(scene.forces);
+  accumulate(data.perturbations);  // from outside the model, while set
 }
 
 void rowVelocityStage(const Model& model, Data& data, const Points& velocities)

@@ -41,21 +41,29 @@ visualization_msgs::Marker deleteMarker(const std_msgs::Header& header, const st
   return m;
 }
 
-// a size for particles and arrows that suits the scene's lengths
-double typicalLength(const Model& model)
+}  // namespace
+
+double particleSize(const Model& model)
 {
   double shortest = 0.0;
   for (const Constraint& c : model.scene().constraints)
     if (const auto* link = std::get_if<LinkConstraint>(&c))
       shortest = shortest > 0.0 ? std::min(shortest, link->length) : link->length;
-  return shortest > 0.0 ? shortest : 0.5;
+  return 0.3 * (shortest > 0.0 ? shortest : 0.5);
 }
 
-}  // namespace
+double arrowScale(double force_scale, const Points& forces, double region_radius)
+{
+  if (force_scale > 0.0)
+    return force_scale;
+  const double largest = forces.cols() > 0 ? forces.colwise().norm().maxCoeff() : 0.0;
+  return largest > 0.0 && std::isfinite(largest) ? FORCE_ARROW_FRACTION * region_radius / largest
+                                                 : 0.0;
+}
 
 visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& header,
                                                        const Points& positions,
-                                                       const Points& forces, double force_scale,
+                                                       const Points& forces, double scale,
                                                        int previous_count)
 {
   visualization_msgs::MarkerArray array;
@@ -68,7 +76,7 @@ visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& h
         makeMarker(header, CONSTRAINT_FORCE_NAMESPACE, i, visualization_msgs::Marker::ARROW);
     const Eigen::Vector3d start = positions.col(i);
     const Eigen::Vector3d force = forces.col(i);
-    m.points = { tf2::toMsg(start), tf2::toMsg(Eigen::Vector3d(start + force_scale * force)) };
+    m.points = { tf2::toMsg(start), tf2::toMsg(Eigen::Vector3d(start + scale * force)) };
     m.scale.x = 0.02;  // shaft diameter [m]
     m.scale.y = 0.04;  // head diameter [m]
     m.scale.z = 0.0;   // rviz's default head length
@@ -81,55 +89,46 @@ visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& h
   return array;
 }
 
-const visualization_msgs::Marker& SurfaceMeshCache::mesh(const std_msgs::Header& header,
-                                                         const Model& model,
-                                                         const Points& positions,
-                                                         bool scene_changed)
+visualization_msgs::MarkerArray surfaceMarkers(const std_msgs::Header& header, const Model& model,
+                                               const Vec3& low, const Vec3& high, int cells)
 {
-  const Eigen::Vector3d low = positions.rowwise().minCoeff();
-  const Eigen::Vector3d high = positions.rowwise().maxCoeff();
-  const bool inside =
-      low.x() >= min_x_ && high.x() <= max_x_ && low.y() >= min_y_ && high.y() <= max_y_;
-  if (scene_changed || !inside)
+  visualization_msgs::MarkerArray array;
+  if (model.scene().surfaces.empty())
   {
-    // a margin around the particles, so the mesh is rebuilt only now and then
-    const double margin = std::max({ 1.0, 0.5 * (high.x() - low.x()), 0.5 * (high.y() - low.y()) });
-    min_x_ = low.x() - margin;
-    max_x_ = high.x() + margin;
-    min_y_ = low.y() - margin;
-    max_y_ = high.y() + margin;
-    marker_ = makeMarker(header, "surface", 0, visualization_msgs::Marker::TRIANGLE_LIST);
-    marker_.scale.x = marker_.scale.y = marker_.scale.z = 1.0;
-    marker_.color = color(0.3f, 0.7f, 0.9f, 0.6f);
-    const double hx = (max_x_ - min_x_) / cells_, hy = (max_y_ - min_y_) / cells_;
-    for (const Surface& surface : model.scene().surfaces)
-    {
-      auto vertex = [&](int i, int j)
-      {
-        const double x = min_x_ + i * hx, y = min_y_ + j * hy;
-        return tf2::toMsg(Eigen::Vector3d(x, y, evaluateSurface(surface, x, y).z));
-      };
-      for (int i = 0; i < cells_; ++i)
-        for (int j = 0; j < cells_; ++j)
-        {
-          const auto a = vertex(i, j), b = vertex(i + 1, j), c = vertex(i + 1, j + 1),
-                     d = vertex(i, j + 1);
-          // a formula may be undefined over part of the region (sqrt(x) for x < 0): leave it out
-          if (std::isfinite(a.z) && std::isfinite(b.z) && std::isfinite(c.z) && std::isfinite(d.z))
-            marker_.points.insert(marker_.points.end(), { a, b, c, a, c, d });
-        }
-    }
+    array.markers.push_back(deleteMarker(header, "surface", 0));
+    return array;
   }
-  marker_.header = header;
-  return marker_;
+  visualization_msgs::Marker mesh =
+      makeMarker(header, "surface", 0, visualization_msgs::Marker::TRIANGLE_LIST);
+  mesh.scale.x = mesh.scale.y = mesh.scale.z = 1.0;
+  mesh.color = color(0.3f, 0.7f, 0.9f, 0.6f);
+  const double hx = (high.x() - low.x()) / cells, hy = (high.y() - low.y()) / cells;
+  for (const Surface& surface : model.scene().surfaces)
+  {
+    auto vertex = [&](int i, int j)
+    {
+      const double x = low.x() + i * hx, y = low.y() + j * hy;
+      return tf2::toMsg(Eigen::Vector3d(x, y, evaluateSurface(surface, x, y).z));
+    };
+    for (int i = 0; i < cells; ++i)
+      for (int j = 0; j < cells; ++j)
+      {
+        const auto a = vertex(i, j), b = vertex(i + 1, j), c = vertex(i + 1, j + 1),
+                   d = vertex(i, j + 1);
+        // a formula may be undefined over part of the region (sqrt(x) for x < 0): leave it out
+        if (std::isfinite(a.z) && std::isfinite(b.z) && std::isfinite(c.z) && std::isfinite(d.z))
+          mesh.points.insert(mesh.points.end(), { a, b, c, a, c, d });
+      }
+  }
+  array.markers.push_back(mesh);
+  return array;
 }
 
 visualization_msgs::MarkerArray sceneMarkers(const std_msgs::Header& header, const Model& model,
-                                             const Points& positions, SurfaceMeshCache& mesh_cache,
-                                             bool scene_changed)
+                                             const Points& positions)
 {
   visualization_msgs::MarkerArray array;
-  const double size = 0.3 * typicalLength(model);
+  const double size = particleSize(model);
 
   visualization_msgs::Marker particles =
       makeMarker(header, "particles", 0, visualization_msgs::Marker::SPHERE_LIST);
@@ -150,11 +149,6 @@ visualization_msgs::MarkerArray sceneMarkers(const std_msgs::Header& header, con
       links.points.push_back(tf2::toMsg(Eigen::Vector3d(positions.col(link->second))));
     }
   array.markers.push_back(links.points.empty() ? deleteMarker(header, "links", 0) : links);
-
-  if (model.scene().surfaces.empty())
-    array.markers.push_back(deleteMarker(header, "surface", 0));
-  else
-    array.markers.push_back(mesh_cache.mesh(header, model, positions, scene_changed));
   return array;
 }
 
@@ -163,7 +157,7 @@ visualization_msgs::MarkerArray referenceMarkers(const std_msgs::Header& header,
                                                  double lifetime)
 {
   visualization_msgs::MarkerArray array;
-  const double size = 0.3 * typicalLength(model);
+  const double size = particleSize(model);
   visualization_msgs::Marker ghosts =
       makeMarker(header, REFERENCE_NAMESPACE, 0, visualization_msgs::Marker::SPHERE_LIST);
   ghosts.scale.x = ghosts.scale.y = ghosts.scale.z = 1.2 * size;

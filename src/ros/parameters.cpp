@@ -4,6 +4,7 @@
 
 #include <ros/package.h>
 
+#include <algorithm>
 #include <cmath>
 #include <type_traits>
 
@@ -160,6 +161,12 @@ const Range* settingRange(const std::string& name)
   if (name == "chain/particle_mass")
     return &limits::MASS;
   return found;
+}
+
+int tfFrameCount(int particles, int tf_frames)
+{
+  return tf_frames < 0 ? std::min(particles, limits::DEFAULT_TF_FRAMES)
+                       : std::min(particles, tf_frames);
 }
 
 NodeParameters readParameters(const ros::NodeHandle& nh)

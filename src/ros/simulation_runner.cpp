@@ -71,6 +71,7 @@ SimulationRunner::SimulationRunner(const NodeParameters& parameters, const Scene
                                            scene.solver.solve_method);
   parameters_.step = settings;
   scene_ = std::make_shared<const SceneDescription>(scene);
+  region_ = sceneRegion(scene, built.initial_state);
   model_copy_ = std::make_shared<const Model>(simulator_->model());
   simulator_->constraintForces(forces_, multipliers_);
   makeSnapshot();
@@ -152,6 +153,20 @@ RunnerReply SimulationRunner::submit(std::function<RunnerReply()> apply)
   }
   wake_.notify_all();
   return await(future);
+}
+
+void SimulationRunner::post(std::function<RunnerReply()> apply)
+{
+  auto request = std::make_shared<Request>();
+  request->apply = std::move(apply);
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (stopping_)
+      return;
+    request->queued_at_batch = batches_;
+    queue_.push_back(request);
+  }
+  wake_.notify_all();
 }
 
 // ---- requests (their lambdas run on the physics thread) ----
@@ -342,8 +357,117 @@ RunnerReply SimulationRunner::reconfigure(
         step_time_estimate_ = 0;
         last_chunk_ = 1;
         reanchor();
+        if (!drags_.empty())
+          updatePerturbations();  // a drag's spring is scaled to dt
         return accepted("reconfigured");
       });
+}
+
+RunnerReply SimulationRunner::applyForce(long particle, const Vec3& force, double duration)
+{
+  return submit(
+      [this, particle, force, duration]
+      {
+        const int n = simulator_->model().numParticles();
+        if (particle < 0 || particle >= n)
+          throw InvalidInput("particle", "= " + std::to_string(particle) + ", must be in [0, " +
+                                             std::to_string(n - 1) + "] (scene '" + scene_->name +
+                                             "' has " + std::to_string(n) + " particles)");
+        requireInRange("force", force, limits::FORCE);
+        requireInRange("duration", duration, limits::APPLIED_FORCE_DURATION);
+        if (applied_.size() >= MAX_APPLIED_FORCES)
+          return refused("applied forces: " + std::to_string(applied_.size()) +
+                         " act already, the most at once; call ~clear_forces");
+        const double now = simulator_->state().time;
+        applied_.push_back(AppliedForce{ ExternalForce{ static_cast<int>(particle), force },
+                                         duration > 0.0 ? now + duration : INFINITY });
+        updatePerturbations();
+        return accepted("force applied to particle " + std::to_string(particle) +
+                        (duration > 0.0 ? " for " + formatValue(duration) +
+                                              " s from t = " + formatValue(now) + " s"
+                                        : std::string(" until ~clear_forces")) +
+                        " (" + std::to_string(applied_.size()) + " acting)");
+      });
+}
+
+RunnerReply SimulationRunner::clearForces()
+{
+  return submit(
+      [this]
+      {
+        const std::size_t count = applied_.size();
+        applied_.clear();
+        updatePerturbations();
+        return accepted("cleared " + std::to_string(count) + " applied forces");
+      });
+}
+
+void SimulationRunner::drag(int particle, const Vec3& target)
+{
+  post(
+      [this, particle, target]
+      {
+        if (particle >= 0 && particle < simulator_->model().numParticles() &&
+            limits::COORDINATE.contains(target.x()) && limits::COORDINATE.contains(target.y()) &&
+            limits::COORDINATE.contains(target.z()))
+        {
+          drags_[particle] = target;
+          updatePerturbations();
+        }
+        return accepted("");
+      });
+}
+
+void SimulationRunner::release(int particle)
+{
+  post(
+      [this, particle]
+      {
+        const std::size_t before = drags_.size();
+        if (particle < 0)
+          drags_.clear();
+        else
+          drags_.erase(particle);
+        if (drags_.size() != before)
+          updatePerturbations();
+        return accepted("");
+      });
+}
+
+void SimulationRunner::updatePerturbations()
+{
+  std::vector<Force> forces;
+  forces.reserve(applied_.size() + drags_.size());
+  for (const AppliedForce& applied : applied_)
+    forces.push_back(applied.force);
+  const double w = std::min(DRAG_FREQUENCY, DRAG_STEP_LIMIT / simulator_->stepSettings().dt);
+  for (const auto& [particle, target] : drags_)
+  {
+    const double m = simulator_->model().scene().masses[particle];
+    forces.push_back(TargetSpringForce{ particle, target, m * w * w, 2.0 * m * w });
+  }
+  simulator_->setPerturbations(forces);
+  // the shadow reference does not feel them: the window would measure the push, not the method
+  abandonWindow();
+  snapshot_due_ = true;
+}
+
+std::uint64_t SimulationRunner::expireForces(std::uint64_t limit)
+{
+  const double t = simulator_->state().time, dt = simulator_->stepSettings().dt;
+  std::uint64_t next = limit;
+  const std::size_t before = applied_.size();
+  // steps that begin before the end: ceil((end - t) / dt), round-off of t forgiven
+  auto stepsLeft = [&](const AppliedForce& a) { return std::ceil((a.end_time - t) / dt - 1e-6); };
+  applied_.erase(std::remove_if(applied_.begin(), applied_.end(),
+                                [&](const AppliedForce& a) { return !(stepsLeft(a) >= 1.0); }),
+                 applied_.end());
+  if (applied_.size() != before)
+    updatePerturbations();
+  for (const AppliedForce& a : applied_)
+    if (std::isfinite(a.end_time))
+      next = std::min(next, static_cast<std::uint64_t>(std::min(stepsLeft(a), 1e15)));
+  return next;
 }
 
 // ---- the physics thread ----
@@ -466,6 +590,8 @@ bool SimulationRunner::runBatch()
       steps_now = static_cast<int>(std::min<std::uint64_t>(
           static_cast<std::uint64_t>(chunk),
           window_->sample_steps[window_->recorded] - simulator_->state().steps));
+    // an applied force's last step ends a chunk too: it is dropped exactly after it
+    steps_now = static_cast<int>(expireForces(static_cast<std::uint64_t>(std::max(steps_now, 1))));
     steps_now = std::max(steps_now, 1);
     last_chunk_ = chunk;
     const Clock::time_point chunk_start = Clock::now();
@@ -624,6 +750,10 @@ void SimulationRunner::rebuild(const SceneDescription& description, const StepSe
     throw;
   }
   abandonWindow();
+  // the new Data holds no perturbations: pushes and drags end with the scene they acted on
+  applied_.clear();
+  drags_.clear();
+  region_ = sceneRegion(description, built.initial_state);
   // the clock runs on across the reset: stamps never go back (see Snapshot::stamp)
   clock_base_ += time_before + TIME_JUMP;
   parameters_.step = settings;
@@ -696,6 +826,9 @@ void SimulationRunner::makeSnapshot()
   s->accuracy = accuracy_;
   s->reference_positions = reference_now_;
   s->skipped_windows = skippedWindows();
+  s->region = region_;
+  s->applied_forces = static_cast<std::uint32_t>(applied_.size());
+  s->dragged_particles = static_cast<std::uint32_t>(drags_.size());
   {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
     snapshot_ = std::move(s);
@@ -782,7 +915,9 @@ void SimulationRunner::updateAccuracy()
     }
   }
   // the next window starts from the state now, when there is stepping to measure
-  const bool stepping = !faulted_ && (!paused_ || step_request_);
+  // pushed or dragged, the live state follows forces the shadow does not feel: no window opens
+  const bool stepping =
+      !faulted_ && (!paused_ || step_request_) && applied_.empty() && drags_.empty();
   if (window_ || !(length > 0.0) || !stepping)
     return;
   if (!shadow_)

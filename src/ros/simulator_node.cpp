@@ -1,11 +1,15 @@
 #include "constrained_particles/ros/simulator_node.hpp"
 
 #include "constrained_particles/Accuracy.h"
+#include "constrained_particles/SceneView.h"
 #include "constrained_particles/SimState.h"
 #include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/ros/conversions.hpp"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <rosgraph_msgs/Clock.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/master.h>
@@ -34,6 +38,8 @@ SimulatorConfig configFrom(const NodeParameters& p, const SceneDescription& scen
   c.adaptive_tolerance = p.step.adaptive_tolerance;
   c.max_substeps = p.step.max_substeps;
   c.accuracy_window = p.accuracy_window;
+  c.tf_frames = p.tf_frames;
+  c.interactive = p.interactive;
   const Vec3 gravity = sceneGravity(scene);
   c.gravity_x = gravity.x();
   c.gravity_y = gravity.y();
@@ -157,7 +163,6 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   const std::shared_ptr<const Snapshot> first = runner_->snapshot();
   parameters_.step = first->parameters.step;
 
-  mesh_cache_ = SurfaceMeshCache(parameters_.mesh_cells);
   if (parameters_.publish_clock)
   {
     // latched: a node with use_sim_time started while we are paused still learns the time
@@ -184,6 +189,10 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   state_publisher_ = nh_.advertise<SimState>("state", 10, parameters_.publish_clock);
   force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 10);
   scene_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("scene", 1, true);
+  particles_publisher_ = nh_.advertise<sensor_msgs::PointCloud2>("particles", 2);
+  // latched and sent once per scene whoever listens: a late subscriber gets the current scene's
+  surface_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("surface", 1, true);
+  view_publisher_ = nh_.advertise<SceneView>("view", 1, true);
   accuracy_publisher_ = nh_.advertise<Accuracy>("accuracy", 10, true);
   diagnostics_publisher_ =
       ros::NodeHandle().advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 1);
@@ -198,6 +207,11 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   services_.push_back(nh_.advertiseService("pause", &SimulatorNode::pauseCallback, this));
   services_.push_back(nh_.advertiseService("unpause", &SimulatorNode::unpauseCallback, this));
   services_.push_back(nh_.advertiseService("step", &SimulatorNode::stepCallback, this));
+  services_.push_back(
+      nh_.advertiseService("apply_force", &SimulatorNode::applyForceCallback, this));
+  services_.push_back(
+      nh_.advertiseService("clear_forces", &SimulatorNode::clearForcesCallback, this));
+  grab_markers_ = std::make_unique<GrabMarkers>(nh_, *runner_, parameters_.fixed_frame);
   compare_methods_ = std::make_unique<CompareMethodsServer>(
       nh_, *runner_,
       ros::package::getPath("constrained_particles") + "/scripts/plot_compare_methods.py");
@@ -277,23 +291,12 @@ void SimulatorNode::publish()
                        static_cast<int>(snap->constraint_forces.cols()));
     return;
   }
-  if (frames_scene_serial_ != snap->scene_serial ||
-      tf_message_.transforms.size() != static_cast<std::size_t>(n))
+  publishSceneOnce(*snap);
+  prepareFrames(*snap);
+  const int frames = static_cast<int>(tf_message_.transforms.size());
+  if (frames > 0 && (tf_publisher_.getNumSubscribers() > 0 || parameters_.publish_clock))
   {
-    // frame names once per scene, not per publish
-    tf_message_.transforms.resize(n);
-    for (int i = 0; i < n; ++i)
-    {
-      geometry_msgs::TransformStamped& t = tf_message_.transforms[i];
-      t.header.frame_id = parameters_.fixed_frame;
-      t.child_frame_id = parameters_.frame_prefix + std::to_string(i);
-      t.transform.rotation.w = 1.0;
-    }
-    frames_scene_serial_ = snap->scene_serial;
-  }
-  if (tf_publisher_.getNumSubscribers() > 0 || parameters_.publish_clock)
-  {
-    for (int i = 0; i < n; ++i)
+    for (int i = 0; i < frames; ++i)
     {
       geometry_msgs::TransformStamped& t = tf_message_.transforms[i];
       t.header.stamp = header.stamp;
@@ -304,6 +307,8 @@ void SimulatorNode::publish()
     tf_publisher_.publish(tf_message_);
     last_tf_broadcast_ = std::chrono::steady_clock::now();
   }
+  if (particles_publisher_.getNumSubscribers() > 0)
+    publishParticles(*snap, header);
 
   if (state_publisher_.getNumSubscribers() > 0 || parameters_.publish_clock)
   {
@@ -374,21 +379,31 @@ void SimulatorNode::publish()
       msg.accuracy_error_growth_rate = snap->accuracy->error_growth_rate;
     }
     msg.accuracy_skipped_windows = static_cast<std::uint32_t>(snap->skipped_windows);
+    msg.applied_forces = snap->applied_forces;
+    msg.dragged_particles = snap->dragged_particles;
     state_publisher_.publish(msg);
   }
   if (force_marker_publisher_.getNumSubscribers() > 0)
   {
-    force_marker_publisher_.publish(
-        constraintForceMarkers(header, snap->state.positions, snap->constraint_forces,
-                               parameters_.force_scale, published_arrows_));
+    // rviz keeps only the newest array (queue 1, so arrows never lag): a count's drop is
+    // deleted in every array for a second, not once
+    const auto now = std::chrono::steady_clock::now();
+    if (n < published_arrows_)
+    {
+      stale_arrows_ = std::max(stale_arrows_, published_arrows_);
+      stale_arrows_until_ = now + std::chrono::seconds(1);
+    }
+    if (now > stale_arrows_until_)
+      stale_arrows_ = 0;
+    force_marker_publisher_.publish(constraintForceMarkers(
+        header, snap->state.positions, snap->constraint_forces,
+        arrowScale(parameters_.force_scale, snap->constraint_forces, snap->region.radius()),
+        std::max(published_arrows_, stale_arrows_)));
     published_arrows_ = n;
   }
   if (scene_marker_publisher_.getNumSubscribers() > 0)
   {
-    const bool scene_changed = markers_scene_serial_ != snap->scene_serial;
-    markers_scene_serial_ = snap->scene_serial;
-    scene_marker_publisher_.publish(
-        sceneMarkers(header, *snap->model, snap->state.positions, mesh_cache_, scene_changed));
+    scene_marker_publisher_.publish(sceneMarkers(header, *snap->model, snap->state.positions));
     // ghosts only where the shadow's sample is at this snapshot's time: the distance is the error
     if (snap->reference_positions && snap->reference_positions->cols() == n &&
         snap->reference_positions->allFinite())
@@ -397,6 +412,82 @@ void SimulatorNode::publish()
                            std::max(0.2, 3.0 / snap->parameters.publish_rate)));
   }
   publishAccuracy(*snap, header);
+  grab_markers_->update(*snap);
+}
+
+void SimulatorNode::publishSceneOnce(const Snapshot& snap)
+{
+  if (published_scene_serial_ >= snap.scene_serial)
+    return;
+  published_scene_serial_ = snap.scene_serial;
+  std_msgs::Header header;
+  header.stamp = parameters_.publish_clock ? ros::Time(snap.stamp) : ros::Time::now();
+  header.frame_id = parameters_.fixed_frame;
+  const RegionSpec& region = snap.region;
+  surface_publisher_.publish(
+      surfaceMarkers(header, *snap.model, region.low, region.high, parameters_.mesh_cells));
+  SceneView view;
+  view.header = header;
+  view.scenario = snap.scene->name;
+  view.low = tf2::toMsg(Eigen::Vector3d(region.low));
+  view.high = tf2::toMsg(Eigen::Vector3d(region.high));
+  view.center = tf2::toMsg(Eigen::Vector3d(region.center()));
+  view.radius = region.radius();
+  view.particle_size = particleSize(*snap.model);
+  view_publisher_.publish(view);
+}
+
+void SimulatorNode::prepareFrames(const Snapshot& snap)
+{
+  const int n = static_cast<int>(snap.state.positions.cols());
+  const int frames = tfFrameCount(n, snap.parameters.tf_frames);
+  if (frames_scene_serial_ == snap.scene_serial &&
+      tf_message_.transforms.size() == static_cast<std::size_t>(frames))
+    return;
+  // frame names once per scene and count, not per publish
+  tf_message_.transforms.resize(frames);
+  for (int i = 0; i < frames; ++i)
+  {
+    geometry_msgs::TransformStamped& t = tf_message_.transforms[i];
+    t.header.frame_id = parameters_.fixed_frame;
+    t.child_frame_id = parameters_.frame_prefix + std::to_string(i);
+    t.transform.rotation.w = 1.0;
+  }
+  frames_scene_serial_ = snap.scene_serial;
+  if (snap.parameters.tf_frames < 0 && frames < n && warned_scene_serial_ != snap.scene_serial)
+  {
+    warned_scene_serial_ = snap.scene_serial;
+    ROS_WARN(
+        "simulator: scene '%s' has %d particles; /tf carries the first %d (~tf_frames -1 "
+        "caps at %d); ~particles carries them all; set ~tf_frames to N for the first N",
+        snap.scene->name.c_str(), n, frames, limits::DEFAULT_TF_FRAMES);
+  }
+}
+
+void SimulatorNode::publishParticles(const Snapshot& snap, const std_msgs::Header& header)
+{
+  const int n = static_cast<int>(snap.state.positions.cols());
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header = header;
+  // sensor_msgs' modifier and iterators lay out and fill the fields (the well-kept way to)
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2Fields(
+      4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z", 1,
+      sensor_msgs::PointField::FLOAT32, "force", 1, sensor_msgs::PointField::FLOAT32);
+  modifier.resize(static_cast<std::size_t>(n));
+  cloud.height = 1;
+  cloud.width = static_cast<std::uint32_t>(n);
+  cloud.is_dense = true;
+  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z"),
+      force(cloud, "force");
+  for (int i = 0; i < n; ++i, ++x, ++y, ++z, ++force)
+  {
+    *x = static_cast<float>(snap.state.positions(0, i));
+    *y = static_cast<float>(snap.state.positions(1, i));
+    *z = static_cast<float>(snap.state.positions(2, i));
+    *force = static_cast<float>(snap.constraint_forces.col(i).norm());
+  }
+  particles_publisher_.publish(cloud);
 }
 
 void SimulatorNode::publishAccuracy(const Snapshot& snap, const std_msgs::Header& header)
@@ -440,12 +531,22 @@ void SimulatorNode::pushReconfigure()
   reconfigure_server_->update(configFrom(snap->parameters, *snap->scene));
 }
 
+void SimulatorNode::publishNewScene()
+{
+  // before the caller is answered: a subscriber joining after the reply gets this scene's
+  std::lock_guard<std::mutex> lock(publish_mutex_);
+  publishSceneOnce(*runner_->snapshot());
+}
+
 bool SimulatorNode::resetCallback(Reset::Request& request, Reset::Response& response)
 {
   const RunnerReply reply = runner_->reset(request.scenario);
   answer(response, reply);
   if (reply.success)
+  {
+    publishNewScene();
     pushReconfigure();
+  }
   return true;
 }
 
@@ -477,9 +578,12 @@ bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface:
   {
     return refuse(response, e.what());
   }
-  return answer(response, runner_->changeScene([surface](SceneDescription& scene)
-                                               { setFirstSurface(scene, surface); },
-                                               "surface set to '" + request.type + "'"));
+  answer(response, runner_->changeScene([surface](SceneDescription& scene)
+                                        { setFirstSurface(scene, surface); },
+                                        "surface set to '" + request.type + "'"));
+  if (response.success)
+    publishNewScene();
+  return true;
 }
 
 bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Response& response)
@@ -510,11 +614,14 @@ bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Respo
   {
     return refuse(response, e.what());
   }
-  return answer(response,
-                runner_->changeScene([chain](SceneDescription& scene) { setChains(scene, chain); },
-                                     "chain set to " + std::to_string(chain.num_particles) +
-                                         " particles, l = " + formatValue(chain.link_length) +
-                                         " m, m = " + formatValue(chain.particle_mass) + " kg"));
+  answer(response,
+         runner_->changeScene([chain](SceneDescription& scene) { setChains(scene, chain); },
+                              "chain set to " + std::to_string(chain.num_particles) +
+                                  " particles, l = " + formatValue(chain.link_length) +
+                                  " m, m = " + formatValue(chain.particle_mass) + " kg"));
+  if (response.success)
+    publishNewScene();
+  return true;
 }
 
 bool SimulatorNode::setStateCallback(SetState::Request& request, SetState::Response& response)
@@ -552,6 +659,19 @@ bool SimulatorNode::stepCallback(Step::Request& request, Step::Response& respons
   return true;
 }
 
+bool SimulatorNode::applyForceCallback(ApplyForce::Request& request, ApplyForce::Response& response)
+{
+  return answer(
+      response,
+      runner_->applyForce(request.particle, Vec3(request.force.x, request.force.y, request.force.z),
+                          request.duration));
+}
+
+bool SimulatorNode::clearForcesCallback(ClearForces::Request&, ClearForces::Response& response)
+{
+  return answer(response, runner_->clearForces());
+}
+
 bool SimulatorNode::reconfigureCallback(const SimulatorConfig& shown,
                                         const SimulatorConfig& requested, SimulatorConfig& in_force)
 {
@@ -582,6 +702,10 @@ bool SimulatorNode::reconfigureCallback(const SimulatorConfig& shown,
           candidate.publish_rate = r.publish_rate;
         if (changed(r.accuracy_window, shown.accuracy_window))
           candidate.accuracy_window = r.accuracy_window;
+        if (changed(r.tf_frames, shown.tf_frames))
+          candidate.tf_frames = r.tf_frames;
+        if (changed(r.interactive, shown.interactive))
+          candidate.interactive = r.interactive;
         if (changed(r.damping, shown.damping))
           candidate.overrides.damping = r.damping;
         Vec3 gravity = candidate.overrides.gravity.value_or(sceneGravity(scene));

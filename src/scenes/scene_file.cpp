@@ -387,7 +387,7 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
     throw InvalidInput(source, "must hold a map with the keys of a scene (see README)");
   checkKeys(top, root,
             { "name", "description", "surfaces", "particles", "chains", "forces", "constraints",
-              "solver" },
+              "solver", "region" },
             "a scene");
   SceneDescription d;
   d.source = source;
@@ -452,6 +452,20 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
     for (std::size_t k = 0; k < d.constraints.size(); ++k)
       validateConstraint(d.constraints[k], n, num_surfaces, where_of[k], true);
   }
+  if (const YAML::Node region = root["region"])
+  {
+    const Where at = top / "region";
+    const RegionSpec r = parseDescribed<RegionSpec>(at, region, "a region {low, high}", d.surfaces);
+    for (int axis = 0; axis < 3; ++axis)
+      if (!(r.low[axis] <= r.high[axis]))
+      {
+        const std::string name = std::string("high.") + "xyz"[axis];
+        fail(at / name, region["high"],
+             "= " + formatValue(r.high[axis]) + ", must be >= low." + "xyz"[axis] + " (" +
+                 formatValue(r.low[axis]) + ")");
+      }
+    d.region = r;
+  }
   if (const YAML::Node solver = root["solver"])
   {
     const Where at = top / "solver";
@@ -500,6 +514,70 @@ StepSettings SolverSpec::applyTo(StepSettings settings) const
           settings.*(spec.member) = values.*(spec.member);
       });
   return settings;
+}
+
+RegionSpec sceneRegion(const SceneDescription& description, const State& initial)
+{
+  const Points& p = initial.positions;
+  const Vec3 margin = Vec3::Constant(REGION_MARGIN);
+  RegionSpec region;
+  region.low = (p.cols() > 0 ? Vec3(p.rowwise().minCoeff()) : Vec3::Zero()) - margin;
+  region.high = (p.cols() > 0 ? Vec3(p.rowwise().maxCoeff()) : Vec3::Zero()) + margin;
+  const RegionSpec particles = region;
+  auto include = [&region](const Vec3& low, const Vec3& high)
+  {
+    region.low = region.low.cwiseMin(low);
+    region.high = region.high.cwiseMax(high);
+  };
+  // spheres the motion stays in: a chain can swing its whole length about where it starts
+  std::vector<std::pair<Vec3, double>> reaches;
+  if (description.region)
+    include(description.region->low, description.region->high);
+  else
+  {
+    int particle = static_cast<int>(description.particles.size());
+    for (const ChainSpec& chain : description.chains)
+    {
+      const Vec3 start = particle < p.cols() ? Vec3(p.col(particle)) : chain.start;
+      const double reach = (chain.particles - 1) * chain.link_length + REGION_MARGIN;
+      include(start - Vec3::Constant(reach), start + Vec3::Constant(reach));
+      reaches.emplace_back(start, reach);
+      particle += chain.particles;
+    }
+  }
+  // the surfaces as they are meshed over the region's x-y extent: all of the mesh in the box
+  constexpr int SAMPLES = 16;
+  std::vector<Vec3> mesh;
+  for (const NamedSurface& named : description.surfaces)
+    for (int i = 0; i <= SAMPLES; ++i)
+      for (int j = 0; j <= SAMPLES; ++j)
+      {
+        const double x = region.low.x() + (region.high.x() - region.low.x()) * i / SAMPLES;
+        const double y = region.low.y() + (region.high.y() - region.low.y()) * j / SAMPLES;
+        const double z = evaluateSurface(named.surface, x, y).z;
+        if (std::isfinite(z) && limits::COORDINATE.contains(z))
+          mesh.emplace_back(x, y, z);
+      }
+  for (const Vec3& point : mesh)
+    include(point, point);
+  if (description.region)
+    return region;  // the file's box: its own half-diagonal
+  // what must be seen, about the centre: the particles' box, the reaches, the mesh
+  const Vec3 center = region.center();
+  double radius = 0.0;
+  for (int corner = 0; corner < 8; ++corner)
+  {
+    const Vec3 c((corner & 1) ? particles.high.x() : particles.low.x(),
+                 (corner & 2) ? particles.high.y() : particles.low.y(),
+                 (corner & 4) ? particles.high.z() : particles.low.z());
+    radius = std::max(radius, (c - center).norm());
+  }
+  for (const auto& [start, reach] : reaches)
+    radius = std::max(radius, (start - center).norm() + reach);
+  for (const Vec3& point : mesh)
+    radius = std::max(radius, (point - center).norm());
+  region.reach = std::min(radius, 0.5 * (region.high - region.low).norm());
+  return region;
 }
 
 long SceneDescription::numParticles() const

@@ -398,3 +398,67 @@ TEST(SceneFiles, ReadmeExampleLoadsAndRuns)
   EXPECT_GT(c.forceCount<QuadraticDragForce>(), 0u);
   EXPECT_EQ(c.forceCount<LinearDampingForce>(), 0u);
 }
+
+// Every shipped scene's region of interest (the camera's frame, the surface mesh) holds its
+// particles over its first 4 s: the view shows the whole scene while it runs.
+TEST(SceneFiles, EveryShippedSceneStaysInItsRegion)
+{
+  for (const std::string& name : listScenes(DIRECTORY))
+  {
+    SCOPED_TRACE(name);
+    const SceneDescription d = loadSceneFile(resolveScene(name, DIRECTORY));
+    const BuiltScene s = buildScene(d);
+    const RegionSpec region = sceneRegion(d, s.initial_state);
+    Simulator simulator(s.scene, s.initial_state, d.solver.applyTo(StepSettings{}),
+                        d.solver.solve_method);
+    const int steps = static_cast<int>(std::lround(4.0 / simulator.stepSettings().dt));
+    for (int k = 0; k < steps; k += 20)
+    {
+      simulator.step(20);
+      const Points& p = simulator.state().positions;
+      for (int i = 0; i < p.cols(); ++i)
+        for (int axis = 0; axis < 3; ++axis)
+        {
+          ASSERT_GE(p(axis, i), region.low[axis])
+              << "particle " << i << " axis " << axis << " at t = " << simulator.state().time;
+          ASSERT_LE(p(axis, i), region.high[axis])
+              << "particle " << i << " axis " << axis << " at t = " << simulator.state().time;
+        }
+    }
+  }
+}
+
+TEST(SceneFiles, RegionsAreReadJoinedWithTheParticlesAndChecked)
+{
+  const std::string scene = "particles: [{mass: 1, position: [0.5, 0, 0]}]\n";
+  const SceneDescription d =
+      parseScene(scene + "region: {low: [-1, -2, -3], high: [1, 2, 0.1]}\n", "test.yaml");
+  ASSERT_TRUE(d.region);
+  const RegionSpec r = sceneRegion(d, buildScene(d).initial_state);
+  EXPECT_EQ(r.low, Vec3(-1, -2, -3));
+  // the particle at z = 0 keeps REGION_MARGIN above it
+  EXPECT_EQ(r.high, Vec3(1, 2, REGION_MARGIN));
+  EXPECT_NEAR(r.radius(), 0.5 * Vec3(2, 4, 3 + REGION_MARGIN).norm(), 1e-12);
+  // without one: the particles' box with the margin, and each chain's reach about its start
+  const SceneDescription chain =
+      parseScene("chains: [{particles: 3, link_length: 0.5, start: [1, 0, 0], pin_first: true}]\n",
+                 "test.yaml");
+  const RegionSpec c = sceneRegion(chain, buildScene(chain).initial_state);
+  EXPECT_EQ(c.low, Vec3(-0.25, -1.25, -1.25));
+  EXPECT_EQ(c.high, Vec3(2.25, 1.25, 1.25));
+  // the camera's radius: the far corner of the particles' box (2.25, 0.25, 0.25) from the
+  // centre (1, 0, 0), beyond the reach sphere's 1.25 about (1, 0, 0)
+  EXPECT_NEAR(c.radius(), Vec3(1.25, 0.25, 0.25).norm(), 1e-12);
+  // a surface's mesh over the region's x-y is inside it: the bowl z = (x^2 + y^2) / 2 at the
+  // corners (+-1, +-2) is 2.5 m high
+  const SceneDescription bowl =
+      parseScene("surfaces: {ground: {type: bowl, coefficients: [1, 1]}}\n" + scene +
+                     "region: {low: [-1, -2, -3], high: [1, 2, 0.1]}\n",
+                 "test.yaml");
+  EXPECT_DOUBLE_EQ(sceneRegion(bowl, buildScene(bowl).initial_state).high.z(), 2.5);
+  expectRefused(scene + "region: {low: [0, 0, 1], high: [1, 1, 0]}\n",
+                { "test.yaml:2", "region.high.z", "must be >= low.z" });
+  expectRefused(scene + "region: {low: [0, 0, .nan], high: [1, 1, 1]}\n",
+                { "region.low.z", "must be in" });
+  expectRefused(scene + "region: {low: [0, 0, 0], top: [1, 1, 1]}\n", { "region", "top" });
+}

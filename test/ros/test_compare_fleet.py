@@ -28,7 +28,6 @@ class CompareFleetTest(unittest.TestCase):
                 command += ["--node", node]
             run = subprocess.run(command, capture_output=True, text=True, timeout=280)
             self.assertEqual(run.returncode, 0, run.stdout + run.stderr)
-            self.assertIn("recommended for 1e-06 m: rk4", run.stdout)
             with open(os.path.join(output, "bead_orbit_compare_methods.csv")) as f:
                 rows = list(csv.DictReader(f))
             # the whole default set (14 fixed-step methods x 4 dt, dopri5 x 4 tolerances), once
@@ -42,6 +41,11 @@ class CompareFleetTest(unittest.TestCase):
                       float(r["position_error_m"]) <= 1e-6]
             self.assertEqual(min(float(r["cpu_s_per_sim_s"]) for r in within),
                              float(chosen[0]["cpu_s_per_sim_s"]))
+            # and the table says so (which method wins is a race of CPU times measured in two
+            # processes: rk4 at dt 0.01 and dopri5 are within 20 % of each other here)
+            line = next(l for l in run.stdout.splitlines() if l.startswith("recommended for"))
+            self.assertTrue(line.startswith("recommended for 1e-06 m: " + chosen[0]["integrator"]),
+                            (line, chosen[0]))
             self.assertGreater(os.path.getsize(
                 os.path.join(output, "bead_orbit_compare_methods.png")), 10000)
         finally:

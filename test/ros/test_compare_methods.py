@@ -1,11 +1,9 @@
 #!/usr/bin/python3
 """~compare_methods and ~accuracy seen from outside (compare_methods.test). Waits are wall-clock
 deadlines with polling; rates are compared within one run (before / during the study)."""
-import math
 import os
 import shutil
 import tempfile
-import threading
 import time
 import unittest
 
@@ -18,33 +16,12 @@ from constrained_particles.msg import (Accuracy, CompareMethodsAction, CompareMe
 from constrained_particles.srv import Reset
 from dynamic_reconfigure.client import Client
 from sensor_msgs.msg import Image
+from tf2_msgs.msg import TFMessage
+from topic_recorder import Recorder
 from wall_clock import WallClockWaits
 
 NODE = "/simulator"
 LIVE = "/live"
-
-
-class Recorder:
-    """Keeps the messages of a topic with their wall arrival times."""
-
-    def __init__(self, topic, kind, keep=2000):
-        self.lock = threading.Lock()
-        self.items = []
-        self.keep = keep
-        self.subscriber = rospy.Subscriber(topic, kind, self, queue_size=200)
-
-    def __call__(self, message):
-        with self.lock:
-            self.items.append((time.monotonic(), message))
-            del self.items[:-self.keep]
-
-    def since(self, start, end=math.inf):
-        with self.lock:
-            return [m for t, m in self.items if start <= t <= end]
-
-    def latest(self):
-        with self.lock:
-            return self.items[-1][1] if self.items else None
 
 
 class CompareMethodsTest(WallClockWaits, unittest.TestCase):
@@ -54,7 +31,7 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
         cls.client = actionlib.SimpleActionClient(NODE + "/compare_methods", CompareMethodsAction)
         assert cls.client.wait_for_server(rospy.Duration(60.0)), "no ~compare_methods server"
         cls.states = Recorder(NODE + "/state", SimState)
-        cls.tf = Recorder("/tf", rospy.AnyMsg, keep=5000)
+        cls.tf = Recorder("/tf", TFMessage, keep=5000)
         cls.reports = Recorder(LIVE + "/accuracy", Accuracy, keep=100)
         cls.reconfigure = Client(LIVE, timeout=60.0)
 
@@ -68,10 +45,16 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
     def test_study_keeps_real_time_and_tf_and_writes_its_outputs(self):
         self.wait_until(lambda: self.states.latest() is not None and
                         self.states.latest().real_time_factor > 0.9, "the node at real time")
+        # the studying node's own frames (the live node's are live_particle_<i>)
+        def tf_rate(start, end):
+            ours = [m for m in self.tf.since(start, end)
+                    if m.transforms and m.transforms[0].child_frame_id.startswith("particle_")]
+            return len(ours) / (end - start)
+
         # the rate before, measured in this run
         before_start = time.monotonic()
         time.sleep(3.0)
-        tf_before = len(self.tf.since(before_start)) / (time.monotonic() - before_start)
+        tf_before = tf_rate(before_start, time.monotonic())
         output = tempfile.mkdtemp(prefix="compare_methods_")
         diagrams = Recorder(NODE + "/compare_methods/diagram", Image, keep=5)
         try:
@@ -86,9 +69,14 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
             self.assertGreater(len(inside), 10)
             factors = [s.real_time_factor for s in inside]
             self.assertGreaterEqual(min(factors), 0.95, factors)
-            # and tf its rate
-            tf_during = len(self.tf.since(start, end)) / (end - start)
-            self.assertGreaterEqual(tf_during, 0.9 * tf_before, (tf_during, tf_before))
+            # and tf its rate: against the rate before and after (other work on a shared
+            # machine may change meanwhile; a study that held up publishing is below both)
+            after_start = time.monotonic()
+            time.sleep(3.0)
+            tf_after = tf_rate(after_start, time.monotonic())
+            tf_during = tf_rate(start, end)
+            self.assertGreaterEqual(tf_during, 0.9 * min(tf_before, tf_after),
+                                    (tf_during, tf_before, tf_after))
             # feedback advanced to the end, one run at a time
             done = [f.done for f in feedback]
             self.assertEqual(done, sorted(done))

@@ -176,6 +176,11 @@ TEST(DocumentedRanges, ServiceDefinitionsShowTheLimits)
   EXPECT_NE(chain.find("particle_mass  # " + limits::MASS.text()), std::string::npos);
   const std::string step = readFile(std::string(SRV_DIR) + "/Step.srv");
   EXPECT_NE(step.find("steps     # " + limits::STEPS_PER_CALL.interval()), std::string::npos);
+  const std::string force = readFile(std::string(SRV_DIR) + "/ApplyForce.srv");
+  EXPECT_NE(force.find("force  # F, each component in " + limits::FORCE.interval() + " [N]"),
+            std::string::npos);
+  EXPECT_NE(force.find("duration             # " + limits::APPLIED_FORCE_DURATION.text()),
+            std::string::npos);
   const std::string state = readFile(std::string(SRV_DIR) + "/SetState.srv");
   EXPECT_NE(state.find(limits::COORDINATE.interval()), std::string::npos);
   EXPECT_NE(state.find(limits::VELOCITY.interval()), std::string::npos);

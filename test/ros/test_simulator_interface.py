@@ -11,7 +11,7 @@ import rospy
 import rostest
 from wall_clock import WallClockWaits
 import tf2_ros
-from constrained_particles.msg import SimState
+from constrained_particles.msg import SceneView, SimState
 from constrained_particles.srv import ListScenes, Reset, SetChain, SetState, SetSurface, Step
 from geometry_msgs.msg import Point, Vector3
 from std_srvs.srv import Empty
@@ -355,6 +355,12 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
         self.assertIsNotNone(self.latest_forces)
         self.assertGreaterEqual(self.latest_forces.markers[0].header.stamp, state.header.stamp)
         scale = rospy.get_param(f"{NODE}/force_scale")
+        if scale == 0.0:
+            # scaled to the scene: the largest arrow is 0.15 of its region's radius (~view)
+            view = rospy.wait_for_message(f"{NODE}/view", SceneView, timeout=WAIT)
+            largest = max(math.sqrt(f.x ** 2 + f.y ** 2 + f.z ** 2)
+                          for f in state.constraint_forces)
+            scale = 0.15 * view.radius / largest
         arrows = [m for m in self.latest_forces.markers
                   if m.ns == "constraint_forces" and m.action == Marker.ADD]
         self.assertEqual(len(arrows), len(state.positions))
@@ -370,9 +376,12 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
         type(self).deleted_arrows = set()
         self.assertTrue(self.set_chain(3, 0.5, 1.0, True).success)
         deadline = time.monotonic() + WAIT
-        while time.monotonic() < deadline and self.deleted_arrows != {3, 4}:
+        while time.monotonic() < deadline and not {3, 4} <= self.deleted_arrows:
             time.sleep(0.01)
-        self.assertEqual(self.deleted_arrows, {3, 4})
+        # the stale ones (and those of a shrink in the last second: the node repeats deletes,
+        # rviz keeps only the newest array), never a live one
+        self.assertLessEqual({3, 4}, self.deleted_arrows)
+        self.assertGreaterEqual(min(self.deleted_arrows), 3)
 
     def test_scene_markers(self):
         # a message published before setUp's reset may still be in flight: wait for a newer one
@@ -389,9 +398,11 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
         self.assertEqual(len(by_ns["particles"].points), 5)
         self.assertEqual(by_ns["links"].type, Marker.LINE_LIST)
         self.assertEqual(len(by_ns["links"].points), 8)
-        self.assertEqual(by_ns["surface"].type, Marker.TRIANGLE_LIST)
-        self.assertGreater(len(by_ns["surface"].points), 0)
-        self.assertEqual(len(by_ns["surface"].points) % 3, 0)
+        self.assertNotIn("surface", by_ns)  # on ~surface, once per scene
+        surface = rospy.wait_for_message(f"{NODE}/surface", MarkerArray, timeout=WAIT).markers[0]
+        self.assertEqual(surface.type, Marker.TRIANGLE_LIST)
+        self.assertGreater(len(surface.points), 0)
+        self.assertEqual(len(surface.points) % 3, 0)
 
     # --- dynamic_reconfigure ---
 

@@ -72,10 +72,14 @@ public:
   Data(const Data&) = delete;
   Data& operator=(const Data&) = delete;
 
-  State state;                         ///< positions, velocities (3 x n), time, steps
-  RowData rows;                        ///< rows at the last evaluated stage
-  RowData trial_rows;                  ///< rows at SHAKE's trial positions
-  Points applied_forces;               ///< f at the last stage [N] (3 x n)
+  State state;            ///< positions, velocities (3 x n), time, steps
+  RowData rows;           ///< rows at the last evaluated stage
+  RowData trial_rows;     ///< rows at SHAKE's trial positions
+  Points applied_forces;  ///< f at the last stage [N] (3 x n)
+  /// Forces from outside the model, set between steps (MuJoCo's xfrc_applied and mouse
+  /// perturbation): a push, a grabbed particle's target spring. Evaluated after the model's
+  /// forces, and counted with them, only while set (Simulator::setPerturbations).
+  std::vector<Force> perturbations;
   Points constraint_forces;            ///< J^T lambda plus eliminated reactions [N] (3 x n)
   Points accelerations;                ///< a = a0 + W J^T lambda [m/s^2] (3 x n)
   std::vector<ImposedMotion> imposed;  ///< each eliminated record's motion at the stage's time (e)

@@ -2,8 +2,10 @@
 /// @brief The registry of applied-force kinds, and dispatch over them.
 ///
 /// Each kind lives in its own file under effects/: a record (KIND, fields()) with the stateless
-/// functions accumulateForce, potentialEnergy and validate. Adding a kind means writing that file
-/// and adding the record to `Force` below; the stepper, validation and scene files follow.
+/// functions accumulateForce, potentialEnergy and validate, and addStiffness for the kinds whose
+/// force depends on position (springs: the stability estimate reads it). Adding a kind means
+/// writing that file and adding the record to `Force` below; the stepper, validation and scene
+/// files follow.
 #pragma once
 
 #include "constrained_particles/core/effects/external_force.hpp"
@@ -11,15 +13,18 @@
 #include "constrained_particles/core/effects/linear_damping.hpp"
 #include "constrained_particles/core/effects/quadratic_drag.hpp"
 #include "constrained_particles/core/effects/spring.hpp"
+#include "constrained_particles/core/effects/target_spring.hpp"
 
+#include <type_traits>
+#include <utility>
 #include <variant>
 #include <vector>
 
 namespace constrained_particles
 {
 /// One applied force of a scene: the registry of force kinds.
-using Force =
-    std::variant<GravityForce, LinearDampingForce, ExternalForce, QuadraticDragForce, SpringForce>;
+using Force = std::variant<GravityForce, LinearDampingForce, ExternalForce, QuadraticDragForce,
+                           SpringForce, TargetSpringForce>;
 
 /// Number of force kinds.
 constexpr int NUM_FORCE_KINDS = static_cast<int>(std::variant_size_v<Force>);
@@ -37,6 +42,41 @@ inline double potentialEnergy(const Force& force, const std::vector<double>& mas
                               const Points& positions)
 {
   return std::visit([&](const auto& f) { return potentialEnergy(f, masses, positions); }, force);
+}
+
+namespace detail
+{
+template <typename Kind, typename = void>
+struct HasStiffness : std::false_type
+{
+};
+template <typename Kind>
+struct HasStiffness<
+    Kind, std::void_t<decltype(addStiffness(std::declval<const Kind&>(), std::declval<double*>()))>>
+  : std::true_type
+{
+};
+}  // namespace detail
+
+/// Whether the force depends on position (it gives the stability estimate a stiffness). Named
+/// apart from the kinds' addStiffness: a kind converts to Force, so an overload would recurse.
+inline bool forceHasStiffness(const Force& force)
+{
+  return std::visit(
+      [](const auto& f) { return detail::HasStiffness<std::decay_t<decltype(f)>>::value; }, force);
+}
+
+/// Adds the force's stiffness row sums [N/m] per particle (n entries) for the stability
+/// estimate (stability.hpp); nothing for kinds that do not depend on position.
+inline void addForceStiffness(const Force& force, double* stiffness)
+{
+  std::visit(
+      [&](const auto& f)
+      {
+        if constexpr (detail::HasStiffness<std::decay_t<decltype(f)>>::value)
+          addStiffness(f, stiffness);
+      },
+      force);
 }
 
 /// Throws InvalidInput if the record is malformed for a scene of num_particles particles.

@@ -127,8 +127,16 @@ constexpr Range REAL_TIME_FACTOR{ 0.001, false, 100.0, "1", false };
 constexpr Range PUBLISH_RATE{ 0.1, false, 1000.0, "Hz", false };
 /// One-line status log period [s], 0 = off.
 constexpr Range STATUS_PERIOD{ 0.0, false, 3600.0, "s", false };
-/// Constraint-force arrow length per newton [m/N].
-constexpr Range FORCE_SCALE{ 0.0, true, 1e3, "m/N", false };
+/// Constraint-force arrow length per newton [m/N]; 0 = scaled to the scene (the largest arrow a
+/// fixed share of its region's size).
+constexpr Range FORCE_SCALE{ 0.0, false, 1e3, "m/N", false };
+/// Particle frames sent on /tf: -1 = all, up to DEFAULT_TF_FRAMES (warned when capped); 0 = none;
+/// N = the first N.
+constexpr Range TF_FRAMES{ -1.0, false, 1e6, "1", true };
+/// The most particle frames /tf carries with ~tf_frames = -1 (~particles carries every particle).
+constexpr int DEFAULT_TF_FRAMES = 1000;
+/// How long a force ~apply_force applies acts [s]; 0 = until ~clear_forces.
+constexpr Range APPLIED_FORCE_DURATION{ 0.0, false, 1e6, "s", false };
 /// Constraint error beyond which the node stops stepping [m].
 constexpr Range MAX_CONSTRAINT_ERROR{ 0.0, true, 1e3, "m", false };
 /// Surface mesh cells per side in ~scene (2 triangles each).

@@ -65,9 +65,16 @@ public:
   /// @throws InvalidInput if it does not fit this model or is not finite; state untouched
   void restoreState(const State& state);
 
-  /// Replaces the scene's applied forces, keeping the state (e.g. gravity changed at run time).
-  /// @throws InvalidInput naming the bad force; nothing changes
+  /// Replaces the scene's applied forces, keeping the state (e.g. gravity changed at run time)
+  /// and the perturbations. @throws InvalidInput naming the bad force; nothing changes
   void setForces(const std::vector<Force>& forces);
+
+  /// Replaces the forces applied from outside the model (Data::perturbations: a push, a grabbed
+  /// particle's target spring), evaluated from the next step on beside the model's own and
+  /// counted with them; empty = none. Cheap: no recompilation. A conservative scene's energy
+  /// check is off while any is set (they do work on it). A new scene (setScene) starts without.
+  /// @throws InvalidInput naming "perturbations[k].<field>"; nothing changes
+  void setPerturbations(const std::vector<Force>& perturbations);
 
   const Model& model() const
   {

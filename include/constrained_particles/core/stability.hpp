@@ -14,6 +14,7 @@
 /// docs/physics.md, "Step checks and sub-steps".
 #pragma once
 
+#include "constrained_particles/core/forces.hpp"
 #include "constrained_particles/core/model.hpp"
 
 #include <Eigen/Core>
@@ -25,10 +26,12 @@ constexpr double STABILITY_SAFETY = 0.9;
 
 /// Upper bound on the highest frequency omega_max [rad/s] of the linearised motion at
 /// `positions` and `time` with the row multipliers `multipliers` (m, then eliminated reactions,
-/// as Data::multipliers holds them). `stiffness` is a workspace, resized to n. No allocation once
-/// sized.
+/// as Data::multipliers holds them), with the springs among the model's forces and among
+/// `perturbations` (Data::perturbations). `stiffness` is a workspace, resized to n. No
+/// allocation once sized.
 double estimateMaxFrequency(const Model& model, const Eigen::VectorXd& multipliers,
-                            const Points& positions, double time, Eigen::VectorXd& stiffness);
+                            const Points& positions, double time, Eigen::VectorXd& stiffness,
+                            const std::vector<Force>& perturbations = {});
 
 /// The fewest sub-steps, a power of two, that keep omega dt / substeps <= STABILITY_SAFETY
 /// stability_limit, capped at max_substeps (>= 1). omega [rad/s], dt [s].

@@ -12,40 +12,35 @@ namespace constrained_particles
 {
 /// Namespace of the constraint-force arrows; marker id = particle index.
 constexpr const char* CONSTRAINT_FORCE_NAMESPACE = "constraint_forces";
+/// With ~force_scale 0 the largest arrow is this share of the region's radius [1].
+constexpr double FORCE_ARROW_FRACTION = 0.15;
 
-/// One ARROW per particle from its position [m] along its constraint force [N], length
-/// force_scale [m/N] per newton, coloured blue (smallest) to red (largest magnitude). Arrows with
-/// ids in [positions.cols(), previous_count) are deleted.
+/// The diameter particles are drawn with [m]: 0.3 of the shortest link (0.15 m without links).
+double particleSize(const Model& model);
+
+/// Arrow length per newton [m/N]: `force_scale` if > 0, else FORCE_ARROW_FRACTION of
+/// `region_radius` [m] over the largest force (0 when every force is 0).
+double arrowScale(double force_scale, const Points& forces, double region_radius);
+
+/// One ARROW per particle from its position [m] along its constraint force [N], `scale` [m/N]
+/// per newton (arrowScale), coloured by |f| / the largest |f| now: blue at 0 to red at 1. Arrows
+/// with ids in [positions.cols(), previous_count) are deleted.
 visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& header,
                                                        const Points& positions,
-                                                       const Points& forces, double force_scale,
+                                                       const Points& forces, double scale,
                                                        int previous_count);
 
-/// Triangle mesh of a surface over an x-y region, cached until the particles leave it.
-class SurfaceMeshCache
-{
-public:
-  /// @param cells cells per side of the mesh, in limits::MESH_CELLS (2 triangles per cell)
-  explicit SurfaceMeshCache(int cells = 40) : cells_(cells)
-  {
-  }
+/// The scene's surfaces as one TRIANGLE_LIST mesh (ns "surface", id 0) over the region's x-y
+/// extent, `cells` cells per side (2 triangles each; cells where a formula is undefined left out),
+/// or a DELETE of it when the scene has no surface. Made once per scene (~surface, latched).
+visualization_msgs::MarkerArray surfaceMarkers(const std_msgs::Header& header, const Model& model,
+                                               const Vec3& region_low, const Vec3& region_high,
+                                               int cells);
 
-  /// The mesh of every surface of the model around the given particles, rebuilt when the scene
-  /// changed (`scene_changed`) or a particle left the meshed region.
-  const visualization_msgs::Marker& mesh(const std_msgs::Header& header, const Model& model,
-                                         const Points& positions, bool scene_changed);
-
-private:
-  int cells_;
-  visualization_msgs::Marker marker_;
-  double min_x_ = 0, max_x_ = -1, min_y_ = 0, max_y_ = -1;  // meshed region [m]
-};
-
-/// Scene markers: particles (SPHERE_LIST, ns "particles"), links (LINE_LIST, ns "links"), and
-/// the surface mesh (TRIANGLE_LIST, ns "surface"); an absent kind is sent as DELETE.
+/// Scene markers: particles (SPHERE_LIST, ns "particles") and links (LINE_LIST, ns "links"; a
+/// DELETE when there are none).
 visualization_msgs::MarkerArray sceneMarkers(const std_msgs::Header& header, const Model& model,
-                                             const Points& positions, SurfaceMeshCache& mesh_cache,
-                                             bool scene_changed);
+                                             const Points& positions);
 
 /// Namespaces of the live accuracy's ghosts: the shadow reference's particles and the segments
 /// from each live particle to its reference (their length is the error).

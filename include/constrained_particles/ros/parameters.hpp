@@ -49,10 +49,12 @@ struct NodeParameters
   int max_particles = 100000;              ///< largest scene accepted
   std::string fixed_frame = "world";       ///< parent of every particle frame
   std::string frame_prefix = "particle_";  ///< child frame = prefix + index
-  double force_scale = 0.05;               ///< arrow length per newton [m/N]
-  double max_constraint_error = 0.1;       ///< fault beyond this constraint error [m]
-  int mesh_cells = 40;                     ///< surface mesh cells per side
-  bool publish_clock = false;              ///< publish /clock from sim time and stamp with it
+  double force_scale = 0.0;                ///< arrow length per newton [m/N]; 0 = auto
+  int tf_frames = -1;  ///< frames on /tf: -1 all up to limits::DEFAULT_TF_FRAMES, 0 none, N first N
+  bool interactive = false;           ///< grab-and-drag interactive markers on ~grab (GrabMarkers)
+  double max_constraint_error = 0.1;  ///< fault beyond this constraint error [m]
+  int mesh_cells = 40;                ///< surface mesh cells per side
+  bool publish_clock = false;         ///< publish /clock from sim time and stamp with it
   /// Live accuracy window against a shadow reference [s], 0 = off (SimulationRunner)
   double accuracy_window = 0.0;
 
@@ -69,7 +71,9 @@ struct NodeParameters
         field("max_particles", &NodeParameters::max_particles, FieldKind::Number,
               &limits::PARTICLES, "largest scene accepted"),
         field("force_scale", &NodeParameters::force_scale, FieldKind::Number, &limits::FORCE_SCALE,
-              "constraint-force arrow length per newton"),
+              "constraint-force arrow length per newton, 0 = scaled to the scene"),
+        field("tf_frames", &NodeParameters::tf_frames, FieldKind::Number, &limits::TF_FRAMES,
+              "particle frames on /tf: -1 = all up to 1000, 0 = none, N = the first N"),
         field("max_constraint_error", &NodeParameters::max_constraint_error, FieldKind::Number,
               &limits::MAX_CONSTRAINT_ERROR, "stepping stops beyond this constraint error"),
         field("mesh_cells", &NodeParameters::mesh_cells, FieldKind::Number, &limits::MESH_CELLS,
@@ -85,7 +89,9 @@ struct NodeParameters
         field("frame_prefix", &NodeParameters::frame_prefix, FieldKind::Name, nullptr,
               "child frames are <frame_prefix><i>"),
         field("publish_clock", &NodeParameters::publish_clock, FieldKind::Name, nullptr,
-              "publish /clock from sim time"));
+              "publish /clock from sim time"),
+        field("interactive", &NodeParameters::interactive, FieldKind::Name, nullptr,
+              "grab-and-drag interactive markers on ~grab"));
   }
 };
 
@@ -93,6 +99,9 @@ struct NodeParameters
 /// scene override (damping, gravity and dynamic_reconfigure's gravity_x, _y, _z, chain/*); nullptr
 /// for names (integrator, frames) and unknown names. dynamic_reconfigure's ranges must be these.
 const Range* settingRange(const std::string& name);
+
+/// Particle frames /tf carries for a scene of `particles` with ~tf_frames = `tf_frames`.
+int tfFrameCount(int particles, int tf_frames);
 
 /// Reads every parameter from the (private) node handle, over the defaults.
 /// @throws InvalidInput naming the parameter ("~chain/link_length") and its valid range

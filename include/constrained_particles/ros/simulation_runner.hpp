@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <map>
 #include <future>
 #include <memory>
 #include <mutex>
@@ -94,6 +95,10 @@ struct Snapshot
   std::shared_ptr<const Points> reference_positions;
   /// Live accuracy windows skipped so far because the shadow was busy (counted as they pass).
   std::uint64_t skipped_windows = 0;
+  /// The scene's region of interest (sceneRegion): camera, surface mesh, force-arrow scale.
+  RegionSpec region;
+  /// Forces applied by ~apply_force acting now, and particles held by a drag.
+  std::uint32_t applied_forces = 0, dragged_particles = 0;
 };
 
 /// Whether stepping is behind its real-time factor, with hysteresis: a single slow window of a
@@ -130,6 +135,13 @@ public:
   static constexpr double TIME_JUMP = 1e-3;
   /// Window over which the achieved real-time factor and the lag are measured [s].
   static constexpr double RATE_WINDOW = 1.0;
+  /// A dragged particle is pulled by a critically damped target spring of frequency
+  /// w = min(DRAG_FREQUENCY, DRAG_STEP_LIMIT / dt): k = m w^2, c = 2 m w. w dt <= 0.2 keeps every
+  /// explicit integrator stable on the spring alone (the stability estimate sees it too).
+  static constexpr double DRAG_FREQUENCY = 10.0;  // [rad/s]
+  static constexpr double DRAG_STEP_LIMIT = 0.2;  // [1]
+  /// Most forces ~apply_force may have acting at once.
+  static constexpr std::size_t MAX_APPLIED_FORCES = 1000;
 
   /// Who reads statistics: each gets the merged statistics of every step since it last read.
   enum class Reader
@@ -179,6 +191,22 @@ public:
   /// refused otherwise, naming the field, with nothing changed.
   RunnerReply reconfigure(
       const std::function<void(NodeParameters&, const SceneDescription&)>& edit);
+  /// Pushes `particle` with `force` [N] from the next step on, for the steps that begin within
+  /// `duration` [s] of now (ceil(duration / dt) steps), or until clearForces() if `duration` is 0:
+  /// an external force the step evaluates only while it acts (Simulator::setPerturbations).
+  /// Refused naming `particle`, `force.x` .. or `duration` and the valid range; at most
+  /// MAX_APPLIED_FORCES at once. A reset or scene change ends them all.
+  RunnerReply applyForce(long particle, const Vec3& force, double duration);
+  /// Ends every force applyForce started (the reply says how many).
+  RunnerReply clearForces();
+  /// Pulls `particle` towards `target` [m] with a critically damped target spring (see
+  /// DRAG_FREQUENCY) from the next batch until release(); a later call moves the target. Not
+  /// waited for (a mouse sends these at its own rate): a particle out of range or a target
+  /// outside limits::COORDINATE is ignored (the caller checks what it sends: GrabMarkers does). A
+  /// reset or scene change releases every particle.
+  void drag(int particle, const Vec3& target);
+  /// Ends the pull on `particle` (-1: on every particle). Not waited for.
+  void release(int particle);
 
 private:
   using Clock = std::chrono::steady_clock;
@@ -197,6 +225,14 @@ private:
   };
 
   RunnerReply submit(std::function<RunnerReply()> apply);
+  /// Queues `apply` like submit() but returns at once (its reply is dropped).
+  void post(std::function<RunnerReply()> apply);
+  /// Hands the applied forces and drags to the simulator (Simulator::setPerturbations) and ends
+  /// the open accuracy window (the shadow does not feel them).
+  void updatePerturbations();
+  /// Drops applied forces whose time is up; returns the steps until the next one ends (or
+  /// `limit`), so a chunk ends exactly there.
+  std::uint64_t expireForces(std::uint64_t limit);
   /// Sets stopping_ and wakes the loop (stop() and the destructor).
   void requestStop();
   /// Waits for a reply, giving up (refused) when the runner stops.
@@ -263,6 +299,14 @@ private:
   Clock::time_point anchor_wall_, window_wall_, last_snapshot_wall_;
   double anchor_sim_ = 0, window_sim_ = 0, window_dropped_ = 0, achieved_rtf_ = 0;
   BehindMonitor behind_monitor_;
+  RegionSpec region_;  // sceneRegion of the current scene
+  struct AppliedForce
+  {
+    ExternalForce force;
+    double end_time = 0;  // sim time it stops acting [s]; infinite: until cleared
+  };
+  std::vector<AppliedForce> applied_;
+  std::map<int, Vec3> drags_;  // particle -> target [m]
   std::optional<AccuracyWindow> window_;
   std::unique_ptr<ShadowReference> shadow_;  // made when ~accuracy_window is first on
   std::shared_ptr<const AccuracyReport> accuracy_;

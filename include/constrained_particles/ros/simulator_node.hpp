@@ -6,11 +6,14 @@
 #include "constrained_particles/SimulatorConfig.h"
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/ros/compare_methods_server.hpp"
+#include "constrained_particles/ros/grab_markers.hpp"
 #include "constrained_particles/ros/markers.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 #include "constrained_particles/ros/reconfigure_server.hpp"
 #include "constrained_particles/ros/simulation_runner.hpp"
 
+#include <constrained_particles/ApplyForce.h>
+#include <constrained_particles/ClearForces.h>
 #include <constrained_particles/ListScenes.h>
 #include <constrained_particles/Reset.h>
 #include <constrained_particles/SetChain.h>
@@ -55,6 +58,16 @@ public:
 private:
   /// Publishes the snapshot's accuracy report on ~accuracy once (latched).
   void publishAccuracy(const Snapshot& snap, const std_msgs::Header& header);
+  /// Once per scene, whoever listens (latched, so a late subscriber gets the current scene's):
+  /// ~surface (the mesh over the region) and ~view (the region). Caller holds publish_mutex_.
+  void publishSceneOnce(const Snapshot& snap);
+  /// publishSceneOnce for the latest snapshot, from a service that changed the scene.
+  void publishNewScene();
+  /// /tf's message for the snapshot's scene: names made once per scene and frame count, with a
+  /// one-line warning when ~tf_frames = -1 caps the frames.
+  void prepareFrames(const Snapshot& snap);
+  /// ~particles: x, y, z [m] and |constraint force| [N] per particle (sensor_msgs/PointCloud2).
+  void publishParticles(const Snapshot& snap, const std_msgs::Header& header);
   /// Shows the settings, gravity and damping in force in dynamic_reconfigure.
   void pushReconfigure();
 
@@ -66,6 +79,8 @@ private:
   bool pauseCallback(std_srvs::Empty::Request& request, std_srvs::Empty::Response& response);
   bool unpauseCallback(std_srvs::Empty::Request& request, std_srvs::Empty::Response& response);
   bool stepCallback(Step::Request& request, Step::Response& response);
+  bool applyForceCallback(ApplyForce::Request& request, ApplyForce::Response& response);
+  bool clearForcesCallback(ClearForces::Request& request, ClearForces::Response& response);
   /// Applies the fields of a dynamic_reconfigure request that differ from what the server showed
   /// (so a request built on a stale view cannot undo a ~reset); false (and nothing changed) if
   /// any value is bad. `in_force` gets the settings then in force.
@@ -84,19 +99,21 @@ private:
   ros::AsyncSpinner publish_spinner_;
   std::unique_ptr<SimulationRunner> runner_;
   std::unique_ptr<CompareMethodsServer> compare_methods_;  // reads runner_: goes first
+  std::unique_ptr<GrabMarkers> grab_markers_;              // likewise
 
   std::mutex publish_mutex_;  // publish() only: timer callbacks may overlap on the spinner
   double last_stamp_ = -1.0;  // ~publish_clock: the last stamp sent [s]
   std::chrono::steady_clock::time_point last_tf_broadcast_;  // wall time of the last /tf
-  std::uint64_t frames_scene_serial_ = 0, markers_scene_serial_ = 0;
-  tf2_msgs::TFMessage tf_message_;  // frame names filled once per scene
+  std::uint64_t frames_scene_serial_ = 0, published_scene_serial_ = 0, warned_scene_serial_ = 0;
+  tf2_msgs::TFMessage tf_message_;  // frame names filled once per scene and frame count
   int published_arrows_ = 0;
+  int stale_arrows_ = 0;  // arrow ids up to this are deleted until stale_arrows_until_
+  std::chrono::steady_clock::time_point stale_arrows_until_;
   std::uint64_t published_accuracy_serial_ = 0;
   std::string logged_fault_;  // diagnostics timer: the fault last logged
-  SurfaceMeshCache mesh_cache_;
-
   ros::Publisher clock_publisher_, tf_publisher_, state_publisher_, force_marker_publisher_,
-      scene_marker_publisher_, diagnostics_publisher_, accuracy_publisher_;
+      scene_marker_publisher_, diagnostics_publisher_, accuracy_publisher_, particles_publisher_,
+      surface_publisher_, view_publisher_;
   std::vector<ros::ServiceServer> services_;
   ros::WallTimer publish_timer_, status_timer_, diagnostics_timer_;
   std::unique_ptr<ReconfigureServer<SimulatorConfig>> reconfigure_server_;

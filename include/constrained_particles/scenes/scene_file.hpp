@@ -89,6 +89,37 @@ struct ChainChange
 /// @throws InvalidInput naming the field and its valid range
 void validateChainChange(const ChainChange& change, int max_particles, const std::string& prefix);
 
+/// A scene's region of interest: the axis-aligned box its motion is expected to stay in [m]. The
+/// node frames rviz's camera on it (~view), meshes surfaces over its x-y extent (~surface) and
+/// scales constraint-force arrows to its size (~force_scale 0).
+struct RegionSpec
+{
+  Vec3 low = Vec3::Zero();   ///< lowest corner [m]
+  Vec3 high = Vec3::Zero();  ///< highest corner [m], >= low on every axis
+
+  static constexpr auto fields()
+  {
+    return std::make_tuple(
+        field("low", &RegionSpec::low, FieldKind::Vector, &limits::COORDINATE, "lowest corner"),
+        field("high", &RegionSpec::high, FieldKind::Vector, &limits::COORDINATE,
+              "highest corner, >= low"));
+  }
+
+  /// Radius of a sphere about center() that holds the motion [m]; 0 = half the diagonal.
+  /// sceneRegion sets it (a chain's reach is a sphere, tighter than its bounding box).
+  double reach = 0.0;
+
+  Vec3 center() const
+  {
+    return 0.5 * (low + high);
+  }
+  /// `reach` if set, else half the diagonal [m].
+  double radius() const
+  {
+    return reach > 0.0 ? reach : 0.5 * (high - low).norm();
+  }
+};
+
 /// A named height field.
 struct NamedSurface
 {
@@ -121,6 +152,7 @@ struct SceneDescription
   /// from the initial state by buildScene
   std::vector<Constraint> constraints;
   SolverSpec solver;
+  std::optional<RegionSpec> region;  ///< `region`, if the file sets one (see sceneRegion)
 
   /// Total particle count: explicit plus every chain's.
   long numParticles() const;
@@ -148,6 +180,18 @@ SceneDescription loadSceneFile(const std::string& path);
 /// their starts, angles as they start) completed by each kind's fillFromStart.
 /// @throws InvalidInput naming the bad field
 BuiltScene buildScene(const SceneDescription& description);
+
+/// Least margin the region keeps around the particles [m].
+constexpr double REGION_MARGIN = 0.25;
+
+/// The region of interest of a scene starting from `initial` (its built initial state): the
+/// particles' bounding box grown by REGION_MARGIN, joined with the file's `region` if it sets one,
+/// else with a cube about each chain's first particle reaching the chain's length plus
+/// REGION_MARGIN on each side (the chain can swing that far about it); then grown in z to hold
+/// the surfaces over its x-y extent (where they are defined), as ~surface meshes them. Its
+/// `reach` is the radius about its centre that holds the particles' box, each chain's reach
+/// (a sphere) and the meshed surfaces: what a camera must see.
+RegionSpec sceneRegion(const SceneDescription& description, const State& initial);
 
 /// Names (file stems) of the *.yaml scene files in a directory, sorted.
 std::vector<std::string> listScenes(const std::string& directory);

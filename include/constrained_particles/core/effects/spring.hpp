@@ -54,6 +54,14 @@ inline double potentialEnergy(const SpringForce& spring, const std::vector<doubl
   return 0.5 * spring.stiffness * stretch * stretch;
 }
 
+/// The stability estimate's row sums: k I blocks at i and j, 2 k each (the geometric part, from
+/// the direction's turning, is smaller) [N/m].
+inline void addStiffness(const SpringForce& spring, double* stiffness)
+{
+  stiffness[spring.first] += 2.0 * spring.stiffness;
+  stiffness[spring.second] += 2.0 * spring.stiffness;
+}
+
 /// @throws InvalidInput naming the bad field
 inline void validate(const SpringForce& spring, int num_particles, const std::string& prefix)
 {

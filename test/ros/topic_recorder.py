@@ -1,0 +1,30 @@
+"""A topic's messages with their wall-clock arrival times, for the rostests' polled waits."""
+import math
+import threading
+import time
+
+import rospy
+
+
+class Recorder:
+    """Keeps the last `keep` messages of a topic, each with its time.monotonic() arrival."""
+
+    def __init__(self, topic, kind, keep=2000, queue_size=200):
+        self.lock = threading.Lock()
+        self.items = []
+        self.keep = keep
+        self.subscriber = rospy.Subscriber(topic, kind, self, queue_size=queue_size)
+
+    def __call__(self, message):
+        with self.lock:
+            self.items.append((time.monotonic(), message))
+            del self.items[:-self.keep]
+
+    def since(self, start, end=math.inf):
+        """The messages that arrived in [start, end] (wall, time.monotonic())."""
+        with self.lock:
+            return [m for t, m in self.items if start <= t <= end]
+
+    def latest(self):
+        with self.lock:
+            return self.items[-1][1] if self.items else None
