@@ -7,8 +7,8 @@ Turns the node's ~interactive on (dynamic_reconfigure), then sends the interacti
 feedback rviz sends when a user grabs particle PARTICLE's marker on ~grab and moves it: a
 MOUSE_DOWN where the particle is, pose updates moving the marker to (X, Y, Z) [m, in the node's
 fixed frame] over --seconds, then holds it there for --hold seconds (0 = until Ctrl-C) and lets
-go (MOUSE_UP). While held, the particle is pulled towards the marker by a critically damped
-spring (README "Grab, drag and push").
+go (MOUSE_UP; on Ctrl-C too). While held, the particle is pulled towards the marker by a
+critically damped spring (README "Grab, drag and push"). ~interactive stays on afterwards.
 """
 import argparse
 import sys
@@ -42,12 +42,16 @@ def main():
     parser.add_argument("y", type=float)
     parser.add_argument("z", type=float)
     parser.add_argument("--node", default="/simulator")
-    parser.add_argument("--frame", default="world", help="the node's ~fixed_frame")
+    parser.add_argument("--frame", default=None,
+                        help="the node's ~fixed_frame (default: read from the parameter server)")
     parser.add_argument("--seconds", type=float, default=1.0, help="time to move the marker")
     parser.add_argument("--hold", type=float, default=3.0, help="then hold it (0 = until Ctrl-C)")
     args = parser.parse_args(rospy.myargv()[1:])
-    rospy.init_node("drag", anonymous=True)
+    # our own Ctrl-C: the MOUSE_UP below must still go out (rospy's handler would stop it)
+    rospy.init_node("drag", anonymous=True, disable_signals=True)
     node = "/" + args.node.strip("/")
+    if args.frame is None:
+        args.frame = rospy.get_param(node + "/fixed_frame", "world")
     Client(node, timeout=30.0).update_configuration({"interactive": True})
     state = rospy.wait_for_message(node + "/state", SimState, timeout=30.0)
     if not 0 <= args.particle < len(state.positions):
@@ -73,15 +77,18 @@ def main():
                                        InteractiveMarkerFeedback.POSE_UPDATE, position))
             rate.sleep()
         held_until = time.monotonic() + args.hold if args.hold > 0 else float("inf")
-        while time.monotonic() < held_until and not rospy.is_shutdown():
+        while time.monotonic() < held_until:
             publisher.publish(feedback(args.frame, args.particle,
                                        InteractiveMarkerFeedback.POSE_UPDATE, target))
             rate.sleep()
-    except (KeyboardInterrupt, rospy.ROSInterruptException):
+    except KeyboardInterrupt:
         pass
-    publisher.publish(feedback(args.frame, args.particle, InteractiveMarkerFeedback.MOUSE_UP,
-                               target))
-    time.sleep(0.2)
+    finally:
+        # let go (the node also lets go of a marker nobody has held for 2 s)
+        publisher.publish(feedback(args.frame, args.particle,
+                                   InteractiveMarkerFeedback.MOUSE_UP, target))
+        time.sleep(0.2)
+        rospy.signal_shutdown("released")
 
 
 if __name__ == "__main__":

@@ -17,7 +17,6 @@ import argparse
 import math
 import os
 import sys
-import tempfile
 
 import rospy
 import yaml
@@ -73,8 +72,10 @@ def main():
     if args.write_only:
         path = args.write_only
     else:
-        handle, path = tempfile.mkstemp(prefix="constrained_particles_", suffix=".rviz")
-        os.close(handle)
+        # one file per node, rewritten at each start (rviz reads it while it runs)
+        home = os.environ.get("ROS_HOME", os.path.join(os.path.expanduser("~"), ".ros"))
+        os.makedirs(home, exist_ok=True)
+        path = os.path.join(home, "constrained_particles%s.rviz" % node.replace("/", "_"))
     with open(path, "w") as f:
         yaml.safe_dump(config, f, default_flow_style=False, sort_keys=False)
     rospy.signal_shutdown("config written")

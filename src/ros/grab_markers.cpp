@@ -36,7 +36,7 @@ int particleOf(const std::string& name)
 
 GrabMarkers::GrabMarkers(const ros::NodeHandle& private_nh, SimulationRunner& runner,
                          std::string fixed_frame)
-  : server_(private_nh.resolveName("grab")), runner_(runner), fixed_frame_(std::move(fixed_frame))
+  : runner_(runner), fixed_frame_(std::move(fixed_frame)), server_(private_nh.resolveName("grab"))
 {
 }
 
@@ -48,7 +48,22 @@ int GrabMarkers::markerCount(int particles, int tf_frames)
 
 void GrabMarkers::update(const Snapshot& snap)
 {
-  if (snap.serial == snapshot_serial_)
+  const std::uint64_t scene = marker_scene_;
+  // holders gone without a MOUSE_UP: let go
+  {
+    const auto now = std::chrono::steady_clock::now();
+    std::lock_guard<std::mutex> lock(held_mutex_);
+    for (auto it = held_.begin(); it != held_.end();)
+      if (now - it->second > std::chrono::duration<double>(HOLD_TIMEOUT))
+      {
+        runner_.release(scene, it->first);
+        it = held_.erase(it);
+      }
+      else
+        ++it;
+  }
+  // nothing non-finite reaches a marker (the node's publish() says why it skipped the state)
+  if (snap.serial == snapshot_serial_ || !isFinite(snap.state))
     return;
   snapshot_serial_ = snap.serial;
   const Points& p = snap.state.positions;
@@ -60,17 +75,20 @@ void GrabMarkers::update(const Snapshot& snap)
       shown_ = 0;
       server_.clear();
       server_.applyChanges();
-      runner_.release(-1);
+      runner_.release(0, -1);
       std::lock_guard<std::mutex> lock(held_mutex_);
       held_.clear();
     }
     return;
   }
   const int count = markerCount(n, snap.parameters.tf_frames);
-  if (snap.scene_serial != scene_serial_ || count != shown_ || n != particles_)
+  if (snap.scene_serial != scene || count != shown_ || n != particles_)
   {
-    // a new scene (the runner released its drags) or another count: markers made anew
+    // a new scene, or another count: markers made anew, and whatever was held let go (rviz
+    // loses the marker it held, so no MOUSE_UP would come)
     shown_ = 0;
+    marker_scene_ = snap.scene_serial;
+    runner_.release(0, -1);
     {
       std::lock_guard<std::mutex> lock(held_mutex_);
       held_.clear();
@@ -102,12 +120,11 @@ void GrabMarkers::update(const Snapshot& snap)
       server_.insert(marker, [this](const InteractiveMarkerFeedback::ConstPtr& f) { feedback(f); });
     }
     particles_ = n;
-    scene_serial_ = snap.scene_serial;
     server_.applyChanges();
     shown_ = count;
     return;
   }
-  std::set<int> held;
+  std::map<int, std::chrono::steady_clock::time_point> held;
   {
     std::lock_guard<std::mutex> lock(held_mutex_);
     held = held_;
@@ -123,13 +140,22 @@ void GrabMarkers::feedback(const InteractiveMarkerFeedback::ConstPtr& f)
   const int particle = particleOf(f->marker_name);
   if (particle < 0 || particle >= shown_)
     return;
+  const std::uint64_t scene = marker_scene_;
   if (f->event_type == InteractiveMarkerFeedback::MOUSE_UP)
   {
     {
       std::lock_guard<std::mutex> lock(held_mutex_);
       held_.erase(particle);
     }
-    runner_.release(particle);
+    runner_.release(scene, particle);
+    return;
+  }
+  if (f->event_type == InteractiveMarkerFeedback::KEEP_ALIVE)
+  {
+    // still held: the pull goes on
+    std::lock_guard<std::mutex> lock(held_mutex_);
+    if (auto it = held_.find(particle); it != held_.end())
+      it->second = std::chrono::steady_clock::now();
     return;
   }
   if (f->event_type != InteractiveMarkerFeedback::MOUSE_DOWN &&
@@ -146,9 +172,9 @@ void GrabMarkers::feedback(const InteractiveMarkerFeedback::ConstPtr& f)
     return;
   {
     std::lock_guard<std::mutex> lock(held_mutex_);
-    held_.insert(particle);
+    held_[particle] = std::chrono::steady_clock::now();
   }
-  runner_.drag(particle, target);
+  runner_.drag(scene, particle, target);
 }
 
 }  // namespace constrained_particles

@@ -52,13 +52,23 @@ double particleSize(const Model& model)
   return 0.3 * (shortest > 0.0 ? shortest : 0.5);
 }
 
-double arrowScale(double force_scale, const Points& forces, double region_radius)
+double arrowScale(double force_scale, const Points& forces, double region_radius,
+                  double force_floor)
 {
   if (force_scale > 0.0)
     return force_scale;
-  const double largest = forces.cols() > 0 ? forces.colwise().norm().maxCoeff() : 0.0;
+  const double largest =
+      std::max(forces.cols() > 0 ? forces.colwise().norm().maxCoeff() : 0.0, force_floor);
   return largest > 0.0 && std::isfinite(largest) ? FORCE_ARROW_FRACTION * region_radius / largest
                                                  : 0.0;
+}
+
+double arrowForceFloor(const Model& model)
+{
+  double mass = 0.0;
+  for (const double m : model.scene().masses)
+    mass += m;
+  return ARROW_FORCE_FLOOR * mass * 9.81;
 }
 
 visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& header,

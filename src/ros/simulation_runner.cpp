@@ -155,20 +155,6 @@ RunnerReply SimulationRunner::submit(std::function<RunnerReply()> apply)
   return await(future);
 }
 
-void SimulationRunner::post(std::function<RunnerReply()> apply)
-{
-  auto request = std::make_shared<Request>();
-  request->apply = std::move(apply);
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    if (stopping_)
-      return;
-    request->queued_at_batch = batches_;
-    queue_.push_back(request);
-  }
-  wake_.notify_all();
-}
-
 // ---- requests (their lambdas run on the physics thread) ----
 
 RunnerReply SimulationRunner::reset(const std::string& scenario)
@@ -378,13 +364,19 @@ RunnerReply SimulationRunner::applyForce(long particle, const Vec3& force, doubl
         if (applied_.size() >= MAX_APPLIED_FORCES)
           return refused("applied forces: " + std::to_string(applied_.size()) +
                          " act already, the most at once; call ~clear_forces");
-        const double now = simulator_->state().time;
+        const State& now = simulator_->state();
+        // the steps that begin within `duration`: counted in steps, so round-off in the summed
+        // time cannot add or drop one (a duration within 1e-9 dt of N dt counts as N steps)
+        const double dt = simulator_->stepSettings().dt;
+        const auto steps = static_cast<std::uint64_t>(
+            std::max(1.0, std::ceil(std::min(duration / dt, 1e15) - 1e-9)));
         applied_.push_back(AppliedForce{ ExternalForce{ static_cast<int>(particle), force },
-                                         duration > 0.0 ? now + duration : INFINITY });
+                                         duration > 0.0 ? now.steps + steps : 0 });
         updatePerturbations();
         return accepted("force applied to particle " + std::to_string(particle) +
-                        (duration > 0.0 ? " for " + formatValue(duration) +
-                                              " s from t = " + formatValue(now) + " s"
+                        (duration > 0.0 ? " for " + std::to_string(steps) + " steps (" +
+                                              formatValue(duration) +
+                                              " s) from t = " + formatValue(now.time) + " s"
                                         : std::string(" until ~clear_forces")) +
                         " (" + std::to_string(applied_.size()) + " acting)");
       });
@@ -402,36 +394,72 @@ RunnerReply SimulationRunner::clearForces()
       });
 }
 
-void SimulationRunner::drag(int particle, const Vec3& target)
+void SimulationRunner::drag(std::uint64_t scene_serial, int particle, const Vec3& target)
 {
-  post(
-      [this, particle, target]
-      {
-        if (particle >= 0 && particle < simulator_->model().numParticles() &&
-            limits::COORDINATE.contains(target.x()) && limits::COORDINATE.contains(target.y()) &&
-            limits::COORDINATE.contains(target.z()))
-        {
-          drags_[particle] = target;
-          updatePerturbations();
-        }
-        return accepted("");
-      });
+  {
+    std::lock_guard<std::mutex> lock(drag_mutex_);
+    drag_inbox_.push_back(DragUpdate{ scene_serial, particle, target, false });
+  }
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);  // not between the loop's check and its wait
+    drag_inbox_dirty_ = true;
+  }
+  wake_.notify_all();
 }
 
-void SimulationRunner::release(int particle)
+void SimulationRunner::release(std::uint64_t scene_serial, int particle)
 {
-  post(
-      [this, particle]
-      {
-        const std::size_t before = drags_.size();
-        if (particle < 0)
-          drags_.clear();
-        else
-          drags_.erase(particle);
-        if (drags_.size() != before)
-          updatePerturbations();
-        return accepted("");
-      });
+  {
+    std::lock_guard<std::mutex> lock(drag_mutex_);
+    drag_inbox_.push_back(DragUpdate{ scene_serial, particle, Vec3::Zero(), true });
+  }
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    drag_inbox_dirty_ = true;
+  }
+  wake_.notify_all();
+}
+
+void SimulationRunner::applyDragInbox()
+{
+  if (!drag_inbox_dirty_)
+    return;
+  std::vector<DragUpdate> updates;
+  {
+    std::lock_guard<std::mutex> lock(drag_mutex_);
+    updates.swap(drag_inbox_);
+    drag_inbox_dirty_ = false;
+  }
+  const std::size_t before = drags_.size();
+  bool changed = false;
+  for (const DragUpdate& u : updates)
+  {
+    // made for another scene (a marker rviz still held across a reset): not this one's particle
+    if (u.scene_serial != scene_serial_ && u.scene_serial != 0)
+      continue;
+    if (u.release)
+    {
+      changed |= u.particle < 0 ? !drags_.empty() : drags_.count(u.particle) > 0;
+      if (u.particle < 0)
+        drags_.clear();
+      else
+        drags_.erase(u.particle);
+    }
+    else if (u.particle >= 0 && u.particle < simulator_->model().numParticles() &&
+             limits::COORDINATE.contains(u.target.x()) &&
+             limits::COORDINATE.contains(u.target.y()) && limits::COORDINATE.contains(u.target.z()))
+    {
+      drags_[u.particle] = u.target;
+      changed = true;
+    }
+  }
+  if (!changed)
+    return;
+  updatePerturbations();
+  // a new target moves only the spring: the next batch's snapshot shows it; a grab or a release
+  // changes what ~state reports at once
+  if (drags_.size() != before)
+    snapshot_due_ = true;
 }
 
 void SimulationRunner::updatePerturbations()
@@ -440,33 +468,49 @@ void SimulationRunner::updatePerturbations()
   forces.reserve(applied_.size() + drags_.size());
   for (const AppliedForce& applied : applied_)
     forces.push_back(applied.force);
-  const double w = std::min(DRAG_FREQUENCY, DRAG_STEP_LIMIT / simulator_->stepSettings().dt);
+  const double dt = simulator_->stepSettings().dt;
   for (const auto& [particle, target] : drags_)
   {
     const double m = simulator_->model().scene().masses[particle];
+    // critically damped (c = 2 m w) within the ranges a target spring takes: a heavy particle
+    // is pulled more slowly rather than refused
+    const double w =
+        std::min({ DRAG_FREQUENCY, DRAG_STEP_LIMIT / dt, limits::DAMPING.high / (2.0 * m),
+                   std::sqrt(limits::STIFFNESS.high / m) });
     forces.push_back(TargetSpringForce{ particle, target, m * w * w, 2.0 * m * w });
   }
-  simulator_->setPerturbations(forces);
+  try
+  {
+    simulator_->setPerturbations(forces);
+  }
+  catch (const InvalidInput&)
+  {
+    // every record was checked on its way in: not reached; never leave forces half set
+    applied_.clear();
+    drags_.clear();
+    simulator_->setPerturbations({});
+  }
   // the shadow reference does not feel them: the window would measure the push, not the method
   abandonWindow();
-  snapshot_due_ = true;
 }
 
 std::uint64_t SimulationRunner::expireForces(std::uint64_t limit)
 {
-  const double t = simulator_->state().time, dt = simulator_->stepSettings().dt;
-  std::uint64_t next = limit;
+  const std::uint64_t steps = simulator_->state().steps;
   const std::size_t before = applied_.size();
-  // steps that begin before the end: ceil((end - t) / dt), round-off of t forgiven
-  auto stepsLeft = [&](const AppliedForce& a) { return std::ceil((a.end_time - t) / dt - 1e-6); };
-  applied_.erase(std::remove_if(applied_.begin(), applied_.end(),
-                                [&](const AppliedForce& a) { return !(stepsLeft(a) >= 1.0); }),
-                 applied_.end());
+  applied_.erase(
+      std::remove_if(applied_.begin(), applied_.end(),
+                     [&](const AppliedForce& a) { return a.end_step != 0 && a.end_step <= steps; }),
+      applied_.end());
   if (applied_.size() != before)
+  {
     updatePerturbations();
+    snapshot_due_ = true;
+  }
+  std::uint64_t next = limit;
   for (const AppliedForce& a : applied_)
-    if (std::isfinite(a.end_time))
-      next = std::min(next, static_cast<std::uint64_t>(std::min(stepsLeft(a), 1e15)));
+    if (a.end_step != 0)
+      next = std::min(next, a.end_step - steps);
   return next;
 }
 
@@ -477,6 +521,7 @@ void SimulationRunner::loop()
   while (!stopping_)
   {
     const bool applied = applyRequests();
+    applyDragInbox();
     const bool stepped = !stopping_ && runBatch();
     updateAccuracy();
     const Clock::time_point now = Clock::now();
@@ -499,7 +544,8 @@ void SimulationRunner::loop()
                                                std::chrono::duration<double>(until_next)));
     }
     std::unique_lock<std::mutex> lock(queue_mutex_);
-    wake_.wait_until(lock, wake, [this] { return stopping_ || !queue_.empty(); });
+    wake_.wait_until(lock, wake,
+                     [this] { return stopping_ || !queue_.empty() || drag_inbox_dirty_; });
   }
   // refuse what is still queued, and a running ~step with what it took
   std::deque<std::shared_ptr<Request>> left;
@@ -592,7 +638,6 @@ bool SimulationRunner::runBatch()
           window_->sample_steps[window_->recorded] - simulator_->state().steps));
     // an applied force's last step ends a chunk too: it is dropped exactly after it
     steps_now = static_cast<int>(expireForces(static_cast<std::uint64_t>(std::max(steps_now, 1))));
-    steps_now = std::max(steps_now, 1);
     last_chunk_ = chunk;
     const Clock::time_point chunk_start = Clock::now();
     const double cpu_start = window_ ? threadCpuSeconds() : 0.0;
@@ -608,6 +653,7 @@ bool SimulationRunner::runBatch()
     {
       batch.merge(statistics);
       taken += static_cast<std::uint64_t>(steps_now);
+      expireForces(0);
       last_good_ = simulator_->state();
       if (window_ && window_->recorded < static_cast<int>(window_->sample_steps.size()) &&
           simulator_->state().steps == window_->sample_steps[window_->recorded])
@@ -753,6 +799,11 @@ void SimulationRunner::rebuild(const SceneDescription& description, const StepSe
   // the new Data holds no perturbations: pushes and drags end with the scene they acted on
   applied_.clear();
   drags_.clear();
+  {
+    std::lock_guard<std::mutex> lock(drag_mutex_);
+    drag_inbox_.clear();
+    drag_inbox_dirty_ = false;
+  }
   region_ = sceneRegion(description, built.initial_state);
   // the clock runs on across the reset: stamps never go back (see Snapshot::stamp)
   clock_base_ += time_before + TIME_JUMP;

@@ -262,6 +262,8 @@ void SimulatorNode::publish()
   StepStatistics statistics;
   const std::shared_ptr<const Snapshot> snap =
       runner_->snapshot(SimulationRunner::Reader::State, statistics);
+  // interactive markers first: shown, hidden or let go even while sim time stands still
+  grab_markers_->update(*snap);
   // with sim time as stamps, only what is new: tf2 rejects a repeated stamp (TF_REPEATED_DATA)
   if (parameters_.publish_clock && !(snap->stamp > last_stamp_))
     return;
@@ -395,10 +397,11 @@ void SimulatorNode::publish()
     }
     if (now > stale_arrows_until_)
       stale_arrows_ = 0;
-    force_marker_publisher_.publish(constraintForceMarkers(
-        header, snap->state.positions, snap->constraint_forces,
-        arrowScale(parameters_.force_scale, snap->constraint_forces, snap->region.radius()),
-        std::max(published_arrows_, stale_arrows_)));
+    force_marker_publisher_.publish(
+        constraintForceMarkers(header, snap->state.positions, snap->constraint_forces,
+                               arrowScale(parameters_.force_scale, snap->constraint_forces,
+                                          snap->region.radius(), arrowForceFloor(*snap->model)),
+                               std::max(published_arrows_, stale_arrows_)));
     published_arrows_ = n;
   }
   if (scene_marker_publisher_.getNumSubscribers() > 0)
@@ -412,7 +415,6 @@ void SimulatorNode::publish()
                            std::max(0.2, 3.0 / snap->parameters.publish_rate)));
   }
   publishAccuracy(*snap, header);
-  grab_markers_->update(*snap);
 }
 
 void SimulatorNode::publishSceneOnce(const Snapshot& snap)

@@ -813,6 +813,13 @@ void setChains(SceneDescription& d, const ChainChange& change)
                            "' names chain particles by index in its forces or constraints, so "
                            "its chains keep their counts (link_length and particle_mass may "
                            "change)");
+  // the file's region was drawn around its own chains: longer or more chains need theirs
+  const bool reach_changes = std::any_of(
+      d.chains.begin(), d.chains.end(),
+      [&](const ChainSpec& c)
+      { return c.particles != change.num_particles || c.link_length != change.link_length; });
+  if (reach_changes)
+    d.region.reset();
   for (ChainSpec& spec : d.chains)
   {
     spec.particles = static_cast<int>(change.num_particles);

@@ -18,7 +18,8 @@ import rostest
 import yaml
 from wall_clock import WallClockWaits
 from constrained_particles.msg import SimState
-from constrained_particles.srv import ListScenes, Reset, SetChain, SetState, SetSurface, Step
+from constrained_particles.srv import (ApplyForce, ClearForces, ListScenes, Reset, SetChain,
+                                       SetState, SetSurface, Step)
 from dynamic_reconfigure.msg import Config, DoubleParameter, StrParameter
 from dynamic_reconfigure.srv import Reconfigure
 from geometry_msgs.msg import Point, Vector3
@@ -82,7 +83,7 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node("fuzz_services_test")
         for name in ("reset", "list_scenes", "set_surface", "set_chain", "set_state", "pause",
-                     "unpause", "step", "set_parameters"):
+                     "unpause", "step", "set_parameters", "apply_force", "clear_forces"):
             rospy.wait_for_service(f"{NODE}/{name}", timeout=60.0)
 
         def proxy(name, kind):
@@ -97,6 +98,8 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
         cls.unpause = proxy("unpause", Empty)
         cls.step = proxy("step", Step)
         cls.reconfigure = proxy("set_parameters", Reconfigure)
+        cls.apply_force = proxy("apply_force", ApplyForce)
+        cls.clear_forces = proxy("clear_forces", ClearForces)
         cls.latest = None
         rospy.Subscriber(f"{NODE}/state", SimState, cls._on_state, queue_size=1)
 
@@ -131,10 +134,13 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
 
         chain_count = CHAIN_COUNTS[scene]
 
+        pushes = [0]  # forces ~apply_force started since the scene last changed (at most)
+
         def reset_to(name):
             nonlocal scene, particles, chain_count
             response = self.reset(name)
             if response.success:
+                pushes[0] = 0
                 if name:
                     scene = name
                     chain_count = CHAIN_COUNTS.get(name, 0)
@@ -176,6 +182,7 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
                 if r.success:
                     particles = int(re.search(r"\((\d+) particles", r.message).group(1))
                     chain_count = request[0]
+                    pushes[0] = 0
             elif kind < 0.38:  # ~set_surface
                 choice = rng.random()
                 if choice < 0.35:
@@ -186,11 +193,15 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
                         coefficients[1] = rng.uniform(0.2, 2.0)  # width > 0
                     r = self.set_surface(kind_name, coefficients, "")
                     tally.record("set_surface", scene in with_surface, r.success, r.message)
+                    if r.success:
+                        pushes[0] = 0
                 elif choice < 0.5:
                     formula = rng.choice(["0.3*sin(2*x)*cos(y)", "x^2/4 + y^2/4", "0.1*x - 0.2*y",
                                           "tanh(x)*0.2", "exp(-(x^2+y^2))"])
                     r = self.set_surface("expression", [], formula)
                     tally.record("set_surface", scene in with_surface, r.success, r.message)
+                    if r.success:
+                        pushes[0] = 0
                 else:
                     bad = rng.choice([
                         ("cone", [], ""), ("", [], ""), ("bowl", [NAN], ""),
@@ -253,6 +264,27 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
             elif kind < 0.80:  # ~list_scenes
                 names = self.list_scenes().names
                 tally.record("list_scenes", True, list(names) == scenes, "names changed")
+            elif kind < 0.86:  # ~apply_force, ~clear_forces
+                if rng.random() < 0.1 or pushes[0] >= 900:
+                    r = self.clear_forces()
+                    tally.record("clear_forces", True, r.success, r.message)
+                    pushes[0] = 0
+                    continue
+                request = [rng.randrange(particles), [rng.uniform(-10, 10) for _ in range(3)],
+                           rng.choice([0.0, rng.uniform(0.0, 0.05)])]
+                valid = rng.random() < 0.5
+                if not valid:  # one field out of range
+                    field = rng.randrange(3)
+                    if field == 0:
+                        request[0] = rng.choice([particles, particles + 7, 2**32 - 1])
+                    elif field == 1:
+                        request[1][rng.randrange(3)] = rng.choice([NAN, INF, -INF, 1e10, -1e300])
+                    else:
+                        request[2] = rng.choice([-1e-9, -1.0, NAN, INF, 1e7])
+                r = self.apply_force(request[0], Vector3(*request[1]), request[2])
+                tally.record("apply_force", valid, r.success, r.message)
+                if r.success:
+                    pushes[0] += 1
             else:  # dynamic_reconfigure's set_parameters
                 valid = rng.random() < 0.4
                 config = Config()

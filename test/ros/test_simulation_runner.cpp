@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <future>
 #include <thread>
 
@@ -389,6 +390,80 @@ TEST(SimulationRunner, AccuracyWindowsAreSkippedNotWaitedFor)
   ASSERT_TRUE(waitFor([&] { return runner.snapshot()->skipped_windows > 0; }));
   // and stepping went on meanwhile, windows past the first one's end
   EXPECT_GT(runner.snapshot()->state.time, start + 2 * p.accuracy_window);
+}
+
+// An applied force acts on exactly ceil(duration / dt) steps, however the steps are chunked,
+// ends a ~step that reaches its last step reported gone, and bad requests change nothing.
+TEST(SimulationRunner, AppliedForcesActOnTheirStepsExactly)
+{
+  SimulationRunner runner(parametersFor("bead"), scene("bead"));
+  runner.start(true);
+  StepStatistics s;
+  runner.snapshot(SimulationRunner::Reader::State, s);
+  // 10.5 ms at dt = 1 ms: 11 steps; one within 1e-9 dt of 11 ms counts as 11 too
+  ASSERT_TRUE(runner.applyForce(0, Vec3(1.0, 0.0, 0.0), 0.0105).success);
+  ASSERT_TRUE(runner.applyForce(0, Vec3(0.0, 1.0, 0.0), 0.011 + 1e-13).success);
+  EXPECT_EQ(runner.snapshot()->applied_forces, 2u);
+  ASSERT_TRUE(runner.step(10).success);
+  EXPECT_EQ(runner.snapshot()->applied_forces, 2u);
+  ASSERT_TRUE(runner.step(1).success);  // the 11th: both end with it, not a step later
+  EXPECT_EQ(runner.snapshot()->applied_forces, 0u);
+  ASSERT_TRUE(runner.step(30).success);
+  runner.snapshot(SimulationRunner::Reader::State, s);
+  std::uint64_t pushes = 0;
+  forEachEffectCount(s.effects,
+                     [&](const char* kind, std::uint64_t count)
+                     {
+                       if (std::string(kind) == "external")
+                         pushes = count;
+                     });
+  // rk4: four evaluations per step, 11 steps each, and the stability estimate's evaluation at the
+  // first step after the change
+  EXPECT_EQ(pushes, 2u * (11u * 4u + 1u));
+  // until cleared; the most at once; bad requests name the field and change nothing
+  for (std::size_t k = 0; k < SimulationRunner::MAX_APPLIED_FORCES; ++k)
+    ASSERT_TRUE(runner.applyForce(0, Vec3(0.0, 0.0, 1e-3), 0.0).success);
+  EXPECT_FALSE(runner.applyForce(0, Vec3::Zero(), 0.0).success);
+  EXPECT_EQ(runner.applyForce(1, Vec3::Zero(), 0.0).field, "particle");
+  EXPECT_EQ(runner.applyForce(0, Vec3(0.0, NAN, 0.0), 0.0).field, "force.y");
+  EXPECT_EQ(runner.applyForce(0, Vec3::Zero(), -1.0).field, "duration");
+  EXPECT_EQ(runner.snapshot()->applied_forces, SimulationRunner::MAX_APPLIED_FORCES);
+  const RunnerReply cleared = runner.clearForces();
+  EXPECT_NE(cleared.message.find("cleared 1000"), std::string::npos) << cleared.message;
+  EXPECT_EQ(runner.snapshot()->applied_forces, 0u);
+}
+
+// A drag pulls until released; one made for another scene (a marker held across a reset) is
+// dropped; a very heavy particle is pulled (slower), not refused; a reset lets go.
+TEST(SimulationRunner, DragsFollowTheirSceneAndEndOnRelease)
+{
+  SimulationRunner runner(parametersFor("chain"), scene("chain"));
+  runner.start(true);
+  const std::uint64_t serial = runner.snapshot()->scene_serial;
+  runner.drag(serial + 1, 4, Vec3(1.0, 0.0, 1.0));  // another scene's: dropped
+  ASSERT_TRUE(runner.step(1).success);
+  EXPECT_EQ(runner.snapshot()->dragged_particles, 0u);
+  runner.drag(serial, 4, Vec3(1.0, 0.0, 1.0));
+  ASSERT_TRUE(waitFor([&] { return runner.snapshot()->dragged_particles == 1u; }));
+  ASSERT_TRUE(runner.step(100).success);
+  runner.release(serial, 4);
+  ASSERT_TRUE(waitFor([&] { return runner.snapshot()->dragged_particles == 0u; }));
+  // 1e6 kg: w = 0.5 rad/s keeps c = 2 m w inside limits::DAMPING
+  SceneDescription heavy = scene("chain");
+  ChainChange change;
+  change.num_particles = 5;
+  change.particle_mass = 1e6;
+  setChains(heavy, change);
+  SimulationRunner heavy_runner(parametersFor("chain"), heavy);
+  heavy_runner.start(true);
+  const std::uint64_t heavy_serial = heavy_runner.snapshot()->scene_serial;
+  heavy_runner.drag(heavy_serial, 4, Vec3(1.0, 0.0, 1.0));
+  ASSERT_TRUE(waitFor([&] { return heavy_runner.snapshot()->dragged_particles == 1u; }));
+  const RunnerReply stepped = heavy_runner.step(100);
+  EXPECT_TRUE(stepped.success) << stepped.message;
+  EXPECT_TRUE(isFinite(heavy_runner.snapshot()->state));
+  ASSERT_TRUE(heavy_runner.reset("").success);
+  EXPECT_EQ(heavy_runner.snapshot()->dragged_particles, 0u);
 }
 
 }  // namespace constrained_particles

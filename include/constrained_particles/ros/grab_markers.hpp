@@ -13,8 +13,9 @@
 #include <visualization_msgs/InteractiveMarkerFeedback.h>
 
 #include <atomic>
+#include <chrono>
+#include <map>
 #include <mutex>
-#include <set>
 #include <string>
 
 namespace constrained_particles
@@ -36,19 +37,25 @@ public:
   /// every drag (not), rebuilds them for a new scene or count, and moves those nobody holds.
   void update(const Snapshot& snap);
 
+  /// A held particle whose holder sent nothing for this long is let go (rviz or drag.py gone
+  /// without a MOUSE_UP) [s]; rviz repeats a held marker's pose (or a keep-alive) meanwhile.
+  static constexpr double HOLD_TIMEOUT = 2.0;
+
 private:
   void feedback(const visualization_msgs::InteractiveMarkerFeedbackConstPtr& feedback);
 
-  interactive_markers::InteractiveMarkerServer server_;
   SimulationRunner& runner_;
   std::string fixed_frame_;
   // the server calls feedback() holding its own lock: held_mutex_ is never held while calling it
   std::mutex held_mutex_;
-  std::set<int> held_;           // particles a user is dragging
-  std::atomic<int> shown_{ 0 };  // markers on the server
+  std::map<int, std::chrono::steady_clock::time_point> held_;  // particle -> last feedback
+  std::atomic<int> shown_{ 0 };                                // markers on the server
+  std::atomic<std::uint64_t> marker_scene_{ 0 };  // the scene serial the markers were made for
   // the publishing thread's own
   int particles_ = 0;  // the scene's particle count when the markers were made
-  std::uint64_t scene_serial_ = 0, snapshot_serial_ = 0;
+  std::uint64_t snapshot_serial_ = 0;
+  // last: destroyed first, so no feedback arrives while the members above go
+  interactive_markers::InteractiveMarkerServer server_;
 };
 
 }  // namespace constrained_particles

@@ -18,9 +18,18 @@ constexpr double FORCE_ARROW_FRACTION = 0.15;
 /// The diameter particles are drawn with [m]: 0.3 of the shortest link (0.15 m without links).
 double particleSize(const Model& model);
 
+/// With ~force_scale 0, forces below this share of the scene's weight (total mass x 9.81 m/s^2)
+/// are not blown up to full-length arrows: round-off in a scene at rest stays invisible [1].
+constexpr double ARROW_FORCE_FLOOR = 1e-3;
+
 /// Arrow length per newton [m/N]: `force_scale` if > 0, else FORCE_ARROW_FRACTION of
-/// `region_radius` [m] over the largest force (0 when every force is 0).
-double arrowScale(double force_scale, const Points& forces, double region_radius);
+/// `region_radius` [m] over the largest force, or over `force_floor` [N] if that is larger (0
+/// when both are 0).
+double arrowScale(double force_scale, const Points& forces, double region_radius,
+                  double force_floor);
+
+/// ARROW_FORCE_FLOOR of the model's weight [N].
+double arrowForceFloor(const Model& model);
 
 /// One ARROW per particle from its position [m] along its constraint force [N], `scale` [m/N]
 /// per newton (arrowScale), coloured by |f| / the largest |f| now: blue at 0 to red at 1. Arrows

@@ -137,7 +137,9 @@ public:
   static constexpr double RATE_WINDOW = 1.0;
   /// A dragged particle is pulled by a critically damped target spring of frequency
   /// w = min(DRAG_FREQUENCY, DRAG_STEP_LIMIT / dt): k = m w^2, c = 2 m w. w dt <= 0.2 keeps every
-  /// explicit integrator stable on the spring alone (the stability estimate sees it too).
+  /// explicit integrator stable on the spring alone (the stability estimate sees it too). A
+  /// heavy particle's w is lowered so that k and c stay inside limits::STIFFNESS and
+  /// limits::DAMPING (it is pulled more slowly).
   static constexpr double DRAG_FREQUENCY = 10.0;  // [rad/s]
   static constexpr double DRAG_STEP_LIMIT = 0.2;  // [1]
   /// Most forces ~apply_force may have acting at once.
@@ -191,8 +193,8 @@ public:
   /// refused otherwise, naming the field, with nothing changed.
   RunnerReply reconfigure(
       const std::function<void(NodeParameters&, const SceneDescription&)>& edit);
-  /// Pushes `particle` with `force` [N] from the next step on, for the steps that begin within
-  /// `duration` [s] of now (ceil(duration / dt) steps), or until clearForces() if `duration` is 0:
+  /// Pushes `particle` with `force` [N] from the next step on, for ceil(duration / dt) steps at
+  /// the dt in force now (at least one), or until clearForces() if `duration` is 0 [s]:
   /// an external force the step evaluates only while it acts (Simulator::setPerturbations).
   /// Refused naming `particle`, `force.x` .. or `duration` and the valid range; at most
   /// MAX_APPLIED_FORCES at once. A reset or scene change ends them all.
@@ -201,12 +203,13 @@ public:
   RunnerReply clearForces();
   /// Pulls `particle` towards `target` [m] with a critically damped target spring (see
   /// DRAG_FREQUENCY) from the next batch until release(); a later call moves the target. Not
-  /// waited for (a mouse sends these at its own rate): a particle out of range or a target
-  /// outside limits::COORDINATE is ignored (the caller checks what it sends: GrabMarkers does). A
-  /// reset or scene change releases every particle.
-  void drag(int particle, const Vec3& target);
+  /// waited for: a mouse sends these at its own rate, and the runner reads the newest once per
+  /// batch. `scene_serial` is the Snapshot::scene_serial the caller's particle index belongs to
+  /// (0: the current scene); an update for another scene, a particle out of range or a target
+  /// outside limits::COORDINATE is dropped. A reset or scene change releases every particle.
+  void drag(std::uint64_t scene_serial, int particle, const Vec3& target);
   /// Ends the pull on `particle` (-1: on every particle). Not waited for.
-  void release(int particle);
+  void release(std::uint64_t scene_serial, int particle);
 
 private:
   using Clock = std::chrono::steady_clock;
@@ -225,14 +228,14 @@ private:
   };
 
   RunnerReply submit(std::function<RunnerReply()> apply);
-  /// Queues `apply` like submit() but returns at once (its reply is dropped).
-  void post(std::function<RunnerReply()> apply);
   /// Hands the applied forces and drags to the simulator (Simulator::setPerturbations) and ends
-  /// the open accuracy window (the shadow does not feel them).
+  /// the open accuracy window (the shadow does not feel them). Never throws.
   void updatePerturbations();
-  /// Drops applied forces whose time is up; returns the steps until the next one ends (or
-  /// `limit`), so a chunk ends exactly there.
+  /// Drops applied forces whose steps are done; returns the steps until the next one ends (at
+  /// most `limit`), so a chunk ends exactly there.
   std::uint64_t expireForces(std::uint64_t limit);
+  /// Takes the drag updates posted since the last batch.
+  void applyDragInbox();
   /// Sets stopping_ and wakes the loop (stop() and the destructor).
   void requestStop();
   /// Waits for a reply, giving up (refused) when the runner stops.
@@ -303,10 +306,20 @@ private:
   struct AppliedForce
   {
     ExternalForce force;
-    double end_time = 0;  // sim time it stops acting [s]; infinite: until cleared
+    std::uint64_t end_step = 0;  // State::steps at which it stops acting; 0: until cleared
   };
   std::vector<AppliedForce> applied_;
   std::map<int, Vec3> drags_;  // particle -> target [m]
+  struct DragUpdate
+  {
+    std::uint64_t scene_serial = 0;
+    int particle = 0;
+    Vec3 target = Vec3::Zero();
+    bool release = false;
+  };
+  std::mutex drag_mutex_;  // guards drag_inbox_ (any thread posts, the physics thread takes)
+  std::vector<DragUpdate> drag_inbox_;
+  std::atomic<bool> drag_inbox_dirty_{ false };
   std::optional<AccuracyWindow> window_;
   std::unique_ptr<ShadowReference> shadow_;  // made when ~accuracy_window is first on
   std::shared_ptr<const AccuracyReport> accuracy_;

@@ -202,7 +202,9 @@ std::string resolveScene(const std::string& name_or_path, const std::string& dir
                          const std::string& field = "scenario");
 
 /// Applies a chain change to every chain of the scene (pin_first only to chains not on a
-/// surface). @throws InvalidInput if the scene has no chain, or names chain particles by index
+/// surface); a change of count or link length drops the file's `region` (sceneRegion then
+/// follows the new chains). @throws InvalidInput if the scene has no chain, or names chain
+/// particles by index
 void setChains(SceneDescription& description, const ChainChange& change);
 
 /// Replaces the scene's first surface. @throws InvalidInput if it has none
