@@ -11,6 +11,7 @@ go (MOUSE_UP; on Ctrl-C too). While held, the particle is pulled towards the mar
 critically damped spring (README "Grab, drag and push"). ~interactive stays on afterwards.
 """
 import argparse
+import signal
 import sys
 import time
 
@@ -47,7 +48,12 @@ def main():
     parser.add_argument("--seconds", type=float, default=1.0, help="time to move the marker")
     parser.add_argument("--hold", type=float, default=3.0, help="then hold it (0 = until Ctrl-C)")
     args = parser.parse_args(rospy.myargv()[1:])
-    # our own Ctrl-C: the MOUSE_UP below must still go out (rospy's handler would stop it)
+    # our own Ctrl-C and SIGTERM: the MOUSE_UP below must still go out (rospy's handler would
+    # stop it first), and a shell's background job starts with SIGINT ignored
+    def interrupt(*_):
+        raise KeyboardInterrupt
+    signal.signal(signal.SIGINT, interrupt)
+    signal.signal(signal.SIGTERM, interrupt)
     rospy.init_node("drag", anonymous=True, disable_signals=True)
     node = "/" + args.node.strip("/")
     if args.frame is None:

@@ -26,6 +26,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_CONFIG = os.path.join(HERE, "..", "config", "simulator.rviz")
 # the shipped config's topics are /simulator/...: another node's replace that prefix
 SHIPPED_NODE = "/simulator"
+# the drawn particle's least diameter, a share of the region's radius [1]
+POINT_SIZE_FLOOR = 0.006
 
 
 def framed(config, view, node, hide_panels):
@@ -39,7 +41,9 @@ def framed(config, view, node, hide_panels):
     manager["Global Options"]["Fixed Frame"] = view.header.frame_id or "world"
     for display in manager["Displays"]:
         if display.get("Class") == "rviz/PointCloud2":
-            display["Size (m)"] = max(view.particle_size, 1e-4)
+            # the node's particle size, but at least a few pixels at this distance (1,000
+            # particles on 5 mm links would be dust)
+            display["Size (m)"] = max(view.particle_size, POINT_SIZE_FLOOR * view.radius)
         for key in ("Topic", "Marker Topic", "Update Topic", "Image Topic"):
             topic = display.get(key)
             if isinstance(topic, str) and topic.startswith(SHIPPED_NODE + "/"):

@@ -41,10 +41,22 @@ Xvfb ":$DISPLAY_NUMBER" -screen 0 1280x800x24 >"$LOGS/xvfb.log" 2>&1 &
 XVFB_PID=$!
 LAUNCH_PID=""
 DRAG_PID=""
+# stops what we started, by its process group (setsid below): SIGINT as Ctrl-C would, then
+# SIGTERM, then SIGKILL, each after a wall-clock wait (a background job may ignore SIGINT)
+stop_group() {
+  local pid="$1"
+  for sig in INT TERM KILL; do
+    kill "-$sig" -- "-$pid" 2>/dev/null || return 0
+    for _ in $(seq 100); do
+      kill -0 "$pid" 2>/dev/null || { wait "$pid" 2>/dev/null; return 0; }
+      sleep 0.1
+    done
+  done
+}
 cleanup() {
-  [[ -n "$DRAG_PID" ]] && kill -INT "$DRAG_PID" 2>/dev/null && wait "$DRAG_PID" 2>/dev/null
-  [[ -n "$LAUNCH_PID" ]] && kill -INT "$LAUNCH_PID" 2>/dev/null && wait "$LAUNCH_PID" 2>/dev/null
-  kill "$XVFB_PID" 2>/dev/null || true
+  [[ -n "$DRAG_PID" ]] && stop_group "$DRAG_PID"
+  [[ -n "$LAUNCH_PID" ]] && stop_group "$LAUNCH_PID"
+  kill "$XVFB_PID" 2>/dev/null && wait "$XVFB_PID" 2>/dev/null
   rm -rf "$LOGS"
 }
 trap cleanup EXIT
@@ -52,7 +64,8 @@ export DISPLAY=":$DISPLAY_NUMBER"
 sleep 1
 ARGS=(scenario:="$SCENARIO" rviz:=true rviz_args:="--hide-panels")
 [[ -n "$PARAMS" ]] && ARGS+=(params:="$PARAMS")
-roslaunch -p "$PORT" constrained_particles simulator.launch "${ARGS[@]}" >"$LOGS/launch.log" 2>&1 &
+setsid roslaunch -p "$PORT" constrained_particles simulator.launch "${ARGS[@]}" \
+  >"$LOGS/launch.log" 2>&1 &
 LAUNCH_PID=$!
 # the node up (or gone: a scene it refuses) before the clock starts
 for _ in $(seq 600); do
@@ -67,7 +80,7 @@ done
 if [[ -n "$DRAG" ]]; then
   sleep "$(python3 -c "print(max(0.0, $WAIT - 3.0))")"
   # shellcheck disable=SC2086  # PARTICLE X Y Z as separate words
-  python3 "$ROOT/scripts/drag.py" $DRAG --seconds 1.5 --hold 0 >"$LOGS/drag.log" 2>&1 &
+  setsid python3 "$ROOT/scripts/drag.py" $DRAG --seconds 1.5 --hold 0 >"$LOGS/drag.log" 2>&1 &
   DRAG_PID=$!
   sleep 3
 else
