@@ -27,7 +27,9 @@ namespace
 {
 SimulatorConfig configFrom(const NodeParameters& p, const SceneDescription& scene)
 {
-  SimulatorConfig c;
+  // value-initialised: the generated group copy (c.groups) has fields, bool ones included, that
+  // no constructor sets, and copying an unset bool is undefined (UBSan stops the node on it)
+  SimulatorConfig c{};
   c.dt = p.step.dt;
   c.real_time_factor = p.real_time_factor;
   c.publish_rate = p.publish_rate;
