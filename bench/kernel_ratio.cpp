@@ -5,7 +5,7 @@
 // 0.1 s with --quick), then rounds of one batch of engine steps and one of kernel steps, CPU
 // time of this thread; the table gives the medians per step and the median of the rounds'
 // ratios. Writes kernel.csv into --out.
-// Usage: bench_kernel [--quick] [--out DIR]
+// Usage: bench_kernel [--quick] [--out DIR]   (scripts/bench.sh --kernel runs it into docs/bench)
 //        bench_kernel --profile engine|kernel N STEPS   (steps only, for callgrind: run twice
 //        with different STEPS and divide the difference in instructions by N times that in STEPS)
 #include "bench_common.hpp"

@@ -9,6 +9,9 @@
 #                                          docs/bench/stability.csv, about 2 minutes)
 #        scripts/bench.sh --cores [BASE]   (only this core's step cost against commit BASE's,
 #                                          scripts/compare_cores.sh, into docs/bench/cores.csv)
+#        scripts/bench.sh --kernel         (only the chain step against the minimum-work
+#                                          kernel, bench/kernel_ratio.cpp: docs/bench/kernel.csv
+#                                          and kernel.txt, about 2 minutes)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 QUICK=()
@@ -21,6 +24,8 @@ elif [[ "${1:-}" == "--scenes" ]]; then
   ONLY_SCENES=1
 elif [[ "${1:-}" == "--stability" ]]; then
   ONLY_SCENES=2
+elif [[ "${1:-}" == "--kernel" ]]; then
+  ONLY_SCENES=3
 elif [[ "${1:-}" == "--cores" ]]; then
   exec bash "$ROOT/scripts/compare_cores.sh" ${2:-} --csv "$OUT/cores.csv"
 fi
@@ -30,6 +35,10 @@ CP_BUILD_BENCH=ON bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1 || { cat "$LOG"; ex
 rm -f "$LOG"
 BIN="$ROOT/build/ws/devel/lib/constrained_particles"
 mkdir -p "$OUT"
+if ((ONLY_SCENES == 3)); then
+  "$BIN/bench_kernel" --out "$OUT" | tee "$OUT/kernel.txt"
+  exit 0
+fi
 if ((ONLY_SCENES == 2)); then
   "$BIN/constrained_particles_bench" stability --out "$OUT"
   echo "wrote $OUT/stability.csv" >&2
@@ -45,6 +54,8 @@ fi
 "$BIN/constrained_particles_bench" work_precision --out "$OUT" "${QUICK[@]}"
 "$BIN/constrained_particles_bench" scaling --out "$OUT" "${QUICK[@]}"
 "$BIN/constrained_particles_bench" scenes --out "$OUT" "${QUICK[@]}"
+# the chain step against the minimum-work kernel (how far from the machine)
+"$BIN/bench_kernel" --out "$OUT" "${QUICK[@]}" | tee "$OUT/kernel.txt"
 # peers, side by side in the same run
 "$BIN/constrained_particles_bench" peers --out "$OUT" "${QUICK[@]}"
 "$BIN/constrained_particles_bench" stability --out "$OUT" "${QUICK[@]}"
