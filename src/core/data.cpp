@@ -1,5 +1,7 @@
 #include "constrained_particles/core/data.hpp"
 
+#include <algorithm>
+
 #include "integrators/dopri5.hpp"
 #include "solvers/solver.hpp"
 
@@ -32,6 +34,9 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   accelerations.setZero(3, n);
   multipliers.setZero(model.numMultipliers());
   rhs.setZero(model.numRows());
+  chain_lower.setZero(std::max(model.numRows() - 1, 0));
+  chain_inverse_pivots.setZero(model.numRows());
+  chain_velocity_rhs.setZero(model.numRows());
   for (Points* buffer : { &stages.a1, &stages.a2, &stages.a3, &stages.a4, &stages.v2, &stages.v3,
                           &stages.v4, &stages.p_stage, &stages.v_stage, &stages.p_start,
                           &stages.correction, &stages.change, &stages.p_unprojected, &stages.zero })

@@ -36,13 +36,18 @@ double potentialEnergy(const Model& model, const State& state)
 
 double energyScale(const Model& model, const State& state, const Points& forces)
 {
+  return energyScale(model, state, forces, kineticEnergy(model, state));
+}
+
+double energyScale(const Model& model, const State& state, const Points& forces, double kinetic)
+{
   if (model.numParticles() == 0)
     return 0.0;
   const Vec3 extent = state.positions.rowwise().maxCoeff() - state.positions.rowwise().minCoeff();
   double force = 0.0;
   for (int i = 0; i < model.numParticles(); ++i)
     force += forces.col(i).norm();
-  return kineticEnergy(model, state) + force * extent.norm();
+  return kinetic + force * extent.norm();
 }
 
 Diagnostics computeDiagnostics(const Model& model, const State& state)

@@ -4,6 +4,8 @@
 
 #include <cstdlib>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 namespace constrained_particles
 {
@@ -52,7 +54,54 @@ SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
   throw InvalidInput(field, "= '" + name + "' is unknown; valid: " + valid);
 }
 
-Model Model::compile(const Scene& scene, SolveMethod method)
+namespace
+{
+// The fused chain stages' structure (Model::fusedChain()), or nothing if the model has another.
+std::vector<ChainCoupling> findChainCouplings(const Model& model)
+{
+  const int m = model.numRows();
+  if (model.solveMethod() != SolveMethod::Tridiagonal || m < 1)
+    return {};
+  bool only_links = true;
+  std::apply(
+      [&](const auto&... tables)
+      {
+        (
+            [&](const auto& table)
+            {
+              using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
+              if constexpr (!Kind::ELIMINATED && !std::is_same_v<Kind, LinkConstraint>)
+                only_links = only_links && table.empty();
+            }(tables),
+            ...);
+      },
+      model.kindTables());
+  const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
+  if (!only_links || static_cast<int>(links.size()) != m)
+    return {};
+  for (int k = 0; k < m; ++k)
+    if (links[k].first_row != k || links[k].first_block != 2 * k)
+      return {};
+  std::vector<ChainCoupling> couplings(m);
+  const auto& start = model.incidenceStart();
+  const auto& incidence = model.incidence();
+  for (int i = 0; i < model.numParticles(); ++i)
+    if (start[i + 1] - start[i] == 2)
+    {
+      RowIncidence a = incidence[start[i]], b = incidence[start[i] + 1];
+      if (a.row > b.row)
+        std::swap(a, b);
+      ChainCoupling& c = couplings[b.row];
+      if (c.particle >= 0)
+        return {};  // two links between the same two particles: the generic solve sums them
+      c = ChainCoupling{ i, a.block, b.block };
+    }
+  return couplings;
+}
+
+}  // namespace
+
+Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
 {
   const int n = static_cast<int>(scene.masses.size());
   if (n == 0)
@@ -168,6 +217,11 @@ Model Model::compile(const Scene& scene, SolveMethod method)
     throw InvalidInput("solve_method", "= none, but the scene has constraint rows");
   else
     model.method_ = method;
+  model.block_eliminated_.assign(model.numBlocks(), -1);
+  for (const EliminatedBlock& held : model.eliminated_blocks_)
+    model.block_eliminated_[held.block] = held.eliminated;
+  if (paths == StagePaths::Specialized)
+    model.chain_couplings_ = findChainCouplings(model);
   return model;
 }
 

@@ -50,11 +50,12 @@ void forgetControl(Data& data)
 }  // namespace
 
 Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_state,
-                                       const StepSettings& settings, SolveMethod method)
+                                       const StepSettings& settings, SolveMethod method,
+                                       StagePaths paths)
 {
   validateStepSettings(settings);
   Compiled compiled;
-  compiled.model = std::make_unique<Model>(Model::compile(scene, method));
+  compiled.model = std::make_unique<Model>(Model::compile(scene, method, paths));
   const Model& model = *compiled.model;
   model.validateState(initial_state, "initial_state");
   compiled.data = std::make_unique<Data>(model);
@@ -113,9 +114,10 @@ Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_
 }
 
 Simulator::Simulator(const Scene& scene, const State& initial_state, const StepSettings& settings,
-                     SolveMethod method)
+                     SolveMethod method, StagePaths paths)
+  : paths_(paths)
 {
-  Compiled compiled = compile(scene, initial_state, settings, method);
+  Compiled compiled = compile(scene, initial_state, settings, method, paths_);
   data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(compiled.model);
   data_ = std::move(compiled.data);
@@ -154,10 +156,8 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     imposeEliminated(model, data, end, &x.positions, &x.velocities);
     if (!method.holds_constraints && settings_.stabilization == Stabilization::Projection)
     {
-      const ProjectionReport report =
-          projectPositions(model, data, end, x.positions, settings_.projection_tolerance,
-                           settings_.projection_max_iterations);
-      finishProjection(model, data, end, x.positions, x.velocities, true, false, report);
+      projectStep(model, data, end, x.positions, x.velocities, settings_.projection_tolerance,
+                  settings_.projection_max_iterations);
     }
     x.time = end;
     const StepStatistics& taken = data.statistics;
@@ -181,7 +181,7 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
         return StepCheck::EnergyRise;
       kinetic = kinetic_now;
       potential = potential_now;
-      scale = energyScale(model, x, data.applied_forces);
+      scale = energyScale(model, x, data.applied_forces, kinetic_now);
     }
     if ((taken.solve.singular || taken.projection.singular) && !data.control.singular &&
         !accept_singular)
@@ -378,7 +378,7 @@ void Simulator::restoreState(const State& state)
 
 void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
 {
-  Compiled compiled = compile(scene, initial_state, settings_, method);
+  Compiled compiled = compile(scene, initial_state, settings_, method, paths_);
   data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(compiled.model);
   data_ = std::move(compiled.data);
@@ -402,7 +402,7 @@ void Simulator::setForces(const std::vector<Force>& forces)
 {
   Scene scene = model_->scene();
   scene.forces = forces;
-  auto model = std::make_unique<Model>(Model::compile(scene, model_->solveMethod()));
+  auto model = std::make_unique<Model>(Model::compile(scene, model_->solveMethod(), paths_));
   auto data = std::make_unique<Data>(*model);
   data->state = data_->state;
   data->perturbations = data_->perturbations;  // they come from outside the scene: kept

@@ -108,6 +108,17 @@ ProjectionReport shakePositions(const Model& model, Data& data, double time,
   return report;
 }
 
+ProjectionReport projectStep(const Model& model, Data& data, double time, Points& positions,
+                             Points& velocities, double tolerance, int max_iterations)
+{
+  if (model.fusedChain())
+    return chainProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
+  const ProjectionReport report =
+      projectPositions(model, data, time, positions, tolerance, max_iterations);
+  finishProjection(model, data, time, positions, velocities, true, false, report);
+  return report;
+}
+
 void finishProjection(const Model& model, Data& data, double time, const Points& positions,
                       Points& velocities, bool rows_current, bool measure_change,
                       ProjectionReport report)

@@ -30,6 +30,18 @@ double projectVelocities(const Model& model, Data& data, double time, const Poin
                          Points& velocities, bool rows_current, bool measure_change,
                          bool* singular = nullptr);
 
+/// A step's projection: projectPositions(), then finishProjection() at the final rows without
+/// measuring the velocity change; a fused chain (Model::fusedChain()) takes chainProjectStep().
+ProjectionReport projectStep(const Model& model, Data& data, double time, Points& positions,
+                             Points& velocities, double tolerance, int max_iterations);
+
+/// projectStep() for a fused chain (chain_stages.cpp): each check's sweep also factorises and
+/// forward-substitutes C and J v, so the last check's factorisation projects the velocities;
+/// the same motion, counters and statistics as the generic projection, which takes over the
+/// solves at a singular pivot.
+ProjectionReport chainProjectStep(const Model& model, Data& data, double time, Points& positions,
+                                  Points& velocities, double tolerance, int max_iterations);
+
 /// Ends a projection: projectVelocities() (arguments as there), its largest change and any
 /// singular solve written into `report`, which is then merged into data.statistics.projection.
 void finishProjection(const Model& model, Data& data, double time, const Points& positions,

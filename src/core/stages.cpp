@@ -119,7 +119,6 @@ SolveReport factorizeRows(const Model& model, Data& data)
 
 SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::VectorXd* bias)
 {
-  const Scene& scene = model.scene();
   const int m = model.numRows();
   // (J W J^T) lambda = -(Jdot v + J a0) - bias, J a0 = J W f + the eliminated particles' imposed
   // accelerations through their blocks (data.imposed, set by imposeEliminated at this time)
@@ -153,7 +152,15 @@ SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::Ve
     addJacobianTranspose(model, data.rows, data.rhs, 1.0, data.constraint_forces);
   }
 
+  addEliminatedReactions(model, data);
+  return report;
+}
+
+void addEliminatedReactions(const Model& model, Data& data)
+{
   // an eliminated particle's reaction makes it follow its imposed motion: m a - f - J^T lambda
+  const Scene& scene = model.scene();
+  const int m = model.numRows();
   const auto& held = model.eliminatedParticles();
   for (std::size_t k = 0; k < held.size(); ++k)
   {
@@ -163,7 +170,6 @@ SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::Ve
     data.constraint_forces.col(i) += reaction;
     data.multipliers.segment<3>(m + 3 * static_cast<int>(k)) = reaction;
   }
-  return report;
 }
 
 void accelerationStage(const Model& model, Data& data, Points& accelerations)
@@ -181,6 +187,9 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
                     Points& positions, Points& velocities, Points& accelerations)
 {
   imposeEliminated(model, data, time, &positions, &velocities);
+  // a chain of links: rows, solve and constraint forces in two sweeps (chain_stages.cpp)
+  if (model.fusedChain() && settings.stabilization != Stabilization::Baumgarte)
+    return chainForward(model, data, time, positions, velocities, accelerations);
   rowStage(model, data, time, positions, velocities, data.rows);
   appliedForceStage(model, data, positions, velocities);
   const Eigen::VectorXd* bias = nullptr;

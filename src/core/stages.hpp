@@ -40,6 +40,17 @@ void rowVelocityStage(const Model& model, Data& data, const Points& velocities);
 /// included. The eliminated particles' accelerations are data.imposed (imposeEliminated).
 SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::VectorXd* bias);
 
+/// After the multipliers: each eliminated particle's reaction m a - f - J^T lambda, added to
+/// data.constraint_forces and written after the m multipliers in data.multipliers.
+void addEliminatedReactions(const Model& model, Data& data);
+
+/// Stages 1, 2, 4 and 5 for a fused chain (Model::fusedChain(), no Baumgarte bias), in two
+/// sweeps over the links (chain_stages.cpp): the same data (but the rows' violations, which only
+/// a projection reads, after evaluating rows of its own), counters and report as the generic
+/// stages; a singular pivot hands the stage to them. Eliminated motion already imposed.
+SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
+                         const Points& velocities, Points& accelerations);
+
 /// Stage 5, accelerations: a = W (f + f_c) into `accelerations` [m/s^2] (3 x n); an
 /// eliminated particle's is its imposed acceleration.
 void accelerationStage(const Model& model, Data& data, Points& accelerations);

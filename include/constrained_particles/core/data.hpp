@@ -85,10 +85,14 @@ public:
   std::vector<ImposedMotion> imposed;  ///< each eliminated record's motion at the stage's time (e)
   Eigen::VectorXd multipliers;         ///< lambda (m), then each eliminated reaction [N] (3 e)
   Eigen::VectorXd rhs;                 ///< right-hand side, then solution, of a solve (m)
-  StageBuffers stages;                 ///< the integrators' buffers
-  EffectCounters counters;             ///< evaluations since this data was made
-  StepStatistics statistics;           ///< of the batch being stepped
-  StepControl control;                 ///< the step checks' and sub-steps' memory
+  /// The fused chain stages' LDL^T of J W J^T (chain_stages.cpp): L's sub-diagonal (m - 1) and
+  /// D^-1 (m), and the projection's forward-substituted J v (m). The solver's own factorisation
+  /// is not updated by them.
+  Eigen::VectorXd chain_lower, chain_inverse_pivots, chain_velocity_rhs;
+  StageBuffers stages;        ///< the integrators' buffers
+  EffectCounters counters;    ///< evaluations since this data was made
+  StepStatistics statistics;  ///< of the batch being stepped
+  StepControl control;        ///< the step checks' and sub-steps' memory
 
   /// The factorisation of J W J^T (src/core/solvers).
   ConstraintSolver& solver()

@@ -34,6 +34,9 @@ double potentialEnergy(const Model& model, const State& state);
 /// `forces` (3 x n) [N] times the diagonal D of the particles' bounding box [m] (for gravity
 /// M |g| D, the potential energy the scene could turn into motion). The step checks' scale.
 double energyScale(const Model& model, const State& state, const Points& forces);
+/// energyScale() with the state's kinetic energy [J] already computed (kineticEnergy()): the
+/// step checks have it, and it is a sweep over the particles.
+double energyScale(const Model& model, const State& state, const Points& forces, double kinetic);
 
 /// Evaluates the diagnostics of a state of the model. Allocates its row workspace.
 Diagnostics computeDiagnostics(const Model& model, const State& state);

@@ -76,6 +76,21 @@ using KindTables = KindTablesOf<Constraint>::type;
 
 /// A Jacobian block on a particle an eliminated record holds: its imposed acceleration enters the
 /// right-hand side through it.
+/// Which evaluation paths a model may take (chosen at compile, like the solve method).
+enum class StagePaths
+{
+  Specialized,  ///< a structure-specialised path where the structure has one (chain_stages.cpp)
+  Generic,      ///< always the generic stages (the equivalence tests' reference)
+};
+
+/// What rows k - 1 and k of a fused chain share (Model::chainCouplings()).
+struct ChainCoupling
+{
+  int particle = -1;     ///< the free particle both touch, -1 if none
+  int upper_block = -1;  ///< its block in row k - 1
+  int lower_block = -1;  ///< its block in row k
+};
+
 struct EliminatedBlock
 {
   int block;       ///< the block
@@ -89,7 +104,9 @@ public:
   /// Validates the scene and precomputes inverse masses, rows and solve structure.
   /// @param method requested solve method; one the structure does not allow is refused
   /// @throws InvalidInput naming the first bad field
-  static Model compile(const Scene& scene, SolveMethod method = SolveMethod::Automatic);
+  /// @param paths StagePaths::Generic keeps every evaluation on the generic stages
+  static Model compile(const Scene& scene, SolveMethod method = SolveMethod::Automatic,
+                       StagePaths paths = StagePaths::Specialized);
 
   const Scene& scene() const
   {
@@ -181,6 +198,22 @@ public:
   {
     return incidence_;
   }
+  /// True if every row is a link, in row order, J W J^T is tridiagonal and adjacent rows share
+  /// at most one free particle: forward() then takes the fused chain stages (chain_stages.cpp).
+  bool fusedChain() const
+  {
+    return !chain_couplings_.empty();
+  }
+  /// Fused chains: entry k (k >= 1) is what rows k - 1 and k share; entry 0 is unused.
+  const std::vector<ChainCoupling>& chainCouplings() const
+  {
+    return chain_couplings_;
+  }
+  /// Per block: the index in eliminated() of the record holding its particle, -1 if free.
+  const std::vector<int>& blockEliminated() const
+  {
+    return block_eliminated_;
+  }
   /// Throws InvalidInput unless the state has this model's particle count and is finite.
   /// @param field name used in messages, e.g. "state"
   void validateState(const State& state, const std::string& field = "state") const;
@@ -203,6 +236,8 @@ private:
   std::vector<int> incidence_start_;
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;
+  std::vector<ChainCoupling> chain_couplings_;  // empty unless fusedChain()
+  std::vector<int> block_eliminated_;
 };
 
 /// True if rows touching each free particle are at most two and adjacent, so J W J^T is

@@ -19,9 +19,12 @@ class Simulator
 public:
   /// Validates and compiles scene, initial state and settings; projects the initial state onto
   /// the constraints (eliminated particles where their kinds put them at its time).
+  /// `paths`: StagePaths::Generic keeps every evaluation on the generic stages, also after
+  /// scene and force changes (equivalence tests; the motion is the same).
   /// @throws InvalidInput naming the first bad field
   Simulator(const Scene& scene, const State& initial_state, const StepSettings& settings,
-            SolveMethod method = SolveMethod::Automatic);
+            SolveMethod method = SolveMethod::Automatic,
+            StagePaths paths = StagePaths::Specialized);
 
   /// Takes `count` steps of stepSettings().dt, each checked and split into sub-steps when needed:
   ///  - before a step, the stability estimate (stability.hpp) splits it into the fewest
@@ -143,13 +146,14 @@ private:
     State initial_state;
   };
   static Compiled compile(const Scene& scene, const State& initial_state,
-                          const StepSettings& settings, SolveMethod method);
+                          const StepSettings& settings, SolveMethod method, StagePaths paths);
 
   std::unique_ptr<Model> model_;
   std::unique_ptr<Data> data_;
   State initial_state_;
   StepSettings settings_;
   StepSettings substep_settings_;               // settings_ with a sub-step's dt (attemptStep)
+  StagePaths paths_ = StagePaths::Specialized;  // kept for every model compiled later
   const IntegratorInfo* integrator_ = nullptr;  // settings_.integrator's row
   const IntegratorInfo* stiff_ = nullptr;       // STIFF_FALLBACK's row
   bool conservative_ = false;   // only conservative forces, no driven anchor: energy is checked

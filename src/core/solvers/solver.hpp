@@ -33,6 +33,13 @@ public:
   /// Solves (J W J^T) x = b in place (m), with the last factorisation.
   virtual void solveInPlace(Eigen::VectorXd& b) const = 0;
 
+  /// True if `pivot` is too small against its diagonal entry `diagonal` (the fused chain
+  /// stages apply the same rule).
+  static bool isSingularPivot(double pivot, double diagonal)
+  {
+    return !(diagonal > 0.0) || !(pivot > SINGULAR_PIVOT_RATIO * diagonal);
+  }
+
 protected:
   /// Outcome of one attempt.
   struct Pivots
@@ -52,12 +59,6 @@ protected:
   /// Factorises J W J^T + delta I. With delta = 0 it may stop at the first singular pivot; with
   /// delta > 0 it must leave a usable factorisation.
   virtual Pivots factorizeShifted(double delta) = 0;
-
-  /// True if `pivot` is too small against its diagonal entry `diagonal`.
-  static bool isSingularPivot(double pivot, double diagonal)
-  {
-    return !(diagonal > 0.0) || !(pivot > SINGULAR_PIVOT_RATIO * diagonal);
-  }
 
 private:
   SolveMethod method_;  ///< the method this strategy implements
