@@ -4,9 +4,10 @@
 // For each n: both follow the same trajectory (max position difference after 1 s of steps,
 // 0.1 s with --quick), then rounds of one batch of engine steps and one of kernel steps, CPU
 // time of this thread; the table gives the medians per step and the median of the rounds'
-// ratios. Writes kernel.csv into --out.
+// ratios, for the engine as it runs (e/k) and on its generic stages (g/k: the engine before the
+// fused chain stages, StagePaths::Generic). Writes kernel.csv into --out.
 // Usage: bench_kernel [--quick] [--out DIR]   (scripts/bench.sh --kernel runs it into docs/bench)
-//        bench_kernel --profile engine|kernel N STEPS   (steps only, for callgrind: run twice
+//        bench_kernel --profile engine|generic|kernel N STEPS   (steps only, for callgrind: twice
 //        with different STEPS and divide the difference in instructions by N times that in STEPS)
 #include "bench_common.hpp"
 #include "minimum_kernel.hpp"
@@ -29,6 +30,7 @@ constexpr double BATCH_CPU = 0.1;    // CPU time a batch aims at [s]
 struct Pair
 {
   std::unique_ptr<cp::Simulator> engine;
+  std::unique_ptr<cp::Simulator> generic;  // the engine on its generic stages (before issue 17)
   std::unique_ptr<bench::MinimumChainKernel> kernel;
 };
 
@@ -58,6 +60,8 @@ Pair makePair(const bench::PeerChain& chain)
   s.projection_tolerance = TOLERANCE;
   Pair pair;
   pair.engine = std::make_unique<cp::Simulator>(scene, start, s);
+  pair.generic = std::make_unique<cp::Simulator>(scene, start, s, cp::SolveMethod::Automatic,
+                                                 cp::StagePaths::Generic);
   pair.kernel = std::make_unique<bench::MinimumChainKernel>(
       n, chain.link_length, chain.particle_mass, chain.gravity, chain.dt, TOLERANCE,
       s.projection_max_iterations);
@@ -91,7 +95,9 @@ int profile(const std::string& which, int n, int steps)
   chain.n = n;
   Pair pair = makePair(chain);
   for (int k = 0; k < steps; ++k)
-    which == "engine" ? (void)pair.engine->step() : pair.kernel->step();
+    which == "engine"    ? (void)pair.engine->step()
+    : which == "generic" ? (void)pair.generic->step()
+                         : pair.kernel->step();
   std::printf("%s n = %d: %d steps, max position difference %.3g m\n", which.c_str(), n, steps,
               maxDifference(pair));
   return 0;
@@ -114,9 +120,9 @@ int main(int argc, char** argv)
       return profile(argv[i + 1], std::atoi(argv[i + 2]), std::atoi(argv[i + 3]));
     else
     {
-      std::cerr
-          << "unknown argument " << arg
-          << "\nusage: bench_kernel [--quick] [--out DIR] | --profile engine|kernel N STEPS\n";
+      std::cerr << "unknown argument " << arg
+                << "\nusage: bench_kernel [--quick] [--out DIR] | --profile engine|generic|kernel "
+                   "N STEPS\n";
       return 2;
     }
   }
@@ -124,9 +130,10 @@ int main(int argc, char** argv)
       quick ? std::vector<int>{ 10, 100, 1000 } : std::vector<int>{ 10, 100, 1000, 10000, 100000 };
   std::ofstream csv(out + "/kernel.csv");
   csv << "n,steps_compared,max_position_difference_m,engine_s_per_step,kernel_s_per_step,"
-         "ratio_median,ratio_min,ratio_max,engine_particle_steps_per_s\n";
-  std::printf("%8s %12s %14s %14s %8s %12s\n", "n", "difference", "engine [us]", "kernel [us]",
-              "ratio", "engine M p-steps/s");
+         "ratio_median,ratio_min,ratio_max,engine_particle_steps_per_s,generic_s_per_step,"
+         "generic_ratio_median\n";
+  std::printf("%8s %11s %12s %12s %12s %8s %8s %10s\n", "n", "difference", "engine [us]",
+              "kernel [us]", "generic [us]", "e/k", "g/k", "M p-st/s");
   for (int n : sizes)
   {
     bench::PeerChain chain;
@@ -138,28 +145,32 @@ int main(int argc, char** argv)
     {
       pair.engine->step();
       pair.kernel->step();
+      pair.generic->step();
     }
     const double difference = maxDifference(pair);
     // batch length from one step of each, so a batch takes about BATCH_CPU
     const double estimate = timeBatch(1, [&] { pair.engine->step(); });
     const int batch = std::max(1, static_cast<int>(BATCH_CPU / std::max(estimate, 1e-9)));
-    std::vector<double> engine, kernel, ratios;
+    std::vector<double> engine, kernel, generic, ratios, generic_ratios;
     for (int r = 0; r < ROUNDS; ++r)
     {
       engine.push_back(timeBatch(batch, [&] { pair.engine->step(); }));
       kernel.push_back(timeBatch(batch, [&] { pair.kernel->step(); }));
+      generic.push_back(timeBatch(batch, [&] { pair.generic->step(); }));
       ratios.push_back(engine.back() / kernel.back());
+      generic_ratios.push_back(generic.back() / kernel.back());
     }
     const double e = bench::median(engine), q = bench::median(kernel);
-    const double ratio = bench::median(ratios);
+    const double g = bench::median(generic);
+    const double ratio = bench::median(ratios), generic_ratio = bench::median(generic_ratios);
     const double lowest = *std::min_element(ratios.begin(), ratios.end());
     const double highest = *std::max_element(ratios.begin(), ratios.end());
-    std::printf("%8d %12.3g %14.2f %14.2f %8.2f %12.2f\n", n, difference, e * 1e6, q * 1e6, ratio,
-                n / e * 1e-6);
+    std::printf("%8d %11.3g %12.2f %12.2f %12.2f %8.2f %8.2f %10.2f\n", n, difference, e * 1e6,
+                q * 1e6, g * 1e6, ratio, generic_ratio, n / e * 1e-6);
     std::fflush(stdout);
     char line[256];
-    std::snprintf(line, sizeof(line), "%d,%d,%.3e,%.6e,%.6e,%.4f,%.4f,%.4f,%.4e", n, compared,
-                  difference, e, q, ratio, lowest, highest, n / e);
+    std::snprintf(line, sizeof(line), "%d,%d,%.3e,%.6e,%.6e,%.4f,%.4f,%.4f,%.4e,%.6e,%.4f", n,
+                  compared, difference, e, q, ratio, lowest, highest, n / e, g, generic_ratio);
     csv << line << "\n";
     csv.flush();
   }

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Instructions per particle-step of the engine's chain step and of the minimum-work kernel
+# Instructions per particle-step of the engine's chain step (as it runs, and on its generic stages,
+# StagePaths::Generic) and of the minimum-work kernel
 # (bench/minimum_kernel.hpp), counted by valgrind's callgrind (Debian's valgrind): each runs
 # twice, S1 and S2 steps, and the difference in instructions over N (S2 - S1) leaves out the
 # set-up. The peer workload: pinned chain, RK4 + projection, dt = 1 ms.
@@ -21,7 +22,7 @@ count() {  # which steps -> instructions
     >/dev/null 2>"$TMP/err"
   grep -o "Collected : [0-9]*" "$TMP/err" | tail -1 | grep -o "[0-9]*$"
 }
-for who in engine kernel; do
+for who in engine generic kernel; do
   a="$(count "$who" "$S1")"
   b="$(count "$who" "$S2")"
   echo "$who n = $N: $(( (b - a) / (N * (S2 - S1)) )) instructions per particle-step"

@@ -22,10 +22,7 @@ namespace
 bool chainSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
                   double& min_ratio)
 {
-  const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
-  const auto& couplings = model.chainCouplings();
-  const auto& held = model.blockEliminated();
-  const auto& w = model.inverseMasses();
+  const std::vector<ChainRow>& links = model.chainRows();
   RowData& rows = data.rows;
   const Points& f = data.applied_forces;
   Eigen::VectorXd& rhs = data.rhs;
@@ -35,7 +32,7 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
   const int m = static_cast<int>(links.size());
   for (int k = 0; k < m; ++k)
   {
-    const LinkConstraint& link = links[k].record;
+    const ChainRow& link = links[k];
     const int i = link.first, j = link.second, b = 2 * k;
     // the row (link_constraint.hpp's evaluateRows)
     const double* pi = positions.data() + 3 * i;
@@ -50,27 +47,25 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
     rows.value[k] = 0.5 * (squared - link.length * link.length);
     const double jdot_v = ux * ux + uy * uy + uz * uz;
     rows.jdot_v[k] = jdot_v;
-    const double diagonal =
-        w[i] * rows.jacobian[b].squaredNorm() + w[j] * rows.jacobian[b + 1].squaredNorm();
+    const double diagonal = link.w_first * rows.jacobian[b].squaredNorm() +
+                            link.w_second * rows.jacobian[b + 1].squaredNorm();
     rows.diagonal[k] = diagonal;
     // the right-hand side -(Jdot v + J W f) - J a_held (stages.cpp's constraintForceStage)
     double sum = jdot_v;
-    sum += w[i] * rows.jacobian[b].dot(f.col(i));
-    sum += w[j] * rows.jacobian[b + 1].dot(f.col(j));
+    sum += link.w_first * rows.jacobian[b].dot(f.col(i));
+    sum += link.w_second * rows.jacobian[b + 1].dot(f.col(j));
     double r = -sum;
-    if (held[b] >= 0)
-      r -= rows.jacobian[b].dot(data.imposed[held[b]].acceleration);
-    if (held[b + 1] >= 0)
-      r -= rows.jacobian[b + 1].dot(data.imposed[held[b + 1]].acceleration);
+    if (link.held_first >= 0)
+      r -= rows.jacobian[b].dot(data.imposed[link.held_first].acceleration);
+    if (link.held_second >= 0)
+      r -= rows.jacobian[b + 1].dot(data.imposed[link.held_second].acceleration);
     // the pivot (tridiagonal.cpp's factorizeShifted at delta = 0) and forward substitution
     double pivot = diagonal;
     if (k > 0)
     {
-      const ChainCoupling& c = couplings[k];
-      const double off =
-          c.particle >= 0
-              ? w[c.particle] * rows.jacobian[c.upper_block].dot(rows.jacobian[c.lower_block])
-              : 0.0;
+      const double off = link.coupling >= 0 ? link.w_coupling * rows.jacobian[link.upper_block].dot(
+                                                                    rows.jacobian[link.lower_block])
+                                            : 0.0;
       lower[k - 1] = off * inverse_pivots[k - 1];
       pivot -= lower[k - 1] * off;
       r -= lower[k - 1] * rhs[k - 1];
@@ -90,7 +85,7 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
 // Down the chain: lambda = D^-1 y - L^T lambda, the multipliers, f_c = J^T lambda.
 void chainSweepDown(const Model& model, Data& data)
 {
-  const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
+  const std::vector<ChainRow>& links = model.chainRows();
   const RowData& rows = data.rows;
   const Eigen::VectorXd& lower = data.chain_lower;
   const Eigen::VectorXd& inverse_pivots = data.chain_inverse_pivots;
@@ -105,7 +100,7 @@ void chainSweepDown(const Model& model, Data& data)
       lambda -= lower[k] * rhs[k + 1];
     rhs[k] = lambda;
     data.multipliers[k] = lambda;
-    const LinkConstraint& link = links[k].record;
+    const ChainRow& link = links[k];
     forces.col(link.first) += lambda * rows.jacobian[2 * k];
     forces.col(link.second) += lambda * rows.jacobian[2 * k + 1];
   }
@@ -118,9 +113,7 @@ void chainSweepDown(const Model& model, Data& data)
 bool chainProjectionSweep(const Model& model, Data& data, const Points& positions,
                           const Points& velocities, double& min_ratio)
 {
-  const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
-  const auto& couplings = model.chainCouplings();
-  const auto& w = model.inverseMasses();
+  const std::vector<ChainRow>& links = model.chainRows();
   RowData& rows = data.rows;
   Eigen::VectorXd& y = data.rhs;
   Eigen::VectorXd& z = data.chain_velocity_rhs;
@@ -132,7 +125,7 @@ bool chainProjectionSweep(const Model& model, Data& data, const Points& position
   const int m = static_cast<int>(links.size());
   for (int k = 0; k < m; ++k)
   {
-    const LinkConstraint& link = links[k].record;
+    const ChainRow& link = links[k];
     const int i = link.first, j = link.second, b = 2 * k;
     const double* pi = positions.data() + 3 * i;
     const double* pj = positions.data() + 3 * j;
@@ -144,8 +137,8 @@ bool chainProjectionSweep(const Model& model, Data& data, const Points& position
     rows.jdot_v[k] = 0.0;
     rows.violation[k] = std::abs(std::sqrt(squared) - link.length);
     max_violation = worseError(max_violation, rows.violation[k]);
-    const double diagonal =
-        w[i] * rows.jacobian[b].squaredNorm() + w[j] * rows.jacobian[b + 1].squaredNorm();
+    const double diagonal = link.w_first * rows.jacobian[b].squaredNorm() +
+                            link.w_second * rows.jacobian[b + 1].squaredNorm();
     rows.diagonal[k] = diagonal;
     if (!factorised)
       continue;
@@ -157,11 +150,9 @@ bool chainProjectionSweep(const Model& model, Data& data, const Points& position
     double pivot = diagonal;
     if (k > 0)
     {
-      const ChainCoupling& coupling = couplings[k];
-      const double off = coupling.particle >= 0
-                             ? w[coupling.particle] * rows.jacobian[coupling.upper_block].dot(
-                                                          rows.jacobian[coupling.lower_block])
-                             : 0.0;
+      const double off = link.coupling >= 0 ? link.w_coupling * rows.jacobian[link.upper_block].dot(
+                                                                    rows.jacobian[link.lower_block])
+                                            : 0.0;
       lower[k - 1] = off * inverse_pivots[k - 1];
       pivot -= lower[k - 1] * off;
       c -= lower[k - 1] * y[k - 1];

@@ -56,8 +56,8 @@ SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
 
 namespace
 {
-// The fused chain stages' structure (Model::fusedChain()), or nothing if the model has another.
-std::vector<ChainCoupling> findChainCouplings(const Model& model)
+// The fused chain stages' rows (Model::fusedChain()), or none if the model has another structure.
+std::vector<ChainRow> findChainRows(const Model& model)
 {
   const int m = model.numRows();
   if (model.solveMethod() != SolveMethod::Tridiagonal || m < 1)
@@ -79,10 +79,25 @@ std::vector<ChainCoupling> findChainCouplings(const Model& model)
   const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
   if (!only_links || static_cast<int>(links.size()) != m)
     return {};
+  std::vector<int> held(model.numBlocks(), -1);
+  for (const EliminatedBlock& block : model.eliminatedBlocks())
+    held[block.block] = block.eliminated;
+  const auto& w = model.inverseMasses();
+  std::vector<ChainRow> rows(m);
   for (int k = 0; k < m; ++k)
+  {
     if (links[k].first_row != k || links[k].first_block != 2 * k)
       return {};
-  std::vector<ChainCoupling> couplings(m);
+    const LinkConstraint& link = links[k].record;
+    ChainRow& row = rows[k];
+    row.first = link.first;
+    row.second = link.second;
+    row.length = link.length;
+    row.w_first = w[link.first];
+    row.w_second = w[link.second];
+    row.held_first = held[2 * k];
+    row.held_second = held[2 * k + 1];
+  }
   const auto& start = model.incidenceStart();
   const auto& incidence = model.incidence();
   for (int i = 0; i < model.numParticles(); ++i)
@@ -91,12 +106,15 @@ std::vector<ChainCoupling> findChainCouplings(const Model& model)
       RowIncidence a = incidence[start[i]], b = incidence[start[i] + 1];
       if (a.row > b.row)
         std::swap(a, b);
-      ChainCoupling& c = couplings[b.row];
-      if (c.particle >= 0)
+      ChainRow& row = rows[b.row];
+      if (row.coupling >= 0)
         return {};  // two links between the same two particles: the generic solve sums them
-      c = ChainCoupling{ i, a.block, b.block };
+      row.coupling = i;
+      row.w_coupling = w[i];
+      row.upper_block = a.block;
+      row.lower_block = b.block;
     }
-  return couplings;
+  return rows;
 }
 
 }  // namespace
@@ -217,11 +235,8 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     throw InvalidInput("solve_method", "= none, but the scene has constraint rows");
   else
     model.method_ = method;
-  model.block_eliminated_.assign(model.numBlocks(), -1);
-  for (const EliminatedBlock& held : model.eliminated_blocks_)
-    model.block_eliminated_[held.block] = held.eliminated;
   if (paths == StagePaths::Specialized)
-    model.chain_couplings_ = findChainCouplings(model);
+    model.chain_rows_ = findChainRows(model);
   return model;
 }
 

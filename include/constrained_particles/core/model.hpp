@@ -83,12 +83,17 @@ enum class StagePaths
   Generic,      ///< always the generic stages (the equivalence tests' reference)
 };
 
-/// What rows k - 1 and k of a fused chain share (Model::chainCouplings()).
-struct ChainCoupling
+/// One link of a fused chain (Model::chainRows()): what its sweeps read, in one place.
+struct ChainRow
 {
-  int particle = -1;     ///< the free particle both touch, -1 if none
-  int upper_block = -1;  ///< its block in row k - 1
-  int lower_block = -1;  ///< its block in row k
+  int first = 0, second = 0;              ///< the link's particles i and j
+  double length = 0.0;                    ///< l [m]
+  double w_first = 0.0, w_second = 0.0;   ///< their inverse masses [1/kg] (0 if held)
+  int held_first = -1, held_second = -1;  ///< index in eliminated() of their record, -1 if free
+  int coupling = -1;        ///< the free particle it shares with the row above, -1 if none
+  double w_coupling = 0.0;  ///< that particle's inverse mass [1/kg]
+  int upper_block = -1;     ///< its block in the row above
+  int lower_block = -1;     ///< its block in this row
 };
 
 struct EliminatedBlock
@@ -202,17 +207,12 @@ public:
   /// at most one free particle: forward() then takes the fused chain stages (chain_stages.cpp).
   bool fusedChain() const
   {
-    return !chain_couplings_.empty();
+    return !chain_rows_.empty();
   }
-  /// Fused chains: entry k (k >= 1) is what rows k - 1 and k share; entry 0 is unused.
-  const std::vector<ChainCoupling>& chainCouplings() const
+  /// Fused chains: row k's link, masses, held particles and what it shares with row k - 1.
+  const std::vector<ChainRow>& chainRows() const
   {
-    return chain_couplings_;
-  }
-  /// Per block: the index in eliminated() of the record holding its particle, -1 if free.
-  const std::vector<int>& blockEliminated() const
-  {
-    return block_eliminated_;
+    return chain_rows_;
   }
   /// Throws InvalidInput unless the state has this model's particle count and is finite.
   /// @param field name used in messages, e.g. "state"
@@ -236,8 +236,7 @@ private:
   std::vector<int> incidence_start_;
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;
-  std::vector<ChainCoupling> chain_couplings_;  // empty unless fusedChain()
-  std::vector<int> block_eliminated_;
+  std::vector<ChainRow> chain_rows_;  // empty unless fusedChain()
 };
 
 /// True if rows touching each free particle are at most two and adjacent, so J W J^T is
