@@ -91,6 +91,11 @@ double timeBatch(int steps, Fn step)
 
 int profile(const std::string& which, int n, int steps)
 {
+  if (which != "engine" && which != "generic" && which != "kernel")
+  {
+    std::cerr << "--profile takes engine, generic or kernel, not '" << which << "'\n";
+    return 2;
+  }
   bench::PeerChain chain;
   chain.n = n;
   Pair pair = makePair(chain);
@@ -98,8 +103,7 @@ int profile(const std::string& which, int n, int steps)
     which == "engine"    ? (void)pair.engine->step()
     : which == "generic" ? (void)pair.generic->step()
                          : pair.kernel->step();
-  std::printf("%s n = %d: %d steps, max position difference %.3g m\n", which.c_str(), n, steps,
-              maxDifference(pair));
+  std::printf("%s n = %d: %d steps\n", which.c_str(), n, steps);
   return 0;
 }
 

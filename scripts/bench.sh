@@ -11,7 +11,7 @@
 #                                          scripts/compare_cores.sh, into docs/bench/cores.csv)
 #        scripts/bench.sh --kernel         (only the chain step against the minimum-work
 #                                          kernel, bench/kernel_ratio.cpp: docs/bench/kernel.csv
-#                                          and kernel.txt, about 2 minutes)
+#                                          and kernel.txt, about 3 minutes)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 QUICK=()

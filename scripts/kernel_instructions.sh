@@ -10,11 +10,10 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 N="${1:-1000}" S1="${2:-100}" S2="${3:-300}"
 command -v valgrind >/dev/null || apt-get install -y valgrind
 BIN="$ROOT/build/ws/devel/lib/constrained_particles/bench_kernel"
-if [[ ! -x "$BIN" ]]; then
-  LOG="$(mktemp)"
-  CP_BUILD_BENCH=ON bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1 || { cat "$LOG"; exit 1; }
-  rm -f "$LOG"
-fi
+# always the incremental build: a binary from an older checkout would count another engine
+LOG="$(mktemp)"
+CP_BUILD_BENCH=ON bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1 || { cat "$LOG"; exit 1; }
+rm -f "$LOG"
 TMP="$(mktemp -d)"
 trap 'rm -rf "$TMP"' EXIT
 count() {  # which steps -> instructions

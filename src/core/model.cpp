@@ -80,8 +80,15 @@ std::vector<ChainRow> findChainRows(const Model& model)
   if (!only_links || static_cast<int>(links.size()) != m)
     return {};
   std::vector<int> held(model.numBlocks(), -1);
+  std::vector<int> held_blocks(model.numParticles(), 0);
   for (const EliminatedBlock& block : model.eliminatedBlocks())
+  {
     held[block.block] = block.eliminated;
+    // J^T lambda is summed down the chain: beyond two rows on one held particle its force would
+    // be summed in another order than the generic stages' (not the motion; the reported force)
+    if (++held_blocks[model.blockParticle()[block.block]] > 2)
+      return {};
+  }
   const auto& w = model.inverseMasses();
   std::vector<ChainRow> rows(m);
   for (int k = 0; k < m; ++k)
@@ -97,6 +104,8 @@ std::vector<ChainRow> findChainRows(const Model& model)
     row.w_second = w[link.second];
     row.held_first = held[2 * k];
     row.held_second = held[2 * k + 1];
+    if (row.w_first == 0.0 && row.w_second == 0.0)
+      return {};  // a link between held particles: always singular, the generic solve's case
   }
   const auto& start = model.incidenceStart();
   const auto& incidence = model.incidence();

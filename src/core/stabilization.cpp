@@ -115,19 +115,19 @@ ProjectionReport projectStep(const Model& model, Data& data, double time, Points
     return chainProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
   const ProjectionReport report =
       projectPositions(model, data, time, positions, tolerance, max_iterations);
-  finishProjection(model, data, time, positions, velocities, true, false, report);
-  return report;
+  return finishProjection(model, data, time, positions, velocities, true, false, report);
 }
 
-void finishProjection(const Model& model, Data& data, double time, const Points& positions,
-                      Points& velocities, bool rows_current, bool measure_change,
-                      ProjectionReport report)
+ProjectionReport finishProjection(const Model& model, Data& data, double time,
+                                  const Points& positions, Points& velocities, bool rows_current,
+                                  bool measure_change, ProjectionReport report)
 {
   bool singular = false;
   report.max_velocity_change = projectVelocities(model, data, time, positions, velocities,
                                                  rows_current, measure_change, &singular);
   report.singular |= singular;
   data.statistics.projection.merge(report);
+  return report;
 }
 
 }  // namespace constrained_particles

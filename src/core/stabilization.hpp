@@ -43,10 +43,11 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
                                   Points& velocities, double tolerance, int max_iterations);
 
 /// Ends a projection: projectVelocities() (arguments as there), its largest change and any
-/// singular solve written into `report`, which is then merged into data.statistics.projection.
-void finishProjection(const Model& model, Data& data, double time, const Points& positions,
-                      Points& velocities, bool rows_current, bool measure_change,
-                      ProjectionReport report);
+/// singular solve written into `report`, which is then merged into data.statistics.projection
+/// and returned.
+ProjectionReport finishProjection(const Model& model, Data& data, double time,
+                                  const Points& positions, Points& velocities, bool rows_current,
+                                  bool measure_change, ProjectionReport report);
 
 /// SHAKE (Ryckaert, Ciccotti, Berendsen 1977): moves positions onto C = 0 along the fixed
 /// directions W J(reference)^T, the directions of the constraint forces of a step that started

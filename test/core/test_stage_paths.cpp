@@ -2,6 +2,8 @@
 // random chains, stepped both ways for 1,000 steps, follow the same trajectory to 1e-12 m and
 // move the same effect counters, solve statistics and step checks. A singular chain takes the
 // generic regularised solve from the fused path and still agrees.
+#include "stabilization.hpp"
+
 #include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
@@ -51,7 +53,28 @@ bool expectSameMotion(const Scene& scene, const State& start, const StepSettings
     EXPECT_EQ(a.failed_check, b.failed_check) << what;
     EXPECT_EQ(a.solve.factorizations, b.solve.factorizations) << what;
     EXPECT_EQ(a.solve.singular_count, b.solve.singular_count) << what;
+    EXPECT_EQ(a.solve.singular, b.solve.singular) << what;
+    EXPECT_EQ(a.solve.min_pivot_ratio, b.solve.min_pivot_ratio) << what;
+    EXPECT_EQ(a.solve.regularization, b.solve.regularization) << what;
+    EXPECT_EQ(a.projection.projections, b.projection.projections) << what;
     EXPECT_EQ(a.projection.iterations, b.projection.iterations) << what;
+    EXPECT_EQ(a.projection.singular, b.projection.singular) << what;
+    EXPECT_EQ(a.projection.converged, b.projection.converged) << what;
+    EXPECT_EQ(a.projection.max_iterations, b.projection.max_iterations) << what;
+    EXPECT_LE(std::abs(a.projection.max_position_error - b.projection.max_position_error), 1e-15)
+        << what;
+    // the reported constraint forces and multipliers, eliminated reactions included
+    const Data& x = fused.data();
+    const Data& y = generic.data();
+    const double scale = 1.0 + y.constraint_forces.cwiseAbs().maxCoeff();
+    EXPECT_LE((x.constraint_forces - y.constraint_forces).cwiseAbs().maxCoeff(), 1e-9 * scale)
+        << what;
+    if (y.multipliers.size() > 0)
+    {
+      EXPECT_LE((x.multipliers - y.multipliers).cwiseAbs().maxCoeff(),
+                1e-9 * (1.0 + y.multipliers.cwiseAbs().maxCoeff()))
+          << what;
+    }
     if (singular)
       *singular = *singular || a.solve.singular;
     moved = std::max(moved, (fused.state().positions - start.positions).cwiseAbs().maxCoeff());
@@ -81,7 +104,7 @@ TEST(StagePaths, EveryShippedSceneMovesTheSameBothWays)
     fused += expectSameMotion(built.scene, built.initial_state, settings,
                               description.solver.solve_method, name);
   }
-  // the chains among them (chain, its pinned and shaken variants, the stiff rod) take the path
+  // the chains among them (chain, its pinned-both-ends and shaken variants) take the path
   EXPECT_GE(fused, 3);
 }
 
@@ -178,4 +201,48 @@ TEST(StagePaths, ASingularChainTakesTheGenericRegularisedSolve)
   EXPECT_TRUE(expectSameMotion(scene, start, settings, SolveMethod::Automatic, "taut chain", 100,
                                &singular));
   EXPECT_TRUE(singular) << "the fallback was never exercised";
+}
+
+// The fused projection's own hand-overs: at an exactly collinear taut chain the velocity solve is
+// singular (the positions converge at once); stretched and collinear, every position solve is,
+// and the projection runs out of iterations. Both ways give the same reports, counters, motion.
+TEST(StagePaths, TheFusedProjectionHandsSingularSolvesToTheGenericOne)
+{
+  for (const double stretch : { 0.0, 2e-4 })
+  {
+    Scene scene;
+    scene.masses = { 1.0, 1.0, 1.0 };
+    scene.forces = { GravityForce{} };
+    scene.constraints = { LinkConstraint{ 0, 1, 0.1 }, LinkConstraint{ 1, 2, 0.1 },
+                          PinConstraint{ 0, Vec3(0, 0, 0) },
+                          PinConstraint{ 2, Vec3(0.2 + stretch, 0, 0) } };
+    const Model fused_model = Model::compile(scene);
+    const Model generic_model = Model::compile(scene, SolveMethod::Automatic, StagePaths::Generic);
+    ASSERT_TRUE(fused_model.fusedChain());
+    ASSERT_FALSE(generic_model.fusedChain());
+    Data fused(fused_model), generic(generic_model);
+    for (Data* data : { &fused, &generic })
+    {
+      data->state.positions.col(1) = Vec3(0.1 + 0.5 * stretch, 0, 0);
+      data->state.positions.col(2) = Vec3(0.2 + stretch, 0, 0);
+      data->state.velocities.col(1) = Vec3(0.3, 0, -0.5);
+    }
+    const ProjectionReport a = projectStep(fused_model, fused, 0.0, fused.state.positions,
+                                           fused.state.velocities, 1e-10, 5);
+    const ProjectionReport b = projectStep(generic_model, generic, 0.0, generic.state.positions,
+                                           generic.state.velocities, 1e-10, 5);
+    const std::string what = "stretch " + std::to_string(stretch);
+    EXPECT_TRUE(a.singular) << what << ": the hand-over was not exercised";
+    EXPECT_EQ(a.converged, stretch == 0.0) << what;
+    EXPECT_EQ(a.singular, b.singular) << what;
+    EXPECT_EQ(a.converged, b.converged) << what;
+    EXPECT_EQ(a.iterations, b.iterations) << what;
+    EXPECT_EQ(a.max_position_error, b.max_position_error) << what;
+    EXPECT_EQ(fused.counters.constraints, generic.counters.constraints) << what;
+    EXPECT_EQ(fused.counters.factorizations, generic.counters.factorizations) << what;
+    EXPECT_EQ(fused.statistics.solve.factorizations, generic.statistics.solve.factorizations);
+    EXPECT_EQ(fused.statistics.solve.singular_count, generic.statistics.solve.singular_count);
+    EXPECT_LE((fused.state.positions - generic.state.positions).cwiseAbs().maxCoeff(), 1e-15);
+    EXPECT_LE((fused.state.velocities - generic.state.velocities).cwiseAbs().maxCoeff(), 1e-15);
+  }
 }

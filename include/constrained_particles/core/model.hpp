@@ -74,8 +74,6 @@ struct KindTablesOf<std::variant<Kinds...>>
 };
 using KindTables = KindTablesOf<Constraint>::type;
 
-/// A Jacobian block on a particle an eliminated record holds: its imposed acceleration enters the
-/// right-hand side through it.
 /// Which evaluation paths a model may take (chosen at compile, like the solve method).
 enum class StagePaths
 {
@@ -96,6 +94,8 @@ struct ChainRow
   int lower_block = -1;     ///< its block in this row
 };
 
+/// A Jacobian block on a particle an eliminated record holds: its imposed acceleration enters the
+/// right-hand side through it.
 struct EliminatedBlock
 {
   int block;       ///< the block
