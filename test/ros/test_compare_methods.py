@@ -128,10 +128,11 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
         self.assertEqual(at_cancel.done, 0, at_cancel.current)
         self.assertEqual(len(result.runs), 0)
         self.assertEqual(feedback[-1].done, 0)
-        # inside a method's run: the references of 100 s take about a second, the run 10^8 steps
-        # (about 25 s of CPU here, far longer under a sanitizer or a loaded machine)
+        # inside a method's run: the references of 20 s take a fifth of a second here (minutes at
+        # low priority under a sanitizer: 100 s took over 240 s in CI's ASan pass), the run
+        # 2 x 10^7 steps (about 5 s of CPU here, far longer under a sanitizer or a loaded machine)
         at_cancel, feedback, result, seconds = self.cancel_once_under_way(
-            CompareMethodsGoal(horizon=100.0, methods=[slow, slow]), lambda f: f.done >= 2)
+            CompareMethodsGoal(horizon=20.0, methods=[slow, slow]), lambda f: f.done >= 2)
         self.assertEqual(at_cancel.done, 2, at_cancel.current)
         self.assertEqual(at_cancel.current, "explicit_euler + none, dt 1e-06")
         # no run finished: the cancel was seen inside the first
