@@ -16,6 +16,57 @@ namespace constrained_particles
 {
 namespace
 {
+// Link k's Jacobian blocks, C and diagonal entry of J W J^T at `positions`
+// (link_constraint.hpp's evaluateRows, evaluateRowRecords' diagonal); returns |p_i - p_j|^2.
+inline double evaluateLink(const ChainRow& link, int k, const Points& positions, RowData& rows)
+{
+  const int b = 2 * k;
+  const double* pi = positions.data() + 3 * link.first;
+  const double* pj = positions.data() + 3 * link.second;
+  const Vec3 d(pi[0] - pj[0], pi[1] - pj[1], pi[2] - pj[2]);
+  const double squared = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
+  rows.jacobian[b] = d;
+  rows.jacobian[b + 1] = -d;
+  rows.value[k] = 0.5 * (squared - link.length * link.length);
+  rows.diagonal[k] = link.w_first * rows.jacobian[b].squaredNorm() +
+                     link.w_second * rows.jacobian[b + 1].squaredNorm();
+  return squared;
+}
+
+// Row k's LDL^T pivot (tridiagonal.cpp's factorizeShifted at delta = 0): sets L's entry left of
+// it and tracks min(pivot / diagonal); the caller checks it with isSingularPivot.
+inline double pivotOf(const ChainRow& link, int k, const RowData& rows, Eigen::VectorXd& lower,
+                      const Eigen::VectorXd& inverse_pivots, double& min_ratio)
+{
+  const double diagonal = rows.diagonal[k];
+  double pivot = diagonal;
+  if (k > 0)
+  {
+    const double off =
+        link.coupling >= 0
+            ? link.w_coupling * rows.jacobian[link.upper_block].dot(rows.jacobian[link.lower_block])
+            : 0.0;
+    lower[k - 1] = off * inverse_pivots[k - 1];
+    pivot -= lower[k - 1] * off;
+  }
+  if (!(diagonal > 0.0))
+    min_ratio = 0.0;
+  else if (pivot < min_ratio * diagonal)
+    min_ratio = pivot / diagonal;
+  return pivot;
+}
+
+// Counts a fused factorisation and merges its report, as factorizeRows() does the solver's.
+SolveReport countFusedFactorization(const Model& model, Data& data, double min_ratio)
+{
+  ++data.counters.factorizations[static_cast<int>(SolveMethod::Tridiagonal)];
+  SolveReport report;
+  report.method = model.solveMethod();
+  report.min_pivot_ratio = min_ratio;
+  data.statistics.solve.merge(report);
+  return report;
+}
+
 // Up the chain; false at a singular pivot (data.rows then holds the rows before it only). The
 // violations (a square root per link) are left: only a projection reads them, after its own
 // evaluation of the rows.
@@ -34,22 +85,12 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
   {
     const ChainRow& link = links[k];
     const int i = link.first, j = link.second, b = 2 * k;
-    // the row (link_constraint.hpp's evaluateRows)
-    const double* pi = positions.data() + 3 * i;
-    const double* pj = positions.data() + 3 * j;
+    evaluateLink(link, k, positions, rows);
     const double* vi = velocities.data() + 3 * i;
     const double* vj = velocities.data() + 3 * j;
-    const Vec3 d(pi[0] - pj[0], pi[1] - pj[1], pi[2] - pj[2]);
     const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
-    const double squared = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
-    rows.jacobian[b] = d;
-    rows.jacobian[b + 1] = -d;
-    rows.value[k] = 0.5 * (squared - link.length * link.length);
     const double jdot_v = ux * ux + uy * uy + uz * uz;
     rows.jdot_v[k] = jdot_v;
-    const double diagonal = link.w_first * rows.jacobian[b].squaredNorm() +
-                            link.w_second * rows.jacobian[b + 1].squaredNorm();
-    rows.diagonal[k] = diagonal;
     // the right-hand side -(Jdot v + J W f) - J a_held (stages.cpp's constraintForceStage)
     double sum = jdot_v;
     sum += link.w_first * rows.jacobian[b].dot(f.col(i));
@@ -59,22 +100,11 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
       r -= rows.jacobian[b].dot(data.imposed[link.held_first].acceleration);
     if (link.held_second >= 0)
       r -= rows.jacobian[b + 1].dot(data.imposed[link.held_second].acceleration);
-    // the pivot (tridiagonal.cpp's factorizeShifted at delta = 0) and forward substitution
-    double pivot = diagonal;
+    // the pivot and the forward substitution
+    const double pivot = pivotOf(link, k, rows, lower, inverse_pivots, min_ratio);
     if (k > 0)
-    {
-      const double off = link.coupling >= 0 ? link.w_coupling * rows.jacobian[link.upper_block].dot(
-                                                                    rows.jacobian[link.lower_block])
-                                            : 0.0;
-      lower[k - 1] = off * inverse_pivots[k - 1];
-      pivot -= lower[k - 1] * off;
       r -= lower[k - 1] * rhs[k - 1];
-    }
-    if (!(diagonal > 0.0))
-      min_ratio = 0.0;
-    else if (pivot < min_ratio * diagonal)
-      min_ratio = pivot / diagonal;
-    if (ConstraintSolver::isSingularPivot(pivot, diagonal))
+    if (ConstraintSolver::isSingularPivot(pivot, rows.diagonal[k]))
       return false;
     inverse_pivots[k] = 1.0 / pivot;
     rhs[k] = r;
@@ -127,19 +157,10 @@ bool chainProjectionSweep(const Model& model, Data& data, const Points& position
   {
     const ChainRow& link = links[k];
     const int i = link.first, j = link.second, b = 2 * k;
-    const double* pi = positions.data() + 3 * i;
-    const double* pj = positions.data() + 3 * j;
-    const Vec3 d(pi[0] - pj[0], pi[1] - pj[1], pi[2] - pj[2]);
-    const double squared = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
-    rows.jacobian[b] = d;
-    rows.jacobian[b + 1] = -d;
-    rows.value[k] = 0.5 * (squared - link.length * link.length);
+    const double squared = evaluateLink(link, k, positions, rows);
     rows.jdot_v[k] = 0.0;
     rows.violation[k] = std::abs(std::sqrt(squared) - link.length);
     max_violation = worseError(max_violation, rows.violation[k]);
-    const double diagonal = link.w_first * rows.jacobian[b].squaredNorm() +
-                            link.w_second * rows.jacobian[b + 1].squaredNorm();
-    rows.diagonal[k] = diagonal;
     if (!factorised)
       continue;
     // J v as multiplyJacobian sums it
@@ -147,22 +168,13 @@ bool chainProjectionSweep(const Model& model, Data& data, const Points& position
     jv += rows.jacobian[b].dot(velocities.col(i));
     jv += rows.jacobian[b + 1].dot(velocities.col(j));
     double c = rows.value[k];
-    double pivot = diagonal;
+    const double pivot = pivotOf(link, k, rows, lower, inverse_pivots, min_ratio);
     if (k > 0)
     {
-      const double off = link.coupling >= 0 ? link.w_coupling * rows.jacobian[link.upper_block].dot(
-                                                                    rows.jacobian[link.lower_block])
-                                            : 0.0;
-      lower[k - 1] = off * inverse_pivots[k - 1];
-      pivot -= lower[k - 1] * off;
       c -= lower[k - 1] * y[k - 1];
       jv -= lower[k - 1] * z[k - 1];
     }
-    if (!(diagonal > 0.0))
-      min_ratio = 0.0;
-    else if (pivot < min_ratio * diagonal)
-      min_ratio = pivot / diagonal;
-    if (ConstraintSolver::isSingularPivot(pivot, diagonal))
+    if (ConstraintSolver::isSingularPivot(pivot, rows.diagonal[k]))
     {
       factorised = false;
       continue;
@@ -201,8 +213,6 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   imposeEliminated(model, data, time, nullptr, &velocities);
   const int m = model.numRows();
   auto& counted_rows = data.counters.constraints[constraintKindIndex<LinkConstraint>()];
-  auto& counted_factorizations =
-      data.counters.factorizations[static_cast<int>(SolveMethod::Tridiagonal)];
   bool factorised = false;
   double min_ratio = 1.0;
   for (int iteration = 0;; ++iteration)
@@ -217,11 +227,7 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
     // dp = -W J^T (J W J^T)^-1 C
     if (factorised)
     {
-      ++counted_factorizations;
-      SolveReport solve;
-      solve.method = model.solveMethod();
-      solve.min_pivot_ratio = min_ratio;
-      data.statistics.solve.merge(solve);
+      countFusedFactorization(model, data, min_ratio);
       chainBackSubstitution(data, data.rhs);
     }
     else
@@ -236,11 +242,7 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   // dv = -W J^T (J W J^T)^-1 J v at the final rows
   if (factorised)
   {
-    ++counted_factorizations;
-    SolveReport solve;
-    solve.method = model.solveMethod();
-    solve.min_pivot_ratio = min_ratio;
-    data.statistics.solve.merge(solve);
+    countFusedFactorization(model, data, min_ratio);
     data.rhs = data.chain_velocity_rhs;
     chainBackSubstitution(data, data.rhs);
   }
@@ -260,8 +262,6 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
 {
   appliedForceStage(model, data, positions, velocities);
   const int m = model.numRows();
-  SolveReport report;
-  report.method = model.solveMethod();
   double min_ratio = 1.0;
   // the rows are counted once, as rowStage counts them, whichever path finishes the stage
   data.counters.constraints[constraintKindIndex<LinkConstraint>()] += m;
@@ -269,13 +269,11 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
   {
     // singular: the generic stages finish the rows and regularise the factorisation
     evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
-    report = constraintForceStage(model, data, nullptr);
+    const SolveReport report = constraintForceStage(model, data, nullptr);
     accelerationStage(model, data, accelerations);
     return report;
   }
-  ++data.counters.factorizations[static_cast<int>(SolveMethod::Tridiagonal)];
-  report.min_pivot_ratio = min_ratio;
-  data.statistics.solve.merge(report);
+  const SolveReport report = countFusedFactorization(model, data, min_ratio);
   chainSweepDown(model, data);
   addEliminatedReactions(model, data);
   accelerationStage(model, data, accelerations);
