@@ -2,10 +2,10 @@
 // J W J^T (Model::fusedChain()), the row, constraint-force and solve stages in two sweeps
 // instead of seven: up the chain, each link's row (C, J, Jdot v, violation, diagonal), its
 // right-hand side, its LDL^T pivot and its forward substitution; down the chain, the back
-// substitution, the multipliers and J^T lambda. The arithmetic is the generic stages' (stages.cpp
-// and solvers/tridiagonal.cpp) in the same order, so both give the same motion; the same
-// counters move, by sweep rather than by row. A singular pivot hands the stage to the generic
-// path, whose factorisation regularises it.
+// substitution, the multipliers, J^T lambda and the accelerations. The arithmetic is the generic
+// stages' (stages.cpp and solvers/tridiagonal.cpp) in the same order, so both give the same motion;
+// the same counters move, by sweep rather than by row. A singular pivot hands the stage to the
+// generic path, whose factorisation regularises it.
 #include "solvers/solver.hpp"
 #include "stabilization.hpp"
 #include "stages.hpp"
@@ -16,38 +16,65 @@ namespace constrained_particles
 {
 namespace
 {
+// Raw views of the row fields a sweep writes: read through `data` the compiler reloads each
+// field's pointer after every store of a double, which might (for all it knows) have moved it.
+struct LinkRows
+{
+  explicit LinkRows(RowData& rows)
+    : jacobian(rows.jacobian.data())
+    , value(rows.value.data())
+    , jdot_v(rows.jdot_v.data())
+    , diagonal(rows.diagonal.data())
+    , violation(rows.violation.data())
+  {
+  }
+  Vec3* jacobian;
+  double *value, *jdot_v, *diagonal, *violation;
+};
+
+struct LinkLengths
+{
+  Vec3 d;           // p_i - p_j [m]: J's block on i (and -d on j)
+  double squared;   // |d|^2 [m^2]
+  double diagonal;  // the link's diagonal entry of J W J^T
+};
+
 // Link k's Jacobian blocks, C and diagonal entry of J W J^T at `positions`
-// (link_constraint.hpp's evaluateRows, evaluateRowRecords' diagonal); returns |p_i - p_j|^2.
-inline double evaluateLink(const ChainRow& link, int k, const Points& positions, RowData& rows)
+// (link_constraint.hpp's evaluateRows, evaluateRowRecords' diagonal). The diagonal is
+// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order.
+inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* positions,
+                                const LinkRows& rows)
 {
   const int b = 2 * k;
-  const double* pi = positions.data() + 3 * link.first;
-  const double* pj = positions.data() + 3 * link.second;
+  const double* pi = positions + 3 * link.first;
+  const double* pj = positions + 3 * link.second;
   const Vec3 d(pi[0] - pj[0], pi[1] - pj[1], pi[2] - pj[2]);
   const double squared = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
   rows.jacobian[b] = d;
   rows.jacobian[b + 1] = -d;
   rows.value[k] = 0.5 * (squared - link.length * link.length);
-  rows.diagonal[k] = link.w_first * rows.jacobian[b].squaredNorm() +
-                     link.w_second * rows.jacobian[b + 1].squaredNorm();
-  return squared;
+  const double diagonal = link.w_first * squared + link.w_second * squared;
+  rows.diagonal[k] = diagonal;
+  return { d, squared, diagonal };
 }
 
-// Row k's LDL^T pivot (tridiagonal.cpp's factorizeShifted at delta = 0): sets L's entry left of
-// it and tracks min(pivot / diagonal); the caller checks it with isSingularPivot.
-inline double pivotOf(const ChainRow& link, int k, const RowData& rows, Eigen::VectorXd& lower,
-                      const Eigen::VectorXd& inverse_pivots, double& min_ratio)
+// Row k's LDL^T pivot (tridiagonal.cpp's factorizeShifted at delta = 0) from the row above's
+// inverse pivot, carried in a register rather than reloaded (it is the recurrence's critical
+// path): sets L's entry left of it (`lower`) and tracks min(pivot / diagonal); the caller checks
+// it with isSingularPivot.
+inline double pivotOf(const ChainRow& link, int k, const LinkRows& rows, double diagonal,
+                      double inverse_pivot_above, double& lower, double& min_ratio)
 {
-  const double diagonal = rows.diagonal[k];
   double pivot = diagonal;
+  lower = 0.0;
   if (k > 0)
   {
     const double off =
         link.coupling >= 0
             ? link.w_coupling * rows.jacobian[link.upper_block].dot(rows.jacobian[link.lower_block])
             : 0.0;
-    lower[k - 1] = off * inverse_pivots[k - 1];
-    pivot -= lower[k - 1] * off;
+    lower = off * inverse_pivot_above;
+    pivot -= lower * off;
   }
   if (!(diagonal > 0.0))
     min_ratio = 0.0;
@@ -73,66 +100,101 @@ SolveReport countFusedFactorization(const Model& model, Data& data, double min_r
 bool chainSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
                   double& min_ratio)
 {
-  const std::vector<ChainRow>& links = model.chainRows();
-  RowData& rows = data.rows;
-  const Points& f = data.applied_forces;
-  Eigen::VectorXd& rhs = data.rhs;
-  Eigen::VectorXd& lower = data.chain_lower;
-  Eigen::VectorXd& inverse_pivots = data.chain_inverse_pivots;
+  const ChainRow* links = model.chainRows().data();
+  const LinkRows rows(data.rows);
+  const double* p = positions.data();
+  const double* v = velocities.data();
+  const double* f = data.applied_forces.data();
+  const ImposedMotion* imposed = data.imposed.data();
+  double* rhs = data.rhs.data();
+  double* lower = data.chain_lower.data();
+  double* inverse_pivots = data.chain_inverse_pivots.data();
   min_ratio = 1.0;
-  const int m = static_cast<int>(links.size());
+  double inverse_pivot_above = 0.0, rhs_above = 0.0;
+  const int m = model.numRows();
   for (int k = 0; k < m; ++k)
   {
     const ChainRow& link = links[k];
-    const int i = link.first, j = link.second, b = 2 * k;
-    evaluateLink(link, k, positions, rows);
-    const double* vi = velocities.data() + 3 * i;
-    const double* vj = velocities.data() + 3 * j;
+    const int i = link.first, j = link.second;
+    const LinkLengths lengths = evaluateLink(link, k, p, rows);
+    const double diagonal = lengths.diagonal;
+    const double* vi = v + 3 * i;
+    const double* vj = v + 3 * j;
     const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
     const double jdot_v = ux * ux + uy * uy + uz * uz;
     rows.jdot_v[k] = jdot_v;
     // the right-hand side -(Jdot v + J W f) - J a_held (stages.cpp's constraintForceStage)
+    const Vec3 ji = lengths.d, jj = -lengths.d;  // the blocks, from registers
     double sum = jdot_v;
-    sum += link.w_first * rows.jacobian[b].dot(f.col(i));
-    sum += link.w_second * rows.jacobian[b + 1].dot(f.col(j));
+    sum += link.w_first * ji.dot(Eigen::Map<const Vec3>(f + 3 * i));
+    sum += link.w_second * jj.dot(Eigen::Map<const Vec3>(f + 3 * j));
     double r = -sum;
     if (link.held_first >= 0)
-      r -= rows.jacobian[b].dot(data.imposed[link.held_first].acceleration);
+      r -= ji.dot(imposed[link.held_first].acceleration);
     if (link.held_second >= 0)
-      r -= rows.jacobian[b + 1].dot(data.imposed[link.held_second].acceleration);
+      r -= jj.dot(imposed[link.held_second].acceleration);
     // the pivot and the forward substitution
-    const double pivot = pivotOf(link, k, rows, lower, inverse_pivots, min_ratio);
+    double l = 0.0;
+    const double pivot = pivotOf(link, k, rows, diagonal, inverse_pivot_above, l, min_ratio);
     if (k > 0)
-      r -= lower[k - 1] * rhs[k - 1];
-    if (ConstraintSolver::isSingularPivot(pivot, rows.diagonal[k]))
+    {
+      lower[k - 1] = l;
+      r -= l * rhs_above;
+    }
+    if (ConstraintSolver::isSingularPivot(pivot, diagonal))
       return false;
-    inverse_pivots[k] = 1.0 / pivot;
-    rhs[k] = r;
+    inverse_pivot_above = inverse_pivots[k] = 1.0 / pivot;
+    rhs_above = rhs[k] = r;
   }
   return true;
 }
 
-// Down the chain: lambda = D^-1 y - L^T lambda, the multipliers, f_c = J^T lambda.
-void chainSweepDown(const Model& model, Data& data)
+// One link's J^T lambda on particle i, and its acceleration W (f + f_c) once no link is left:
+// accelerationStage's expression, a particle at a time while its forces are in cache.
+inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3& force,
+                           const double* applied, double* forces, double* accelerations)
 {
-  const std::vector<ChainRow>& links = model.chainRows();
-  const RowData& rows = data.rows;
-  const Eigen::VectorXd& lower = data.chain_lower;
-  const Eigen::VectorXd& inverse_pivots = data.chain_inverse_pivots;
-  Eigen::VectorXd& rhs = data.rhs;
-  Points& forces = data.constraint_forces;
-  forces.setZero();
-  const int m = static_cast<int>(links.size());
+  Eigen::Map<Vec3> fc(forces + 3 * i);
+  if (opens)
+    fc = force;  // the generic stages' 0 + force
+  else
+    fc += force;
+  if (closes)
+    Eigen::Map<Vec3>(accelerations + 3 * i) = w * (Eigen::Map<const Vec3>(applied + 3 * i) + fc);
+}
+
+// Down the chain: lambda = D^-1 y - L^T lambda, the multipliers, f_c = J^T lambda and each
+// linked particle's acceleration; a particle no link touches has f_c = 0, a = W f.
+void chainSweepDown(const Model& model, Data& data, Points& accelerations)
+{
+  const ChainRow* links = model.chainRows().data();
+  const Vec3* jacobian = data.rows.jacobian.data();
+  const double* lower = data.chain_lower.data();
+  const double* inverse_pivots = data.chain_inverse_pivots.data();
+  const double* f = data.applied_forces.data();
+  double* rhs = data.rhs.data();
+  double* multipliers = data.multipliers.data();
+  double* forces = data.constraint_forces.data();
+  double* a = accelerations.data();
+  const int m = model.numRows();
+  double lambda_below = 0.0;
   for (int k = m - 1; k >= 0; --k)
   {
     double lambda = rhs[k] * inverse_pivots[k];
     if (k + 1 < m)
-      lambda -= lower[k] * rhs[k + 1];
-    rhs[k] = lambda;
-    data.multipliers[k] = lambda;
+      lambda -= lower[k] * lambda_below;
+    lambda_below = rhs[k] = multipliers[k] = lambda;
     const ChainRow& link = links[k];
-    forces.col(link.first) += lambda * rows.jacobian[2 * k];
-    forces.col(link.second) += lambda * rows.jacobian[2 * k + 1];
+    settleParticle(link.first, link.first_opens, link.first_closes, link.w_first,
+                   lambda * jacobian[2 * k], f, forces, a);
+    settleParticle(link.second, link.second_opens, link.second_closes, link.w_second,
+                   lambda * jacobian[2 * k + 1], f, forces, a);
+  }
+  const auto& w = model.inverseMasses();
+  for (int i : model.chainUnlinked())
+  {
+    data.constraint_forces.col(i).setZero();
+    accelerations.col(i) = w[i] * (data.applied_forces.col(i) + data.constraint_forces.col(i));
   }
 }
 
@@ -143,61 +205,101 @@ void chainSweepDown(const Model& model, Data& data)
 bool chainProjectionSweep(const Model& model, Data& data, const Points& positions,
                           const Points& velocities, double& min_ratio)
 {
-  const std::vector<ChainRow>& links = model.chainRows();
-  RowData& rows = data.rows;
-  Eigen::VectorXd& y = data.rhs;
-  Eigen::VectorXd& z = data.chain_velocity_rhs;
-  Eigen::VectorXd& lower = data.chain_lower;
-  Eigen::VectorXd& inverse_pivots = data.chain_inverse_pivots;
+  const ChainRow* links = model.chainRows().data();
+  const LinkRows rows(data.rows);
+  const double* p = positions.data();
+  const double* v = velocities.data();
+  double* y = data.rhs.data();
+  double* z = data.chain_velocity_rhs.data();
+  double* lower = data.chain_lower.data();
+  double* inverse_pivots = data.chain_inverse_pivots.data();
   double max_violation = 0.0;
   bool factorised = true;
   min_ratio = 1.0;
-  const int m = static_cast<int>(links.size());
+  double inverse_pivot_above = 0.0, y_above = 0.0, z_above = 0.0;
+  const int m = model.numRows();
   for (int k = 0; k < m; ++k)
   {
     const ChainRow& link = links[k];
-    const int i = link.first, j = link.second, b = 2 * k;
-    const double squared = evaluateLink(link, k, positions, rows);
+    const int i = link.first, j = link.second;
+    const LinkLengths lengths = evaluateLink(link, k, p, rows);
     rows.jdot_v[k] = 0.0;
-    rows.violation[k] = std::abs(std::sqrt(squared) - link.length);
-    max_violation = worseError(max_violation, rows.violation[k]);
+    const double violation = std::abs(std::sqrt(lengths.squared) - link.length);
+    rows.violation[k] = violation;
+    max_violation = worseError(max_violation, violation);
     if (!factorised)
       continue;
     // J v as multiplyJacobian sums it
     double jv = 0.0;
-    jv += rows.jacobian[b].dot(velocities.col(i));
-    jv += rows.jacobian[b + 1].dot(velocities.col(j));
+    jv += lengths.d.dot(Eigen::Map<const Vec3>(v + 3 * i));
+    jv += (-lengths.d).dot(Eigen::Map<const Vec3>(v + 3 * j));
     double c = rows.value[k];
-    const double pivot = pivotOf(link, k, rows, lower, inverse_pivots, min_ratio);
+    double l = 0.0;
+    const double pivot =
+        pivotOf(link, k, rows, lengths.diagonal, inverse_pivot_above, l, min_ratio);
     if (k > 0)
     {
-      c -= lower[k - 1] * y[k - 1];
-      jv -= lower[k - 1] * z[k - 1];
+      lower[k - 1] = l;
+      c -= l * y_above;
+      jv -= l * z_above;
     }
-    if (ConstraintSolver::isSingularPivot(pivot, rows.diagonal[k]))
+    if (ConstraintSolver::isSingularPivot(pivot, lengths.diagonal))
     {
       factorised = false;
       continue;
     }
-    inverse_pivots[k] = 1.0 / pivot;
-    y[k] = c;
-    z[k] = jv;
+    inverse_pivot_above = inverse_pivots[k] = 1.0 / pivot;
+    y_above = y[k] = c;
+    z_above = z[k] = jv;
   }
-  rows.max_violation = max_violation;
+  data.rows.max_violation = max_violation;
   return factorised;
 }
 
-// x = D^-1 x - L^T x from the bottom: the back half of the fused solve, in place.
-void chainBackSubstitution(const Data& data, Eigen::VectorXd& x)
+// One row's correction -W J^T mu on particle i, added in the generic order
+// (addInverseMassJacobianTranspose sums rows upwards; this sweep goes down): a particle's lower
+// row's share waits in `pending` until its upper row's is added.
+inline void correctParticle(int i, bool opens, bool closes, const Vec3& delta, double* pending,
+                            double* out)
 {
-  const Eigen::VectorXd& lower = data.chain_lower;
-  const Eigen::VectorXd& inverse_pivots = data.chain_inverse_pivots;
-  const int m = static_cast<int>(x.size());
+  Eigen::Map<Vec3> x(out + 3 * i);
+  if (opens && closes)
+    x += delta;
+  else if (opens)
+    Eigen::Map<Vec3>(pending + 3 * i) = delta;
+  else
+  {
+    x += delta;
+    x += Eigen::Map<const Vec3>(pending + 3 * i);
+  }
+}
+
+// Down the chain: mu = D^-1 x - L^T mu from the bottom, in place in `x` (the back half of the
+// fused solve), and out -= W J^T mu (addInverseMassJacobianTranspose at scale -1) in the same
+// sweep.
+void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out)
+{
+  const ChainRow* links = model.chainRows().data();
+  const Vec3* jacobian = data.rows.jacobian.data();
+  const double* lower = data.chain_lower.data();
+  const double* inverse_pivots = data.chain_inverse_pivots.data();
+  double* mu = x.data();
+  double* pending = data.chain_pending.data();
+  double* o = out.data();
+  const int m = model.numRows();
+  double mu_below = 0.0;
   for (int k = m - 1; k >= 0; --k)
   {
-    x[k] *= inverse_pivots[k];
+    double value = mu[k] * inverse_pivots[k];
     if (k + 1 < m)
-      x[k] -= lower[k] * x[k + 1];
+      value -= lower[k] * mu_below;
+    mu_below = mu[k] = value;
+    const double s = -1.0 * value;  // addInverseMassJacobianTranspose's scale * lambda
+    const ChainRow& link = links[k];
+    correctParticle(link.first, link.first_opens, link.first_closes,
+                    (link.w_first * s) * jacobian[2 * k], pending, o);
+    correctParticle(link.second, link.second_opens, link.second_closes,
+                    (link.w_second * s) * jacobian[2 * k + 1], pending, o);
   }
 }
 
@@ -228,31 +330,30 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
     if (factorised)
     {
       countFusedFactorization(model, data, min_ratio);
-      chainBackSubstitution(data, data.rhs);
+      chainCorrect(model, data, data.rhs, positions);
     }
     else
     {
       report.singular |= factorizeRows(model, data).singular;
       data.rhs = data.rows.value;
       data.solver().solveInPlace(data.rhs);
+      addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, positions);
     }
-    addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, positions);
     report.iterations = iteration + 1;
   }
   // dv = -W J^T (J W J^T)^-1 J v at the final rows
   if (factorised)
   {
     countFusedFactorization(model, data, min_ratio);
-    data.rhs = data.chain_velocity_rhs;
-    chainBackSubstitution(data, data.rhs);
+    chainCorrect(model, data, data.chain_velocity_rhs, velocities);
   }
   else
   {
     report.singular |= factorizeRows(model, data).singular;
     multiplyJacobian(model, data.rows, velocities, data.rhs);
     data.solver().solveInPlace(data.rhs);
+    addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, velocities);
   }
-  addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, velocities);
   data.statistics.projection.merge(report);
   return report;
 }
@@ -274,9 +375,9 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
     return report;
   }
   const SolveReport report = countFusedFactorization(model, data, min_ratio);
-  chainSweepDown(model, data);
+  chainSweepDown(model, data, accelerations);
   addEliminatedReactions(model, data);
-  accelerationStage(model, data, accelerations);
+  heldAccelerations(model, data, accelerations);
   return report;
 }
 

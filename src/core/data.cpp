@@ -37,6 +37,7 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   chain_lower.setZero(std::max(model.numRows() - 1, 0));
   chain_inverse_pivots.setZero(model.numRows());
   chain_velocity_rhs.setZero(model.numRows());
+  chain_pending.setZero(3, model.fusedChain() ? n : 0);
   for (Points* buffer : { &stages.a1, &stages.a2, &stages.a3, &stages.a4, &stages.v2, &stages.v3,
                           &stages.v4, &stages.p_stage, &stages.v_stage, &stages.p_start,
                           &stages.correction, &stages.change, &stages.p_unprojected, &stages.zero })

@@ -36,18 +36,43 @@ double potentialEnergy(const Model& model, const State& state)
 
 double energyScale(const Model& model, const State& state, const Points& forces)
 {
-  return energyScale(model, state, forces, kineticEnergy(model, state));
+  return stepCheckSums(model, state, forces).scale;
 }
 
-double energyScale(const Model& model, const State& state, const Points& forces, double kinetic)
+StepCheckSums stepCheckSums(const Model& model, const State& state, const Points& forces)
 {
-  if (model.numParticles() == 0)
-    return 0.0;
-  const Vec3 extent = state.positions.rowwise().maxCoeff() - state.positions.rowwise().minCoeff();
-  double force = 0.0;
-  for (int i = 0; i < model.numParticles(); ++i)
-    force += forces.col(i).norm();
-  return kinetic + force * extent.norm();
+  StepCheckSums sums;
+  const int n = model.numParticles();
+  const double* masses = model.scene().masses.data();
+  const double* p = state.positions.data();
+  const double* v = state.velocities.data();
+  const double* f = forces.data();
+  // x - x is 0 for a finite x and NaN otherwise: a probe is NaN if any value is not finite
+  double probe_p = state.time - state.time, probe_v = 0.0;
+  double kinetic = 0.0, force = 0.0;
+  double low[3] = { 0.0, 0.0, 0.0 }, high[3] = { 0.0, 0.0, 0.0 };
+  if (n > 0)
+    for (int c = 0; c < 3; ++c)
+      low[c] = high[c] = p[c];
+  for (int i = 0; i < n; ++i)
+  {
+    const double *pi = p + 3 * i, *vi = v + 3 * i, *fi = f + 3 * i;
+    probe_p += (pi[0] - pi[0]) + (pi[1] - pi[1]) + (pi[2] - pi[2]);
+    probe_v += (vi[0] - vi[0]) + (vi[1] - vi[1]) + (vi[2] - vi[2]);
+    // kineticEnergy's and energyScale's sums, term for term
+    kinetic += 0.5 * masses[i] * (vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2]);
+    force += std::sqrt(fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
+    for (int c = 0; c < 3; ++c)
+    {
+      low[c] = pi[c] < low[c] ? pi[c] : low[c];
+      high[c] = pi[c] > high[c] ? pi[c] : high[c];
+    }
+  }
+  sums.finite = probe_p == 0.0 && probe_v == 0.0;
+  sums.kinetic = kinetic;
+  const double dx = high[0] - low[0], dy = high[1] - low[1], dz = high[2] - low[2];
+  sums.scale = n > 0 ? kinetic + force * std::sqrt(dx * dx + dy * dy + dz * dz) : 0.0;
+  return sums;
 }
 
 Diagnostics computeDiagnostics(const Model& model, const State& state)

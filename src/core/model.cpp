@@ -2,6 +2,7 @@
 
 #include "constrained_particles/core/limits.hpp"
 
+#include <algorithm>
 #include <cstdlib>
 #include <string>
 #include <type_traits>
@@ -57,7 +58,7 @@ SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
 namespace
 {
 // The fused chain stages' rows (Model::fusedChain()), or none if the model has another structure.
-std::vector<ChainRow> findChainRows(const Model& model)
+std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlinked)
 {
   const int m = model.numRows();
   if (model.solveMethod() != SolveMethod::Tridiagonal || m < 1)
@@ -123,6 +124,26 @@ std::vector<ChainRow> findChainRows(const Model& model)
       row.upper_block = a.block;
       row.lower_block = b.block;
     }
+  // where each particle's constraint force starts and ends in the down sweep (rows m-1 to 0)
+  std::vector<int> lowest(model.numParticles(), m), highest(model.numParticles(), -1);
+  for (int k = 0; k < m; ++k)
+    for (int i : { rows[k].first, rows[k].second })
+    {
+      lowest[i] = std::min(lowest[i], k);
+      highest[i] = std::max(highest[i], k);
+    }
+  for (int k = 0; k < m; ++k)
+  {
+    ChainRow& row = rows[k];
+    row.first_opens = highest[row.first] == k;
+    row.first_closes = lowest[row.first] == k;
+    row.second_opens = highest[row.second] == k;
+    row.second_closes = lowest[row.second] == k;
+  }
+  unlinked.clear();
+  for (int i = 0; i < model.numParticles(); ++i)
+    if (highest[i] < 0)
+      unlinked.push_back(i);
   return rows;
 }
 
@@ -245,7 +266,7 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
   else
     model.method_ = method;
   if (paths == StagePaths::Specialized)
-    model.chain_rows_ = findChainRows(model);
+    model.chain_rows_ = findChainRows(model, model.chain_unlinked_);
   return model;
 }
 

@@ -45,6 +45,7 @@ void forgetControl(Data& data)
   data.control.accepted_since_rejection = 0;
   data.control.singular = false;
   data.control.multipliers_current = false;
+  data.control.end_energies_current = false;
 }
 
 }  // namespace
@@ -162,7 +163,10 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     x.time = end;
     const StepStatistics& taken = data.statistics;
     attempt.merge(taken);
-    if (!isFinite(x))
+    // one sweep for the finiteness and energy checks (the same values as three)
+    const StepCheckSums sums =
+        conservative_ ? stepCheckSums(model, x, data.applied_forces) : StepCheckSums{ isFinite(x) };
+    if (!sums.finite)
       return StepCheck::NonFinite;
     if (taken.forced_internal_steps > 0)
       return StepCheck::AdaptiveGuard;
@@ -170,7 +174,7 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
       return StepCheck::Projection;
     if (conservative_)
     {
-      const double kinetic_now = kineticEnergy(model, x);
+      const double kinetic_now = sums.kinetic;
       const double potential_now = potentialEnergy(model, x);
       // the scale includes the energy the sub-step exchanged: a particle alone has no extent
       const double exchanged =
@@ -181,12 +185,15 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
         return StepCheck::EnergyRise;
       kinetic = kinetic_now;
       potential = potential_now;
-      scale = energyScale(model, x, data.applied_forces, kinetic_now);
+      scale = sums.scale;
     }
     if ((taken.solve.singular || taken.projection.singular) && !data.control.singular &&
         !accept_singular)
       return StepCheck::SingularSolve;
   }
+  data.control.end_kinetic = kinetic;
+  data.control.end_potential = potential;
+  data.control.end_scale = scale;
   return StepCheck::None;
 }
 
@@ -203,6 +210,7 @@ void Simulator::evaluateCurrentState(StepStatistics& total)
   data.stages.p_stage = data.state.positions;
   data.stages.v_stage = data.state.velocities;
   data.statistics = StepStatistics{};
+  data.control.end_energies_current = false;  // the applied forces are evaluated anew
   forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
           data.accelerations);
   total.solve.merge(data.statistics.solve);
@@ -252,12 +260,21 @@ StepStatistics Simulator::step(int count)
         substeps = std::max(substeps, wanted);
     }
     control.start = x;
-    if (conservative_)
+    if (conservative_ && control.end_energies_current)
     {
-      control.start_kinetic = kineticEnergy(model, x);
-      control.start_potential = potentialEnergy(model, x);
-      control.start_scale = energyScale(model, x, data.applied_forces);
+      // the last step ended here with these forces, and its checks measured them
+      control.start_kinetic = control.end_kinetic;
+      control.start_potential = control.end_potential;
+      control.start_scale = control.end_scale;
     }
+    else if (conservative_)
+    {
+      const StepCheckSums sums = stepCheckSums(model, x, data.applied_forces);
+      control.start_kinetic = sums.kinetic;
+      control.start_potential = potentialEnergy(model, x);
+      control.start_scale = sums.scale;
+    }
+    control.end_energies_current = false;
     StepCheck failed = StepCheck::None;
     StepStatistics attempt;
     for (;;)
@@ -313,6 +330,7 @@ StepStatistics Simulator::step(int count)
     total.substeps += substeps;
     total.max_substeps = std::max(total.max_substeps, substeps);
     control.singular = attempt.solve.singular || attempt.projection.singular;
+    control.end_energies_current = conservative_ && failed == StepCheck::None;
     // velocity Verlet and fast projection solve for no multipliers
     control.multipliers_current = method == integrator_ && !integrator_->holds_constraints;
     if (method != integrator_)
@@ -396,6 +414,7 @@ void Simulator::setStepSettings(const StepSettings& settings)
   settings_ = settings;
   substep_settings_ = settings;
   data_->control.multipliers_current = false;  // another integrator may have left none
+  data_->control.end_energies_current = false;
 }
 
 void Simulator::setForces(const std::vector<Force>& forces)
@@ -420,6 +439,7 @@ void Simulator::setPerturbations(const std::vector<Force>& perturbations)
   data_->perturbations = perturbations;
   // the forces the next step starts from are no longer those of the last step
   data_->control.multipliers_current = false;
+  data_->control.end_energies_current = false;
   readSceneKind();
 }
 
@@ -433,6 +453,7 @@ void Simulator::constraintForces(Points& forces, Eigen::VectorXd& multipliers)
   Data& data = *data_;
   data.stages.p_stage = data.state.positions;
   data.stages.v_stage = data.state.velocities;
+  data.control.end_energies_current = false;  // the applied forces are evaluated anew
   forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
           data.accelerations);
   forces = data.constraint_forces;

@@ -178,6 +178,11 @@ void accelerationStage(const Model& model, Data& data, Points& accelerations)
   const auto& w = model.inverseMasses();
   for (int i = 0; i < model.numParticles(); ++i)
     accelerations.col(i) = w[i] * (data.applied_forces.col(i) + data.constraint_forces.col(i));
+  heldAccelerations(model, data, accelerations);
+}
+
+void heldAccelerations(const Model& model, const Data& data, Points& accelerations)
+{
   const auto& held = model.eliminatedParticles();
   for (std::size_t k = 0; k < held.size(); ++k)
     accelerations.col(held[k]) = data.imposed[k].acceleration;

@@ -45,15 +45,19 @@ SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::Ve
 void addEliminatedReactions(const Model& model, Data& data);
 
 /// Stages 1, 2, 4 and 5 for a fused chain (Model::fusedChain(), no Baumgarte bias), in two
-/// sweeps over the links (chain_stages.cpp): the same data (but the rows' violations, which only
-/// a projection reads, after evaluating rows of its own), counters and report as the generic
-/// stages; a singular pivot hands the stage to them. Eliminated motion already imposed.
+/// sweeps over the links (the down sweep also sets each particle's acceleration)
+/// (chain_stages.cpp): the same data (but the rows' violations, which only a projection reads,
+/// after evaluating rows of its own), counters and report as the generic stages; a singular pivot
+/// hands the stage to them. Eliminated motion already imposed.
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations);
 
 /// Stage 5, accelerations: a = W (f + f_c) into `accelerations` [m/s^2] (3 x n); an
 /// eliminated particle's is its imposed acceleration.
 void accelerationStage(const Model& model, Data& data, Points& accelerations);
+
+/// accelerationStage's last part: each eliminated particle's acceleration is its imposed one.
+void heldAccelerations(const Model& model, const Data& data, Points& accelerations);
 
 /// Every stage at (t, p, v): positions and velocities of eliminated particles are first set to
 /// their imposed motion at t (the stage buffers are the integrator's), then rows, forces, row

@@ -4,12 +4,15 @@
 // generic regularised solve from the fused path and still agrees.
 #include "stabilization.hpp"
 
+#include "constrained_particles/core/diagnostics.hpp"
 #include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <random>
 
 using namespace constrained_particles;
@@ -154,6 +157,16 @@ TEST(StagePaths, RandomChainsMoveTheSameBothWays)
       if (pins > 0.4)
         scene.constraints.push_back(PinConstraint{ first + n - 1, positions[first + n - 1] });
     }
+    // a particle no link touches, free or pinned: its force is only a reaction (chainUnlinked())
+    if (c % 4 == 1 || c % 4 == 3)
+    {
+      const int loose = static_cast<int>(positions.size());
+      scene.masses.push_back(0.5);
+      positions.push_back(Vec3(unit(random), unit(random), unit(random)));
+      velocities.push_back(Vec3(unit(random) - 0.5, unit(random) - 0.5, unit(random) - 0.5));
+      if (c % 4 == 3)
+        scene.constraints.push_back(PinConstraint{ loose, positions.back() });
+    }
     GravityForce gravity;
     scene.forces = { gravity };
     if (c % 3 == 0)
@@ -245,4 +258,88 @@ TEST(StagePaths, TheFusedProjectionHandsSingularSolvesToTheGenericOne)
     EXPECT_LE((fused.state.positions - generic.state.positions).cwiseAbs().maxCoeff(), 1e-15);
     EXPECT_LE((fused.state.velocities - generic.state.velocities).cwiseAbs().maxCoeff(), 1e-15);
   }
+}
+
+// The step checks' one sweep (Simulator::attemptStep) against the sums written out by hand.
+TEST(StepCheckSums, OneSweepGivesTheKineticEnergyScaleAndFiniteness)
+{
+  Scene scene;
+  scene.masses = { 1.0, 2.0, 0.5 };
+  scene.forces = { GravityForce{} };
+  const Model model = Model::compile(scene);
+  State state;
+  state.positions.resize(3, 3);
+  state.velocities.resize(3, 3);
+  state.positions << 0.0, 1.0, -2.0,  //
+      0.5, 0.0, 3.0,                  //
+      -1.0, 4.0, 0.0;
+  state.velocities << 1.0, 0.0, 2.0,  //
+      0.0, 3.0, 0.0,                  //
+      0.0, 0.0, -1.0;
+  Points forces(3, 3);
+  forces << 3.0, 0.0, 0.0,  //
+      4.0, 0.0, 0.0,        //
+      0.0, -2.0, 1.0;
+  // 1/2 (1 * 1 + 2 * 9 + 0.5 * 5) = 10.75 J; |f| = 5 + 2 + 1 N; the box is 3 x 3 x 5 m
+  const StepCheckSums sums = stepCheckSums(model, state, forces);
+  EXPECT_TRUE(sums.finite);
+  EXPECT_DOUBLE_EQ(sums.kinetic, 10.75);
+  EXPECT_DOUBLE_EQ(sums.scale, 10.75 + 8.0 * std::sqrt(9.0 + 9.0 + 25.0));
+  EXPECT_EQ(sums.kinetic, kineticEnergy(model, state));
+  EXPECT_EQ(sums.scale, energyScale(model, state, forces));
+  const double bad[] = { std::numeric_limits<double>::infinity(),
+                         -std::numeric_limits<double>::infinity(),
+                         std::numeric_limits<double>::quiet_NaN() };
+  for (double value : bad)
+    for (int where = 0; where < 3; ++where)
+    {
+      State broken = state;
+      if (where == 0)
+        broken.positions(2, 1) = value;
+      else if (where == 1)
+        broken.velocities(0, 2) = value;
+      else
+        broken.time = value;
+      EXPECT_FALSE(stepCheckSums(model, broken, forces).finite) << value << " at " << where;
+      EXPECT_FALSE(isFinite(broken));
+    }
+}
+
+// A step starts from the last step's end energies when nothing has written the state or the
+// applied forces since: whenever they are marked current they are what a sweep would measure.
+TEST(StepCheckSums, TheNextStepStartsFromTheLastStepsEnergiesOnlyWhileTheyHold)
+{
+  int current = 0;
+  for (const std::string& name : listScenes(DIRECTORY))
+    for (const std::string& integrator : integratorNames())
+    {
+      const SceneDescription description = loadSceneFile(DIRECTORY + "/" + name + ".yaml");
+      const BuiltScene built = buildScene(description);
+      StepSettings settings = description.solver.applyTo(StepSettings{});
+      settings.integrator = integrator;
+      Simulator simulator(built.scene, built.initial_state, settings,
+                          description.solver.solve_method);
+      const std::string what = name + " (" + integrator + ")";
+      for (int k = 0; k < 60; ++k)
+      {
+        simulator.step(1);
+        const Data& data = simulator.data();
+        if (k == 30)
+        {
+          Points forces;
+          Eigen::VectorXd multipliers;
+          simulator.constraintForces(forces, multipliers);  // evaluates the applied forces anew
+          EXPECT_FALSE(data.control.end_energies_current) << what;
+        }
+        if (!data.control.end_energies_current)
+          continue;
+        ++current;
+        const State& x = simulator.state();
+        EXPECT_EQ(data.control.end_kinetic, kineticEnergy(simulator.model(), x)) << what;
+        EXPECT_EQ(data.control.end_potential, potentialEnergy(simulator.model(), x)) << what;
+        EXPECT_EQ(data.control.end_scale, energyScale(simulator.model(), x, data.applied_forces))
+            << what;
+      }
+    }
+  EXPECT_GT(current, 1000);
 }

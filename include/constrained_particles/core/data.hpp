@@ -60,6 +60,11 @@ struct StepControl
   double start_kinetic = 0.0;        ///< kinetic energy at `start` [J] (conservative scenes)
   double start_potential = 0.0;      ///< potential energy at `start` [J]
   double start_scale = 0.0;          ///< energyScale() at `start` [J]
+  /// The last accepted step's end energies (kinetic, potential [J], scale [J]) are those of the
+  /// current state and applied forces: the next step starts from them instead of a sweep. Cleared
+  /// by anything that writes the state or the applied forces between steps.
+  bool end_energies_current = false;
+  double end_kinetic = 0.0, end_potential = 0.0, end_scale = 0.0;
 };
 
 /// Everything that changes. Made for one model (Data(model)); valid while that model lives.
@@ -89,6 +94,9 @@ public:
   /// D^-1 (m), and the projection's forward-substituted J v (m). The solver's own factorisation
   /// is not updated by them.
   Eigen::VectorXd chain_lower, chain_inverse_pivots, chain_velocity_rhs;
+  /// The fused projection's corrections waiting for a particle's other row (3 x n if fused) [m]
+  /// or [m/s].
+  Points chain_pending;
   StageBuffers stages;        ///< the integrators' buffers
   EffectCounters counters;    ///< evaluations since this data was made
   StepStatistics statistics;  ///< of the batch being stepped

@@ -34,9 +34,17 @@ double potentialEnergy(const Model& model, const State& state);
 /// `forces` (3 x n) [N] times the diagonal D of the particles' bounding box [m] (for gravity
 /// M |g| D, the potential energy the scene could turn into motion). The step checks' scale.
 double energyScale(const Model& model, const State& state, const Points& forces);
-/// energyScale() with the state's kinetic energy [J] already computed (kineticEnergy()): the
-/// step checks have it, and it is a sweep over the particles.
-double energyScale(const Model& model, const State& state, const Points& forces, double kinetic);
+
+/// What the step checks read of a state, from one sweep over its particles instead of three.
+struct StepCheckSums
+{
+  bool finite = true;    ///< isFinite(state)
+  double kinetic = 0.0;  ///< kineticEnergy(state) [J]
+  double scale = 0.0;    ///< energyScale(state, forces) [J]; meaningless unless finite
+};
+/// isFinite, kineticEnergy and energyScale of `state` with the applied `forces` (3 x n) [N], the
+/// same sums in the same order (so the same values) as those three give.
+StepCheckSums stepCheckSums(const Model& model, const State& state, const Points& forces);
 
 /// Evaluates the diagnostics of a state of the model. Allocates its row workspace.
 Diagnostics computeDiagnostics(const Model& model, const State& state);

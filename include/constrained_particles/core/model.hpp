@@ -92,6 +92,9 @@ struct ChainRow
   double w_coupling = 0.0;  ///< that particle's inverse mass [1/kg]
   int upper_block = -1;     ///< its block in the row above
   int lower_block = -1;     ///< its block in this row
+  /// Down the chain (rows m-1 to 0): this row is the first to touch the particle (its J^T lambda
+  /// is written, not added) and the last (its constraint force is then complete).
+  bool first_opens = false, first_closes = false, second_opens = false, second_closes = false;
 };
 
 /// A Jacobian block on a particle an eliminated record holds: its imposed acceleration enters the
@@ -214,6 +217,11 @@ public:
   {
     return chain_rows_;
   }
+  /// Fused chains: the particles no link touches (their constraint force is only a reaction).
+  const std::vector<int>& chainUnlinked() const
+  {
+    return chain_unlinked_;
+  }
   /// Throws InvalidInput unless the state has this model's particle count and is finite.
   /// @param field name used in messages, e.g. "state"
   void validateState(const State& state, const std::string& field = "state") const;
@@ -237,6 +245,7 @@ private:
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;
   std::vector<ChainRow> chain_rows_;  // empty unless fusedChain()
+  std::vector<int> chain_unlinked_;
 };
 
 /// True if rows touching each free particle are at most two and adjacent, so J W J^T is

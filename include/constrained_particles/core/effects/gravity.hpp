@@ -27,8 +27,12 @@ inline void accumulateForce(const GravityForce& force, const std::vector<double>
                             const Points& /*positions*/, const Points& /*velocities*/,
                             Points& forces)
 {
-  for (int i = 0; i < forces.cols(); ++i)
-    forces.col(i) += masses[i] * force.acceleration;
+  // g and n in registers: a store into `forces` might, for all the compiler knows, change them
+  const Vec3 g = force.acceleration;
+  const int n = static_cast<int>(forces.cols());
+  double* f = forces.data();
+  for (int i = 0; i < n; ++i)
+    Eigen::Map<Vec3>(f + 3 * i) += masses[i] * g;
 }
 
 /// -sum m_i g.p_i [J].
