@@ -1,11 +1,12 @@
 // The fused chain stages (issue 17): for a model whose rows are all links with a tridiagonal
-// J W J^T (Model::fusedChain()), the row, constraint-force and solve stages in two sweeps
-// instead of seven: up the chain, each link's row (C, J, Jdot v, violation, diagonal), its
-// right-hand side, its LDL^T pivot and its forward substitution; down the chain, the back
-// substitution, the multipliers, J^T lambda and the accelerations. The arithmetic is the generic
-// stages' (stages.cpp and solvers/tridiagonal.cpp) in the same order, so both give the same motion;
-// the same counters move, by sweep rather than by row. A singular pivot hands the stage to the
-// generic path, whose factorisation regularises it.
+// J W J^T (Model::fusedChain()), the row, constraint-force, solve and acceleration stages in two
+// sweeps instead of seven: up the chain, each link's Jacobian blocks, right-hand side, LDL^T pivot
+// and forward substitution; down the chain, the back substitution, the multipliers, J^T lambda
+// and the accelerations. The projection likewise: each Newton check's sweep also factorises, and
+// the back substitution and the correction share one. The arithmetic is the generic stages'
+// (stages.cpp, stabilization.cpp and solvers/tridiagonal.cpp) in the same order, so both give the
+// same motion; the same counters move, by sweep rather than by row. A singular pivot hands the
+// stage to the generic path, whose factorisation regularises it.
 #include "solvers/solver.hpp"
 #include "stabilization.hpp"
 #include "stages.hpp"
@@ -41,7 +42,9 @@ struct LinkLengths
 
 // Link k's Jacobian blocks, C and diagonal entry of J W J^T at `positions`
 // (link_constraint.hpp's evaluateRows, evaluateRowRecords' diagonal). The diagonal is
-// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order.
+// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order. C and the
+// diagonal are stored only for a projection (STORE_ALL): its generic fallback reads them.
+template <bool STORE_ALL>
 inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* positions,
                                 const LinkRows& rows)
 {
@@ -52,9 +55,12 @@ inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* posit
   const double squared = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
   rows.jacobian[b] = d;
   rows.jacobian[b + 1] = -d;
-  rows.value[k] = 0.5 * (squared - link.length * link.length);
   const double diagonal = link.w_first * squared + link.w_second * squared;
-  rows.diagonal[k] = diagonal;
+  if constexpr (STORE_ALL)
+  {
+    rows.value[k] = 0.5 * (squared - link.length * link.length);
+    rows.diagonal[k] = diagonal;
+  }
   return { d, squared, diagonal };
 }
 
@@ -94,9 +100,9 @@ SolveReport countFusedFactorization(const Model& model, Data& data, double min_r
   return report;
 }
 
-// Up the chain; false at a singular pivot (data.rows then holds the rows before it only). The
-// violations (a square root per link) are left: only a projection reads them, after its own
-// evaluation of the rows.
+// Up the chain; false at a singular pivot (data.rows then holds the rows before it only). Only
+// the Jacobian blocks are stored: C, Jdot v, the diagonals and the violations (a square root per
+// link) are read by the projections and Baumgarte only, after evaluating rows of their own.
 bool chainSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
                   double& min_ratio)
 {
@@ -116,13 +122,12 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
   {
     const ChainRow& link = links[k];
     const int i = link.first, j = link.second;
-    const LinkLengths lengths = evaluateLink(link, k, p, rows);
+    const LinkLengths lengths = evaluateLink<false>(link, k, p, rows);
     const double diagonal = lengths.diagonal;
     const double* vi = v + 3 * i;
     const double* vj = v + 3 * j;
     const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
     const double jdot_v = ux * ux + uy * uy + uz * uz;
-    rows.jdot_v[k] = jdot_v;
     // the right-hand side -(Jdot v + J W f) - J a_held (stages.cpp's constraintForceStage)
     const Vec3 ji = lengths.d, jj = -lengths.d;  // the blocks, from registers
     double sum = jdot_v;
@@ -222,7 +227,7 @@ bool chainProjectionSweep(const Model& model, Data& data, const Points& position
   {
     const ChainRow& link = links[k];
     const int i = link.first, j = link.second;
-    const LinkLengths lengths = evaluateLink(link, k, p, rows);
+    const LinkLengths lengths = evaluateLink<true>(link, k, p, rows);
     rows.jdot_v[k] = 0.0;
     const double violation = std::abs(std::sqrt(lengths.squared) - link.length);
     rows.violation[k] = violation;
