@@ -11,6 +11,7 @@
 #include "stabilization.hpp"
 #include "stages.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace constrained_particles
@@ -35,50 +36,62 @@ struct LinkRows
 
 struct LinkLengths
 {
-  Vec3 d;           // p_i - p_j [m]: J's block on i (and -d on j)
+  double d[3];      // d = p_i - p_j [m]: J's block on i (and -d on j)
   double squared;   // |d|^2 [m^2]
   double diagonal;  // the link's diagonal entry of J W J^T
 };
 
+// a.b in Eigen's order for 3-vectors, (a0 b0 + a1 b1) + a2 b2, on scalars the compiler keeps in
+// registers (Vec3 temporaries spill in these loops)
+inline double dot3(double ax, double ay, double az, const double* b)
+{
+  return ax * b[0] + ay * b[1] + az * b[2];
+}
+
 // Link k's Jacobian blocks, C and diagonal entry of J W J^T at `positions`
 // (link_constraint.hpp's evaluateRows, evaluateRowRecords' diagonal). The diagonal is
-// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order. C and the
-// diagonal are stored only for a projection (STORE_ALL): its generic fallback reads them.
+// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order. The
+// second block (-d), C and the diagonal are stored only for a projection (STORE_ALL): its generic
+// fallback reads them.
 template <bool STORE_ALL>
 inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* positions,
                                 const LinkRows& rows)
 {
-  const int b = 2 * k;
   const double* pi = positions + 3 * link.first;
   const double* pj = positions + 3 * link.second;
-  const Vec3 d(pi[0] - pj[0], pi[1] - pj[1], pi[2] - pj[2]);
-  const double squared = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
-  rows.jacobian[b] = d;
-  rows.jacobian[b + 1] = -d;
+  const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
+  const double squared = dx * dx + dy * dy + dz * dz;
+  double* jacobian = rows.jacobian[2 * k].data();  // blocks 2k and 2k + 1, contiguous
+  jacobian[0] = dx;
+  jacobian[1] = dy;
+  jacobian[2] = dz;
   const double diagonal = link.w_first * squared + link.w_second * squared;
   if constexpr (STORE_ALL)
   {
+    jacobian[3] = -dx;
+    jacobian[4] = -dy;
+    jacobian[5] = -dz;
     rows.value[k] = 0.5 * (squared - link.length * link.length);
     rows.diagonal[k] = diagonal;
   }
-  return { d, squared, diagonal };
+  return { { dx, dy, dz }, squared, diagonal };
 }
 
-// Row k's LDL^T pivot (tridiagonal.cpp's factorizeShifted at delta = 0) from the row above's
-// inverse pivot, carried in a register rather than reloaded (it is the recurrence's critical
-// path): sets L's entry left of it (`lower`) and tracks min(pivot / diagonal); the caller checks
-// it with isSingularPivot.
-inline double pivotOf(const ChainRow& link, int k, const LinkRows& rows, double diagonal,
-                      double inverse_pivot_above, double& lower, double& min_ratio)
+// Row k's LDL^T pivot (tridiagonal.cpp's factorizeShifted at delta = 0) from the row above's d
+// and inverse pivot, carried in registers rather than reloaded (the inverse pivot is the
+// recurrence's critical path): sets L's entry left of it (`lower`) and tracks min(pivot /
+// diagonal); the caller checks it with isSingularPivot.
+inline double pivotOf(const ChainRow& link, int k, const LinkLengths& row, const double* d_above,
+                      double diagonal, double inverse_pivot_above, double& lower, double& min_ratio)
 {
   double pivot = diagonal;
   lower = 0.0;
   if (k > 0)
   {
-    const double off =
-        link.coupling >= 0
-            ? link.w_coupling * rows.jacobian[link.upper_block].dot(rows.jacobian[link.lower_block])
-            : 0.0;
+    // w J_upper.J_lower with the blocks' signs in w_coupling_signed (0 if no particle is shared)
+    const double off = link.coupling >= 0 ? link.w_coupling_signed *
+                                                dot3(d_above[0], d_above[1], d_above[2], row.d)
+                                          : 0.0;
     lower = off * inverse_pivot_above;
     pivot -= lower * off;
   }
@@ -101,8 +114,9 @@ SolveReport countFusedFactorization(const Model& model, Data& data, double min_r
 }
 
 // Up the chain; false at a singular pivot (data.rows then holds the rows before it only). Only
-// the Jacobian blocks are stored: C, Jdot v, the diagonals and the violations (a square root per
-// link) are read by the projections and Baumgarte only, after evaluating rows of their own.
+// each link's first Jacobian block d is stored (the down sweep takes -d for the second): C, Jdot
+// v, the diagonals and the violations (a square root per link) are read by the projections and
+// Baumgarte only, after evaluating rows of their own.
 bool chainSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
                   double& min_ratio)
 {
@@ -116,7 +130,7 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
   double* lower = data.chain_lower.data();
   double* inverse_pivots = data.chain_inverse_pivots.data();
   min_ratio = 1.0;
-  double inverse_pivot_above = 0.0, rhs_above = 0.0;
+  double inverse_pivot_above = 0.0, rhs_above = 0.0, d_above[3] = { 0.0, 0.0, 0.0 };
   const int m = model.numRows();
   for (int k = 0; k < m; ++k)
   {
@@ -129,18 +143,20 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
     const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
     const double jdot_v = ux * ux + uy * uy + uz * uz;
     // the right-hand side -(Jdot v + J W f) - J a_held (stages.cpp's constraintForceStage)
-    const Vec3 ji = lengths.d, jj = -lengths.d;  // the blocks, from registers
+    const double dx = lengths.d[0], dy = lengths.d[1], dz = lengths.d[2];
     double sum = jdot_v;
-    sum += link.w_first * ji.dot(Eigen::Map<const Vec3>(f + 3 * i));
-    sum += link.w_second * jj.dot(Eigen::Map<const Vec3>(f + 3 * j));
+    sum += link.w_first * dot3(dx, dy, dz, f + 3 * i);
+    sum += link.w_second * dot3(-dx, -dy, -dz, f + 3 * j);
     double r = -sum;
     if (link.held_first >= 0)
-      r -= ji.dot(imposed[link.held_first].acceleration);
+      r -= dot3(dx, dy, dz, imposed[link.held_first].acceleration.data());
     if (link.held_second >= 0)
-      r -= jj.dot(imposed[link.held_second].acceleration);
+      r -= dot3(-dx, -dy, -dz, imposed[link.held_second].acceleration.data());
     // the pivot and the forward substitution
     double l = 0.0;
-    const double pivot = pivotOf(link, k, rows, diagonal, inverse_pivot_above, l, min_ratio);
+    const double pivot =
+        pivotOf(link, k, lengths, d_above, diagonal, inverse_pivot_above, l, min_ratio);
+    std::copy(lengths.d, lengths.d + 3, d_above);
     if (k > 0)
     {
       lower[k - 1] = l;
@@ -190,10 +206,12 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
       lambda -= lower[k] * lambda_below;
     lambda_below = rhs[k] = multipliers[k] = lambda;
     const ChainRow& link = links[k];
-    settleParticle(link.first, link.first_opens, link.first_closes, link.w_first,
-                   lambda * jacobian[2 * k], f, forces, a);
-    settleParticle(link.second, link.second_opens, link.second_closes, link.w_second,
-                   lambda * jacobian[2 * k + 1], f, forces, a);
+    // the second block is -d (not stored by the forward sweep): lambda (-d) is -(lambda d) exactly
+    const Vec3 force = lambda * jacobian[2 * k];
+    settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, f, forces,
+                   a);
+    settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, f,
+                   forces, a);
   }
   const auto& w = model.inverseMasses();
   for (int i : model.chainUnlinked())
@@ -221,7 +239,7 @@ bool chainProjectionSweep(const Model& model, Data& data, const Points& position
   double max_violation = 0.0;
   bool factorised = true;
   min_ratio = 1.0;
-  double inverse_pivot_above = 0.0, y_above = 0.0, z_above = 0.0;
+  double inverse_pivot_above = 0.0, y_above = 0.0, z_above = 0.0, d_above[3] = { 0.0, 0.0, 0.0 };
   const int m = model.numRows();
   for (int k = 0; k < m; ++k)
   {
@@ -236,12 +254,13 @@ bool chainProjectionSweep(const Model& model, Data& data, const Points& position
       continue;
     // J v as multiplyJacobian sums it
     double jv = 0.0;
-    jv += lengths.d.dot(Eigen::Map<const Vec3>(v + 3 * i));
-    jv += (-lengths.d).dot(Eigen::Map<const Vec3>(v + 3 * j));
+    jv += dot3(lengths.d[0], lengths.d[1], lengths.d[2], v + 3 * i);
+    jv += dot3(-lengths.d[0], -lengths.d[1], -lengths.d[2], v + 3 * j);
     double c = rows.value[k];
     double l = 0.0;
     const double pivot =
-        pivotOf(link, k, rows, lengths.diagonal, inverse_pivot_above, l, min_ratio);
+        pivotOf(link, k, lengths, d_above, lengths.diagonal, inverse_pivot_above, l, min_ratio);
+    std::copy(lengths.d, lengths.d + 3, d_above);
     if (k > 0)
     {
       lower[k - 1] = l;

@@ -123,6 +123,9 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
       row.w_coupling = w[i];
       row.upper_block = a.block;
       row.lower_block = b.block;
+      // a link's second block is -d: multiplying by -1 is exact, so this sign gives the same sum
+      const double sign = (a.block % 2 == 0) == (b.block % 2 == 0) ? 1.0 : -1.0;
+      row.w_coupling_signed = sign * w[i];
     }
   // where each particle's constraint force starts and ends in the down sweep (rows m-1 to 0)
   std::vector<int> lowest(model.numParticles(), m), highest(model.numParticles(), -1);

@@ -92,6 +92,9 @@ struct ChainRow
   double w_coupling = 0.0;  ///< that particle's inverse mass [1/kg]
   int upper_block = -1;     ///< its block in the row above
   int lower_block = -1;     ///< its block in this row
+  /// w_coupling times the signs of those blocks: a link's blocks are d and -d (d = p_i - p_j), so
+  /// the off-diagonal entry w J_upper.J_lower is this times d_above.d.
+  double w_coupling_signed = 0.0;
   /// Down the chain (rows m-1 to 0): this row is the first to touch the particle (its J^T lambda
   /// is written, not added) and the last (its constraint force is then complete).
   bool first_opens = false, first_closes = false, second_opens = false, second_closes = false;
