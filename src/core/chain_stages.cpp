@@ -50,9 +50,8 @@ inline double dot3(double ax, double ay, double az, const double* b)
 
 // Link k's Jacobian blocks, C and diagonal entry of J W J^T at `positions`
 // (link_constraint.hpp's evaluateRows, evaluateRowRecords' diagonal). The diagonal is
-// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order. The
-// second block (-d), C and the diagonal are stored only for a projection (STORE_ALL): its generic
-// fallback reads them.
+// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order. C and the
+// diagonal are stored only for a projection (STORE_ALL): its generic fallback reads them.
 template <bool STORE_ALL>
 inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* positions,
                                 const LinkRows& rows)
@@ -65,12 +64,12 @@ inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* posit
   jacobian[0] = dx;
   jacobian[1] = dy;
   jacobian[2] = dz;
+  jacobian[3] = -dx;
+  jacobian[4] = -dy;
+  jacobian[5] = -dz;
   const double diagonal = link.w_first * squared + link.w_second * squared;
   if constexpr (STORE_ALL)
   {
-    jacobian[3] = -dx;
-    jacobian[4] = -dy;
-    jacobian[5] = -dz;
     rows.value[k] = 0.5 * (squared - link.length * link.length);
     rows.diagonal[k] = diagonal;
   }
@@ -114,9 +113,8 @@ SolveReport countFusedFactorization(const Model& model, Data& data, double min_r
 }
 
 // Up the chain; false at a singular pivot (data.rows then holds the rows before it only). Only
-// each link's first Jacobian block d is stored (the down sweep takes -d for the second): C, Jdot
-// v, the diagonals and the violations (a square root per link) are read by the projections and
-// Baumgarte only, after evaluating rows of their own.
+// the Jacobian blocks are stored: C, Jdot v, the diagonals and the violations (a square root per
+// link) are read by the projections and Baumgarte only, after evaluating rows of their own.
 bool chainSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
                   double& min_ratio)
 {
@@ -206,7 +204,7 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
       lambda -= lower[k] * lambda_below;
     lambda_below = rhs[k] = multipliers[k] = lambda;
     const ChainRow& link = links[k];
-    // the second block is -d (not stored by the forward sweep): lambda (-d) is -(lambda d) exactly
+    // the second block is -d: lambda (-d) is -(lambda d) exactly, one product fewer
     const Vec3 force = lambda * jacobian[2 * k];
     settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, f, forces,
                    a);

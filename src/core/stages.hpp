@@ -46,10 +46,10 @@ void addEliminatedReactions(const Model& model, Data& data);
 
 /// Stages 1, 2, 4 and 5 for a fused chain (Model::fusedChain(), no Baumgarte bias), in two
 /// sweeps over the links (the down sweep also sets each particle's acceleration)
-/// (chain_stages.cpp): the same data (of the rows, only each link's first Jacobian block d, the
-/// second being -d: the rest is read by the projections and Baumgarte only, after evaluating rows
-/// of their own), counters and report as the generic stages; a singular pivot hands the stage to
-/// them. Eliminated motion already imposed.
+/// (chain_stages.cpp): the same data (of the rows, only the Jacobian: C, Jdot v, the diagonals
+/// and violations are read by the projections and Baumgarte only, after evaluating rows of their
+/// own), counters and report as the generic stages; a singular pivot hands the stage to them.
+/// Eliminated motion already imposed.
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations);
 

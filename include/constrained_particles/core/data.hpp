@@ -77,8 +77,11 @@ public:
   Data(const Data&) = delete;
   Data& operator=(const Data&) = delete;
 
-  State state;            ///< positions, velocities (3 x n), time, steps
-  RowData rows;           ///< rows at the last evaluated stage
+  State state;  ///< positions, velocities (3 x n), time, steps
+  /// Rows at the last evaluated stage; after a fused chain's forward stages (chain_stages.cpp)
+  /// only the Jacobian is of that stage, C, Jdot v, diagonals and violations of the last
+  /// projection.
+  RowData rows;
   RowData trial_rows;     ///< rows at SHAKE's trial positions
   Points applied_forces;  ///< f at the last stage [N] (3 x n)
   /// Forces from outside the model, set between steps (MuJoCo's xfrc_applied and mouse
