@@ -114,7 +114,11 @@ std::unique_ptr<cp_old::Simulator> makeOld(const Workload& w, const std::string&
           w, [](const char* type, std::vector<double> c) { return cp_old::makeSurface(type, c); });
   cp_old::StepSettings settings;
   settings.dt = w.dt;
+#ifdef CP_OLD_PARSE_INTEGRATOR  // set by compare_cores.sh for cores that named them by an enum
   settings.integrator = cp_old::parseIntegrator(integrator);
+#else
+  settings.integrator = integrator;
+#endif
   return std::make_unique<cp_old::Simulator>(scene, state, settings);
 }
 

@@ -4,7 +4,8 @@
 # this one's into one program, both with the Release flags (-O3 -DNDEBUG). Prints a table;
 # with --csv FILE also writes it. About 2 minutes to build and 1 to run on 2 cores.
 # Usage: scripts/compare_cores.sh [BASE] [--quick] [--csv FILE]
-#   BASE: the commit to compare with (default 6ecca4e, the core before the Model/Data redesign)
+#   BASE: the commit to compare with (default 6ecca4e, the core before the Model/Data redesign;
+#   7861304 is the core before the fused chain stages)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BASE=6ecca4e
@@ -41,15 +42,20 @@ for source in "$ROOT"/src/core/*.cpp "$ROOT"/src/core/*/*.cpp; do
   pids+=($!)
   ((${#pids[@]} >= 2)) && { wait "${pids[0]}"; pids=("${pids[@]:1}"); }
 done
-for source in "$OLD"/src/core/*.cpp; do
-  object="$OUT/old_objects/$(basename "$source" .cpp).o"
+# later cores keep integrators and solves in subfolders, with private headers beside them
+for source in "$OLD"/src/core/*.cpp "$OLD"/src/core/*/*.cpp; do
+  [[ -e "$source" ]] || continue
+  object="$OUT/old_objects/$(echo "${source#$OLD/src/core/}" | tr / _).o"
   objects+=("$object")
-  build "$object" "$source" -I"$OLD/include" &
+  build "$object" "$source" -I"$OLD/include" -I"$OLD/src/core" &
   pids+=($!)
   ((${#pids[@]} >= 2)) && { wait "${pids[0]}"; pids=("${pids[@]:1}"); }
 done
 wait
-g++ "${FLAGS[@]}" -I"$ROOT/include" -I"$OLD/include" "$ROOT/bench/compare_cores.cpp" \
-  "${objects[@]}" -o "$OUT/compare_cores"
+# cores before the integrator table named integrators by an enum (parseIntegrator)
+OLD_API=()
+grep -rq parseIntegrator "$OLD/include" && OLD_API=(-DCP_OLD_PARSE_INTEGRATOR)
+g++ "${FLAGS[@]}" "${OLD_API[@]}" -I"$ROOT/include" -I"$OLD/include" \
+  "$ROOT/bench/compare_cores.cpp" "${objects[@]}" -o "$OUT/compare_cores"
 echo "comparing $(git -C "$ROOT" rev-parse --short HEAD) (new) with $BASE (old)" >&2
 "$OUT/compare_cores" "$@"
