@@ -41,8 +41,9 @@ struct LinkLengths
   double diagonal;  // the link's diagonal entry of J W J^T
 };
 
-// a.b in Eigen's order for 3-vectors, (a0 b0 + a1 b1) + a2 b2, on scalars the compiler keeps in
-// registers (Vec3 temporaries spill in these loops)
+// a.b summed (a0 b0 + a1 b1) + a2 b2, the order of Eigen's SSE2 dot and squaredNorm for 3-vectors
+// (the generic stages'; without vectorisation, or with FMA contraction, Eigen's may differ by an
+// ulp), on scalars the compiler keeps in registers (Vec3 temporaries spill in these loops)
 inline double dot3(double ax, double ay, double az, const double* b)
 {
   return ax * b[0] + ay * b[1] + az * b[2];
@@ -60,13 +61,14 @@ inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* posit
   const double* pj = positions + 3 * link.second;
   const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
   const double squared = dx * dx + dy * dy + dz * dz;
-  double* jacobian = rows.jacobian[2 * k].data();  // blocks 2k and 2k + 1, contiguous
-  jacobian[0] = dx;
-  jacobian[1] = dy;
-  jacobian[2] = dz;
-  jacobian[3] = -dx;
-  jacobian[4] = -dy;
-  jacobian[5] = -dz;
+  double* first = rows.jacobian[2 * k].data();
+  double* second = rows.jacobian[2 * k + 1].data();
+  first[0] = dx;
+  first[1] = dy;
+  first[2] = dz;
+  second[0] = -dx;
+  second[1] = -dy;
+  second[2] = -dz;
   const double diagonal = link.w_first * squared + link.w_second * squared;
   if constexpr (STORE_ALL)
   {
@@ -175,7 +177,7 @@ inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3&
 {
   Eigen::Map<Vec3> fc(forces + 3 * i);
   if (opens)
-    fc = force;  // the generic stages' 0 + force
+    fc = force;  // the generic stages' 0 + force (the same, but -0 where they give +0)
   else
     fc += force;
   if (closes)

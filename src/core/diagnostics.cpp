@@ -47,7 +47,8 @@ StepCheckSums stepCheckSums(const Model& model, const State& state, const Points
   const double* p = state.positions.data();
   const double* v = state.velocities.data();
   const double* f = forces.data();
-  // x - x is 0 for a finite x and NaN otherwise: a probe is NaN if any value is not finite
+  // x - x is 0 for a finite x and NaN otherwise: a probe is NaN if any value is not finite (so
+  // never build this with -ffast-math or -ffinite-math-only, which may fold it to 0)
   double probe_p = state.time - state.time, probe_v = 0.0;
   double kinetic = 0.0, force = 0.0;
   double low[3] = { 0.0, 0.0, 0.0 }, high[3] = { 0.0, 0.0, 0.0 };

@@ -120,9 +120,6 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
       if (row.coupling >= 0)
         return {};  // two links between the same two particles: the generic solve sums them
       row.coupling = i;
-      row.w_coupling = w[i];
-      row.upper_block = a.block;
-      row.lower_block = b.block;
       // a link's second block is -d: multiplying by -1 is exact, so this sign gives the same sum
       const double sign = (a.block % 2 == 0) == (b.block % 2 == 0) ? 1.0 : -1.0;
       row.w_coupling_signed = sign * w[i];

@@ -78,9 +78,9 @@ public:
   Data& operator=(const Data&) = delete;
 
   State state;  ///< positions, velocities (3 x n), time, steps
-  /// Rows at the last evaluated stage; after a fused chain's forward stages (chain_stages.cpp)
-  /// only the Jacobian is of that stage, C, Jdot v, diagonals and violations of the last
-  /// projection.
+  /// Rows at the last evaluated stage; after a fused chain's forward stage (chain_stages.cpp) only
+  /// the Jacobian is of that stage, C, Jdot v, diagonals and violations of the last evaluation
+  /// that stored them (a projection, SHAKE, a generic fallback).
   RowData rows;
   RowData trial_rows;     ///< rows at SHAKE's trial positions
   Points applied_forces;  ///< f at the last stage [N] (3 x n)
@@ -92,10 +92,12 @@ public:
   Points accelerations;                ///< a = a0 + W J^T lambda [m/s^2] (3 x n)
   std::vector<ImposedMotion> imposed;  ///< each eliminated record's motion at the stage's time (e)
   Eigen::VectorXd multipliers;         ///< lambda (m), then each eliminated reaction [N] (3 e)
-  Eigen::VectorXd rhs;                 ///< right-hand side, then solution, of a solve (m)
+  /// Right-hand side, then solution, of a solve (m); the fused projection solves in place in
+  /// it and chain_velocity_rhs, so after one it holds the last position solve's multipliers.
+  Eigen::VectorXd rhs;
   /// The fused chain stages' LDL^T of J W J^T (chain_stages.cpp): L's sub-diagonal (m - 1) and
-  /// D^-1 (m), and the projection's forward-substituted J v (m). The solver's own factorisation
-  /// is not updated by them.
+  /// D^-1 (m), and the projection's J v, forward- then back-substituted in place (m). The
+  /// solver's own factorisation is not updated by them.
   Eigen::VectorXd chain_lower, chain_inverse_pivots, chain_velocity_rhs;
   /// The fused projection's corrections waiting for a particle's other row (3 x n if fused) [m]
   /// or [m/s].

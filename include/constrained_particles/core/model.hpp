@@ -88,12 +88,10 @@ struct ChainRow
   double length = 0.0;                    ///< l [m]
   double w_first = 0.0, w_second = 0.0;   ///< their inverse masses [1/kg] (0 if held)
   int held_first = -1, held_second = -1;  ///< index in eliminated() of their record, -1 if free
-  int coupling = -1;        ///< the free particle it shares with the row above, -1 if none
-  double w_coupling = 0.0;  ///< that particle's inverse mass [1/kg]
-  int upper_block = -1;     ///< its block in the row above
-  int lower_block = -1;     ///< its block in this row
-  /// w_coupling times the signs of those blocks: a link's blocks are d and -d (d = p_i - p_j), so
-  /// the off-diagonal entry w J_upper.J_lower is this times d_above.d.
+  int coupling = -1;  ///< the free particle it shares with the row above, -1 if none
+  /// That particle's inverse mass [1/kg] times the signs of its blocks in the two rows: a link's
+  /// blocks are d and -d (d = p_i - p_j), so the off-diagonal entry w J_upper.J_lower is this
+  /// times d_above.d.
   double w_coupling_signed = 0.0;
   /// Down the chain (rows m-1 to 0): this row is the first to touch the particle (its J^T lambda
   /// is written, not added) and the last (its constraint force is then complete).
