@@ -117,6 +117,9 @@ SolveReport countFusedFactorization(const Model& model, Data& data, double min_r
 // Up the chain; false at a singular pivot (data.rows then holds the rows before it only). Only
 // the Jacobian blocks are stored: C, Jdot v, the diagonals and the violations (a square root per
 // link) are read by the projections and Baumgarte only, after evaluating rows of their own.
+// REUSED: the Jacobian and LDL^T in data are of these positions (Data::
+// chain_factorization_at_state): only the right-hand side and its forward substitution.
+template <bool REUSED>
 bool chainSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
                   double& min_ratio)
 {
@@ -136,8 +139,11 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
   {
     const ChainRow& link = links[k];
     const int i = link.first, j = link.second;
-    const LinkLengths lengths = evaluateLink<false>(link, k, p, rows);
-    const double diagonal = lengths.diagonal;
+    LinkLengths lengths;
+    if constexpr (REUSED)
+      std::copy(rows.jacobian[2 * k].data(), rows.jacobian[2 * k].data() + 3, lengths.d);
+    else
+      lengths = evaluateLink<false>(link, k, p, rows);
     const double* vi = v + 3 * i;
     const double* vj = v + 3 * j;
     const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
@@ -152,7 +158,16 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
       r -= dot3(dx, dy, dz, imposed[link.held_first].acceleration.data());
     if (link.held_second >= 0)
       r -= dot3(-dx, -dy, -dz, imposed[link.held_second].acceleration.data());
+    if constexpr (REUSED)
+    {
+      // the forward substitution with the L the projection left
+      if (k > 0)
+        r -= lower[k - 1] * rhs_above;
+      rhs_above = rhs[k] = r;
+      continue;
+    }
     // the pivot and the forward substitution
+    const double diagonal = lengths.diagonal;
     double l = 0.0;
     const double pivot =
         pivotOf(link, k, lengths, d_above, diagonal, inverse_pivot_above, l, min_ratio);
@@ -335,6 +350,7 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   // projectPositions then projectVelocities at the final rows (stabilization.cpp), with each
   // check's sweep also factorising: the last check's factorisation projects the velocities
   ProjectionReport report;
+  data.chain_factorization_at_state = false;
   imposeEliminated(model, data, time, &positions, nullptr);
   imposeEliminated(model, data, time, nullptr, &velocities);
   const int m = model.numRows();
@@ -358,10 +374,8 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
     }
     else
     {
-      report.singular |= factorizeRows(model, data).singular;
       data.rhs = data.rows.value;
-      data.solver().solveInPlace(data.rhs);
-      addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, positions);
+      report.singular |= correctAlongRows(model, data, positions);
     }
     report.iterations = iteration + 1;
   }
@@ -373,11 +387,12 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   }
   else
   {
-    report.singular |= factorizeRows(model, data).singular;
     multiplyJacobian(model, data.rows, velocities, data.rhs);
-    data.solver().solveInPlace(data.rhs);
-    addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, velocities);
+    report.singular |= correctAlongRows(model, data, velocities);
   }
+  // the factorisation at the state's final positions serves the next step's first stage
+  data.chain_factorization_at_state = factorised && &positions == &data.state.positions;
+  data.chain_min_pivot_ratio = min_ratio;
   data.statistics.projection.merge(report);
   return report;
 }
@@ -390,7 +405,24 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
   double min_ratio = 1.0;
   // the rows are counted once, as rowStage counts them, whichever path finishes the stage
   data.counters.constraints[constraintKindIndex<LinkConstraint>()] += m;
-  if (!chainSweepUp(model, data, positions, velocities, min_ratio))
+  // J W J^T depends on the positions only: at the positions the projection factorised at (a
+  // step's first stage after a projected step), its L and D serve this stage's solve
+  const bool reuse =
+      data.chain_factorization_at_state && positions.data() == data.state.positions.data();
+  data.chain_factorization_at_state = false;
+  if (reuse)
+  {
+    chainSweepUp<true>(model, data, positions, velocities, min_ratio);
+    SolveReport report;
+    report.method = model.solveMethod();
+    report.min_pivot_ratio = data.chain_min_pivot_ratio;
+    data.statistics.solve.mergeReused(report);
+    chainSweepDown(model, data, accelerations);
+    addEliminatedReactions(model, data);
+    heldAccelerations(model, data, accelerations);
+    return report;
+  }
+  if (!chainSweepUp<false>(model, data, positions, velocities, min_ratio))
   {
     // singular: the generic stages finish the rows and regularise the factorisation
     evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);

@@ -46,6 +46,7 @@ void forgetControl(Data& data)
   data.control.singular = false;
   data.control.multipliers_current = false;
   data.control.end_energies_current = false;
+  data.chain_factorization_at_state = false;
 }
 
 }  // namespace
@@ -204,16 +205,22 @@ void Simulator::readSceneKind()
   has_stiffness_ = hasStiffness(*model_, data_->perturbations);
 }
 
-void Simulator::evaluateCurrentState(StepStatistics& total)
+void Simulator::forwardAtState()
 {
   Data& data = *data_;
+  // on copies: forward() imposes the eliminated motion on the positions it is given
   data.stages.p_stage = data.state.positions;
   data.stages.v_stage = data.state.velocities;
-  data.statistics = StepStatistics{};
   data.control.end_energies_current = false;  // the applied forces are evaluated anew
   forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
           data.accelerations);
-  total.solve.merge(data.statistics.solve);
+}
+
+void Simulator::evaluateCurrentState(StepStatistics& total)
+{
+  data_->statistics = StepStatistics{};
+  forwardAtState();
+  total.solve.merge(data_->statistics.solve);
 }
 
 StepStatistics Simulator::step(int count)
@@ -294,11 +301,13 @@ StepStatistics Simulator::step(int count)
       ++total.rejected_steps;
       ++total.rejections[static_cast<int>(failed)];
       total.solve.factorizations += attempt.solve.factorizations;
+      total.solve.reused_factorizations += attempt.solve.reused_factorizations;
       total.solve.singular_count += attempt.solve.singular_count;
       total.projection.projections += attempt.projection.projections;
       total.projection.iterations += attempt.projection.iterations;
       total.rejected_internal_steps += attempt.internal_steps + attempt.rejected_internal_steps;
       x = control.start;
+      data.chain_factorization_at_state = false;  // the attempt's, not of the start
       if (fall_back)
       {
         method = &stiff;
@@ -320,6 +329,7 @@ StepStatistics Simulator::step(int count)
       if (max_substeps > 1)
       {
         x = control.start;  // put back: the state stays the last accepted one
+        data.chain_factorization_at_state = false;
         control.multipliers_current = false;
         break;
       }
@@ -415,6 +425,7 @@ void Simulator::setStepSettings(const StepSettings& settings)
   substep_settings_ = settings;
   data_->control.multipliers_current = false;  // another integrator may have left none
   data_->control.end_energies_current = false;
+  data_->chain_factorization_at_state = false;  // stabilisation may change; refactorise
 }
 
 void Simulator::setForces(const std::vector<Force>& forces)
@@ -450,14 +461,9 @@ Diagnostics Simulator::diagnostics() const
 
 void Simulator::constraintForces(Points& forces, Eigen::VectorXd& multipliers)
 {
-  Data& data = *data_;
-  data.stages.p_stage = data.state.positions;
-  data.stages.v_stage = data.state.velocities;
-  data.control.end_energies_current = false;  // the applied forces are evaluated anew
-  forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
-          data.accelerations);
-  forces = data.constraint_forces;
-  multipliers = data.multipliers;
+  forwardAtState();
+  forces = data_->constraint_forces;
+  multipliers = data_->multipliers;
 }
 
 }  // namespace constrained_particles

@@ -29,13 +29,19 @@ ProjectionReport projectPositions(const Model& model, Data& data, double time, P
         !std::isfinite(report.max_position_error))
       break;
     // dp = -W J^T (J W J^T)^-1 C
-    report.singular |= factorizeRows(model, data).singular;
     data.rhs = data.rows.value;
-    data.solver().solveInPlace(data.rhs);
-    addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, positions);
+    report.singular |= correctAlongRows(model, data, positions);
     report.iterations = iteration + 1;
   }
   return report;
+}
+
+bool correctAlongRows(const Model& model, Data& data, Points& out)
+{
+  const bool singular = factorizeRows(model, data).singular;
+  data.solver().solveInPlace(data.rhs);
+  addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, out);
+  return singular;
 }
 
 double projectVelocities(const Model& model, Data& data, double time, const Points& positions,
@@ -47,20 +53,17 @@ double projectVelocities(const Model& model, Data& data, double time, const Poin
   // dv = -W J^T (J W J^T)^-1 J v; only J is needed, not Jdot v
   if (!rows_current)
     rowStage(model, data, time, positions, velocities, data.rows);
-  const bool was_singular = factorizeRows(model, data).singular;
+  multiplyJacobian(model, data.rows, velocities, data.rhs);
+  // the change is J^T-shaped: when measured, track its size separately, not as a difference of
+  // velocities
+  Points& change = data.stages.change;
+  if (measure_change)
+    change.setZero();
+  const bool was_singular = correctAlongRows(model, data, measure_change ? change : velocities);
   if (singular)
     *singular = was_singular;
-  multiplyJacobian(model, data.rows, velocities, data.rhs);
-  data.solver().solveInPlace(data.rhs);
   if (!measure_change)
-  {
-    addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, velocities);
     return 0.0;
-  }
-  // the change is J^T-shaped: track its size separately, not as a difference of velocities
-  Points& change = data.stages.change;
-  change.setZero();
-  addInverseMassJacobianTranspose(model, data.rows, data.rhs, -1.0, change);
   velocities += change;
   return change.colwise().norm().maxCoeff();
 }

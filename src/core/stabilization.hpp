@@ -30,6 +30,11 @@ double projectVelocities(const Model& model, Data& data, double time, const Poin
                          Points& velocities, bool rows_current, bool measure_change,
                          bool* singular = nullptr);
 
+/// One projection solve at data.rows: factorises J W J^T, solves for data.rhs in place (the
+/// residual on entry: C or J v; the multipliers mu on return) and subtracts W J^T mu from `out`
+/// (positions [m] or velocities [m/s]). @return whether the factorisation was singular.
+bool correctAlongRows(const Model& model, Data& data, Points& out);
+
 /// A step's projection: projectPositions(), then finishProjection() at the final rows without
 /// measuring the velocity change; a fused chain (Model::fusedChain()) takes chainProjectStep().
 ProjectionReport projectStep(const Model& model, Data& data, double time, Points& positions,

@@ -85,6 +85,7 @@ void evaluateRowRecords(const Model& model, double time, const Points& positions
 void rowStage(const Model& model, Data& data, double time, const Points& positions,
               const Points& velocities, RowData& rows)
 {
+  data.chain_factorization_at_state = false;  // the rows may be of other positions from here
   evaluateRowRecords(model, time, positions, velocities, rows, &data.counters);
 }
 
@@ -92,17 +93,26 @@ void appliedForceStage(const Model& model, Data& data, const Points& positions,
                        const Points& velocities)
 {
   const Scene& scene = model.scene();
-  data.applied_forces.setZero();
-  auto accumulate = [&](const std::vector<Force>& forces)
+  auto accumulate = [&](auto first, auto end)
   {
-    for (const Force& force : forces)
+    for (; first != end; ++first)
     {
-      accumulateForce(force, scene.masses, positions, velocities, data.applied_forces);
-      ++data.counters.forces[force.index()];
+      accumulateForce(*first, scene.masses, positions, velocities, data.applied_forces);
+      ++data.counters.forces[first->index()];
     }
   };
-  accumulate(scene.forces);
-  accumulate(data.perturbations);  // from outside the model, while set
+  auto first = scene.forces.begin();
+  if (first != scene.forces.end() && std::holds_alternative<GravityForce>(*first))
+  {
+    // the usual first force sets the accumulator rather than adding to zeros: one pass fewer
+    assignForce(std::get<GravityForce>(*first), scene.masses, data.applied_forces);
+    ++data.counters.forces[first->index()];
+    ++first;
+  }
+  else
+    data.applied_forces.setZero();
+  accumulate(first, scene.forces.end());
+  accumulate(data.perturbations.begin(), data.perturbations.end());  // from outside, while set
 }
 
 void rowVelocityStage(const Model& model, Data& data, const Points& velocities)

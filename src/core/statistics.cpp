@@ -31,6 +31,7 @@ void SolveStatistics::merge(const SolveStatistics& other)
   if (other.method != SolveMethod::None)
     method = other.method;
   factorizations += other.factorizations;
+  reused_factorizations += other.reused_factorizations;
   singular_count += other.singular_count;
   fallbacks += other.fallbacks;
   singular = singular || other.singular;

@@ -36,13 +36,15 @@ Difference difference(const State& a, const State& b)
 // Steps both ways in batches, comparing as they go; returns whether the fused path was taken.
 bool expectSameMotion(const Scene& scene, const State& start, const StepSettings& settings,
                       SolveMethod method, const std::string& what, int steps = 1000,
-                      bool* singular = nullptr, double* moved_out = nullptr)
+                      bool* singular = nullptr, double* moved_out = nullptr,
+                      long* reused_out = nullptr)
 {
   Simulator fused(scene, start, settings, method, StagePaths::Specialized);
   Simulator generic(scene, start, settings, method, StagePaths::Generic);
   EXPECT_FALSE(generic.model().fusedChain()) << what;
   // the motion's size, so that 1e-12 m means agreement and not two chains at rest
   double moved = 0.0;
+  long reused = 0;
   for (int done = 0; done < steps; done += 100)
   {
     const StepStatistics a = fused.step(100);
@@ -55,7 +57,12 @@ bool expectSameMotion(const Scene& scene, const State& start, const StepSettings
     EXPECT_EQ(a.rejected_steps, b.rejected_steps) << what;
     EXPECT_EQ(a.stiff_steps, b.stiff_steps) << what;
     EXPECT_EQ(a.failed_check, b.failed_check) << what;
-    EXPECT_EQ(a.solve.factorizations, b.solve.factorizations) << what;
+    // a fused step's first stage solves with its projection's factorisation; the generic
+    // stages factorise again at the same positions
+    EXPECT_EQ(a.solve.factorizations + a.solve.reused_factorizations, b.solve.factorizations)
+        << what;
+    EXPECT_EQ(b.solve.reused_factorizations, 0) << what;
+    reused += a.solve.reused_factorizations;
     EXPECT_EQ(a.solve.singular_count, b.solve.singular_count) << what;
     EXPECT_EQ(a.solve.singular, b.solve.singular) << what;
     EXPECT_EQ(a.solve.min_pivot_ratio, b.solve.min_pivot_ratio) << what;
@@ -89,7 +96,12 @@ bool expectSameMotion(const Scene& scene, const State& start, const StepSettings
   const EffectCounters& b = generic.data().counters;
   EXPECT_EQ(a.forces, b.forces) << what;
   EXPECT_EQ(a.constraints, b.constraints) << what;
-  EXPECT_EQ(a.factorizations, b.factorizations) << what;
+  const int tridiagonal = static_cast<int>(SolveMethod::Tridiagonal);
+  for (int k = 0; k < NUM_SOLVE_METHODS; ++k)
+    EXPECT_EQ(a.factorizations[k] + (k == tridiagonal ? reused : 0), b.factorizations[k])
+        << what << ", method " << k;
+  if (reused_out)
+    *reused_out = reused;
   if (moved_out)
     *moved_out = moved;
   return fused.model().fusedChain();
@@ -188,10 +200,20 @@ TEST(StagePaths, RandomChainsMoveTheSameBothWays)
     settings.dt = 1e-3;
     double moved = 0.0;
     const std::string what = scene.name + " (" + settings.integrator + ")";
-    fused += expectSameMotion(scene, start, settings, SolveMethod::Automatic, what, 1000, nullptr,
-                              &moved);
+    long reused = 0;
+    const bool took_fused = expectSameMotion(scene, start, settings, SolveMethod::Automatic, what,
+                                             1000, nullptr, &moved, &reused);
+    fused += took_fused;
     // random velocities: the chains move, so agreeing to 1e-12 m is not two chains at rest
     EXPECT_GT(moved, 1e-2) << what;
+    // projected steps whose first stage is at the step's start reuse the projection's solve
+    const bool first_stage_at_start =
+        settings.integrator == "rk4" || settings.integrator == "midpoint" ||
+        settings.integrator == "explicit_euler" || settings.integrator == "semi_implicit_euler";
+    if (took_fused && first_stage_at_start && settings.stabilization == Stabilization::Projection)
+      EXPECT_GT(reused, 500) << what;
+    else
+      EXPECT_EQ(reused, 0) << what;
   }
   // most cases are fused chains (under Baumgarte forward() keeps to the generic stages, and
   // those cases check that the switch is right)
@@ -218,6 +240,53 @@ TEST(StagePaths, ASingularChainTakesTheGenericRegularisedSolve)
   EXPECT_TRUE(expectSameMotion(scene, start, settings, SolveMethod::Automatic, "taut chain", 100,
                                &singular));
   EXPECT_TRUE(singular) << "the fallback was never exercised";
+}
+
+// A projected step ends with the factorisation at its final positions; the next step's first
+// stage solves with it, not after a reset, a new state or new settings (a rejected attempt's,
+// of positions put back, is cleared in Simulator::step; the random chains' rejections check it).
+TEST(StagePaths, TheFirstStageReusesTheProjectionsFactorisation)
+{
+  Scene scene;
+  const int n = 8;
+  scene.masses.assign(n, 0.1);
+  scene.forces = { GravityForce{} };
+  State start;
+  start.positions.setZero(3, n);
+  start.velocities.setZero(3, n);
+  for (int i = 0; i < n; ++i)
+    start.positions(0, i) = 0.1 * i;
+  for (int k = 0; k + 1 < n; ++k)
+    scene.constraints.push_back(LinkConstraint{ k, k + 1, 0.1 });
+  scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  StepSettings settings;
+  settings.integrator = "rk4";
+  settings.stabilization = Stabilization::Projection;
+  settings.max_substeps = 1;
+  Simulator simulator(scene, start, settings);
+  ASSERT_TRUE(simulator.model().fusedChain());
+  // the first step after the reset factorises at every stage; each later one reuses one
+  StepStatistics s = simulator.step(10);
+  EXPECT_EQ(s.solve.reused_factorizations, 9);
+  // four stages a step, one per Newton correction and one for the velocities, and one
+  // evaluation at the reset state (the energy check's forces, Simulator::step)
+  EXPECT_EQ(s.solve.factorizations,
+            1 + 10 * 4 - 9 + s.projection.iterations + s.projection.projections);
+  s = simulator.step(5);
+  EXPECT_EQ(s.solve.reused_factorizations, 5);
+  // anything that writes the state or the settings between steps forgets it
+  simulator.setState(simulator.state());
+  EXPECT_EQ(simulator.step(3).solve.reused_factorizations, 2);
+  simulator.reset();
+  EXPECT_EQ(simulator.step(3).solve.reused_factorizations, 2);
+  simulator.setStepSettings(settings);
+  EXPECT_EQ(simulator.step(3).solve.reused_factorizations, 2);
+  simulator.restoreState(simulator.state());
+  EXPECT_EQ(simulator.step(3).solve.reused_factorizations, 2);
+  // under Baumgarte the stages are generic and nothing is projected
+  settings.stabilization = Stabilization::Baumgarte;
+  simulator.setStepSettings(settings);
+  EXPECT_EQ(simulator.step(3).solve.reused_factorizations, 0);
 }
 
 // The fused projection's own hand-overs: at an exactly collinear taut chain the velocity solve is

@@ -84,19 +84,21 @@ enum class StagePaths
 /// One link of a fused chain (Model::chainRows()): what its sweeps read, in one place.
 struct ChainRow
 {
-  int first = 0, second = 0;              ///< the link's particles i and j
-  double length = 0.0;                    ///< l [m]
-  double w_first = 0.0, w_second = 0.0;   ///< their inverse masses [1/kg] (0 if held)
+  // ordered so that the record packs into 56 bytes, not 64: each stage reads it twice
+  int first = 0, second = 0;             ///< the link's particles i and j
+  double length = 0.0;                   ///< l [m]
+  double w_first = 0.0, w_second = 0.0;  ///< their inverse masses [1/kg] (0 if held)
+  /// The inverse mass [1/kg] of the particle shared with the row above times the signs of its
+  /// blocks in the two rows: a link's blocks are d and -d (d = p_i - p_j), so the off-diagonal
+  /// entry w J_upper.J_lower is this times d_above.d.
+  double w_coupling_signed = 0.0;
   int held_first = -1, held_second = -1;  ///< index in eliminated() of their record, -1 if free
   int coupling = -1;  ///< the free particle it shares with the row above, -1 if none
-  /// That particle's inverse mass [1/kg] times the signs of its blocks in the two rows: a link's
-  /// blocks are d and -d (d = p_i - p_j), so the off-diagonal entry w J_upper.J_lower is this
-  /// times d_above.d.
-  double w_coupling_signed = 0.0;
   /// Down the chain (rows m-1 to 0): this row is the first to touch the particle (its J^T lambda
   /// is written, not added) and the last (its constraint force is then complete).
   bool first_opens = false, first_closes = false, second_opens = false, second_closes = false;
 };
+static_assert(sizeof(ChainRow) <= 56, "ChainRow's fields are ordered to pack into 56 bytes");
 
 /// A Jacobian block on a particle an eliminated record holds: its imposed acceleration enters the
 /// right-hand side through it.

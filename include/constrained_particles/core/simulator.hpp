@@ -131,7 +131,9 @@ private:
   /// Sets conservative_ and has_stiffness_ from the model's scene (after any scene change).
   void readSceneKind();
 
-  /// Every stage at the current state (forces, multipliers), its solve merged into `total`.
+  /// Every stage at the current state (forces, multipliers, accelerations), on copies of it.
+  void forwardAtState();
+  /// forwardAtState() within a step, its solve merged into `total`.
   void evaluateCurrentState(StepStatistics& total);
 
   /// `accept_singular`: a new singular solve passes (the finest split).

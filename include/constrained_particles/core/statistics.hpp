@@ -95,11 +95,28 @@ struct SolveStatistics
   double min_pivot_ratio = 1.0;            ///< the smallest pivot ratio of any
   double regularization = 0.0;             ///< the largest delta added
   long fallbacks = 0;                      ///< how many the tree solve handed to the sparse one
+  /// Constraint-force solves that took the last projection's factorisation at the same
+  /// positions instead of a new one (a fused chain's first stage, chain_stages.cpp); not in
+  /// `factorizations`
+  long reused_factorizations = 0;
 
+  /// One factorisation's report.
   void merge(const SolveReport& report)
   {
-    method = report.method;
     ++factorizations;
+    mergeWorst(report);
+  }
+  /// A solve with a factorisation already taken (`report` is its): counted as reused, its worst
+  /// values kept as if it were new, so a batch reports the pivots its solves used.
+  void mergeReused(const SolveReport& report)
+  {
+    ++reused_factorizations;
+    mergeWorst(report);
+  }
+  /// The method, fallback, singularity and worst values of one report (both merges).
+  void mergeWorst(const SolveReport& report)
+  {
+    method = report.method;
     fallbacks += report.fallback ? 1 : 0;
     singular_count += report.singular ? 1 : 0;
     singular = singular || report.singular;

@@ -35,6 +35,19 @@ inline void accumulateForce(const GravityForce& force, const std::vector<double>
     Eigen::Map<Vec3>(f + 3 * i) += masses[i] * g;
 }
 
+/// Sets f_i = m_i g [N]: accumulateForce onto zeros, in one pass instead of two (a stage whose
+/// first force is gravity skips zeroing the accumulator: at 10^5 particles a pass is 2.4 MB).
+/// 0 + m g as written, so a -0 component of m g is +0 as accumulated. Stateless.
+inline void assignForce(const GravityForce& force, const std::vector<double>& masses,
+                        Points& forces)
+{
+  const Vec3 g = force.acceleration;
+  const int n = static_cast<int>(forces.cols());
+  double* f = forces.data();
+  for (int i = 0; i < n; ++i)
+    Eigen::Map<Vec3>(f + 3 * i) = Vec3::Zero() + masses[i] * g;
+}
+
 /// -sum m_i g.p_i [J].
 inline double potentialEnergy(const GravityForce& force, const std::vector<double>& masses,
                               const Points& positions)
