@@ -5,8 +5,10 @@
 // and the accelerations. The projection likewise: each Newton check's sweep also factorises, and
 // the back substitution and the correction share one. The arithmetic is the generic stages'
 // (stages.cpp, stabilization.cpp and solvers/tridiagonal.cpp) in the same order, so both give the
-// same motion; the same counters move, by sweep rather than by row. A singular pivot hands the
-// stage to the generic path, whose factorisation regularises it.
+// same motion; the same counters move, by sweep rather than by row, but for one factorisation a
+// step: the first stage at the state solves with the one its last projection left there (counted
+// as reused, SolveStatistics::reused_factorizations). A singular pivot hands the stage to the
+// generic path, whose factorisation regularises it.
 #include "solvers/solver.hpp"
 #include "stabilization.hpp"
 #include "stages.hpp"
@@ -392,6 +394,7 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   }
   // the factorisation at the state's final positions serves the next step's first stage
   data.chain_factorization_at_state = factorised && &positions == &data.state.positions;
+  data.chain_factorization_time = time;
   data.chain_min_pivot_ratio = min_ratio;
   data.statistics.projection.merge(report);
   return report;
@@ -407,8 +410,9 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
   data.counters.constraints[constraintKindIndex<LinkConstraint>()] += m;
   // J W J^T depends on the positions only: at the positions the projection factorised at (a
   // step's first stage after a projected step), its L and D serve this stage's solve
-  const bool reuse =
-      data.chain_factorization_at_state && positions.data() == data.state.positions.data();
+  const bool reuse = data.chain_factorization_at_state &&
+                     positions.data() == data.state.positions.data() &&
+                     time == data.chain_factorization_time;
   data.chain_factorization_at_state = false;
   if (reuse)
   {

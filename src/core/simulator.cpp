@@ -425,7 +425,7 @@ void Simulator::setStepSettings(const StepSettings& settings)
   substep_settings_ = settings;
   data_->control.multipliers_current = false;  // another integrator may have left none
   data_->control.end_energies_current = false;
-  data_->chain_factorization_at_state = false;  // stabilisation may change; refactorise
+  data_->chain_factorization_at_state = false;  // as after any write between steps
 }
 
 void Simulator::setForces(const std::vector<Force>& forces)

@@ -49,7 +49,9 @@ void addEliminatedReactions(const Model& model, Data& data);
 /// (chain_stages.cpp): the same data (of the rows, only the Jacobian: C, Jdot v, the diagonals
 /// and violations are read by the projections and Baumgarte only, after evaluating rows of their
 /// own), counters and report as the generic stages; a singular pivot hands the stage to them.
-/// Eliminated motion already imposed.
+/// At data.state.positions and the time its last fused projection factorised at
+/// (Data::chain_factorization_at_state) it solves with that factorisation, counted as reused;
+/// every call clears that flag. Eliminated motion already imposed.
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations);
 

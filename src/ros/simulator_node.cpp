@@ -345,6 +345,7 @@ void SimulatorNode::publish()
                                           : "";
     msg.interval_steps = static_cast<std::uint32_t>(statistics.steps);
     msg.factorizations = static_cast<std::uint32_t>(statistics.solve.factorizations);
+    msg.reused_factorizations = static_cast<std::uint32_t>(statistics.solve.reused_factorizations);
     msg.singular_solves = static_cast<std::uint32_t>(statistics.solve.singular_count);
     msg.min_pivot_ratio = statistics.solve.min_pivot_ratio;
     msg.solve_fallbacks = static_cast<std::uint32_t>(statistics.solve.fallbacks);
@@ -795,6 +796,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   add("stabilization", stabilizationName(p.step.stabilization));
   add("steps in the last second", std::to_string(statistics.steps));
   add("factorizations", std::to_string(statistics.solve.factorizations));
+  add("reused factorizations", std::to_string(statistics.solve.reused_factorizations));
   add("singular solves", std::to_string(statistics.solve.singular_count));
   add("min pivot ratio", formatValue(statistics.solve.min_pivot_ratio));
   add("solve fallbacks", std::to_string(statistics.solve.fallbacks));

@@ -153,12 +153,15 @@ class NodeRunnerTest(WallClockWaits, unittest.TestCase):
                 self.assertEqual(current.interval_steps, current.steps - previous.steps)
         moved = [s for s in states[1:] if s.interval_steps > 0]
         self.assertTrue(moved)
+        self.assertGreater(sum(s.reused_factorizations for s in moved), 0)
         for s in moved:
             self.assertGreater(s.factorizations, 0)
             self.assertEqual(s.singular_solves, 0)
             self.assertGreater(s.min_pivot_ratio, 0.0)
             self.assertTrue(s.projections_converged)
             self.assertEqual(s.projections, s.interval_steps)  # rk4 + projection: one per step
+            # a fused chain's step reuses its last projection's factorisation at most once
+            self.assertLessEqual(s.reused_factorizations, s.interval_steps)
             counts = dict(zip(s.effect_names, s.effect_counts))
             self.assertIn("gravity", counts)
             self.assertIn("link", counts)

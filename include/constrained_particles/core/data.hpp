@@ -99,12 +99,14 @@ public:
   /// D^-1 (m), and the projection's J v, forward- then back-substituted in place (m). The
   /// solver's own factorisation is not updated by them.
   Eigen::VectorXd chain_lower, chain_inverse_pivots, chain_velocity_rhs;
-  /// chain_lower, chain_inverse_pivots and the Jacobian in `rows` are of `state.positions`, taken
-  /// by the last fused projection (its smallest pivot ratio beside): the next stage at the state
-  /// (a step's first) solves with them instead of factorising again. Cleared by every other
-  /// writer of those arrays or of the rows (rowStage), and of the state between steps.
+  /// chain_lower, chain_inverse_pivots and the Jacobian in `rows` are of `state.positions` at
+  /// `chain_factorization_time`, taken by the last fused projection: the next stage at the state
+  /// and that time (a step's first) solves with them instead of factorising again. Cleared by
+  /// every fused stage (which uses or overwrites them), every other writer of the rows
+  /// (rowStage), and every write of the state between steps.
   bool chain_factorization_at_state = false;
-  double chain_min_pivot_ratio = 1.0;
+  double chain_factorization_time = 0.0;  ///< its time [s] (eliminated motion imposed then)
+  double chain_min_pivot_ratio = 1.0;     ///< its smallest pivot / diagonal entry
   /// The fused projection's corrections waiting for a particle's other row (3 x n if fused) [m]
   /// or [m/s].
   Points chain_pending;

@@ -89,12 +89,12 @@ void forEachEffectCount(const EffectCounters& counters, Visit&& visit)
 struct SolveStatistics
 {
   SolveMethod method = SolveMethod::None;  ///< the model's method
-  long factorizations = 0;                 ///< how many
-  long singular_count = 0;                 ///< how many were singular
-  bool singular = false;                   ///< any was
-  double min_pivot_ratio = 1.0;            ///< the smallest pivot ratio of any
-  double regularization = 0.0;             ///< the largest delta added
-  long fallbacks = 0;                      ///< how many the tree solve handed to the sparse one
+  long factorizations = 0;       ///< how many were taken (reused ones: reused_factorizations)
+  long singular_count = 0;       ///< how many were singular
+  bool singular = false;         ///< any was
+  double min_pivot_ratio = 1.0;  ///< the smallest pivot ratio of any
+  double regularization = 0.0;   ///< the largest delta added
+  long fallbacks = 0;            ///< how many the tree solve handed to the sparse one
   /// Constraint-force solves that took the last projection's factorisation at the same
   /// positions instead of a new one (a fused chain's first stage, chain_stages.cpp); not in
   /// `factorizations`
