@@ -56,15 +56,15 @@ inline double dot3(double ax, double ay, double az, const double* b)
 // w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order. C and the
 // diagonal are stored only for a projection (STORE_ALL): its generic fallback reads them.
 template <bool STORE_ALL>
-inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* positions,
+inline LinkLengths evaluateLink(const ChainRow& link, int k, int block, const double* positions,
                                 const LinkRows& rows)
 {
   const double* pi = positions + 3 * link.first;
   const double* pj = positions + 3 * link.second;
   const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
   const double squared = dx * dx + dy * dy + dz * dz;
-  double* first = rows.jacobian[2 * k].data();
-  double* second = rows.jacobian[2 * k + 1].data();
+  double* first = rows.jacobian[block].data();
+  double* second = rows.jacobian[block + 1].data();
   first[0] = dx;
   first[1] = dy;
   first[2] = dz;
@@ -78,6 +78,26 @@ inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* posit
     rows.diagonal[k] = diagonal;
   }
   return { { dx, dy, dz }, squared, diagonal };
+}
+
+// Row 0 of a chain on a surface (Model::chainSurfaceRows()): C, J, Jdot v and the violation by
+// the surface kind's own evaluateRows, and the diagonal entry of J W J^T summed as evaluateKind
+// sums it, into `rows`; its J (the vector the sweeps carry on to row 1) and diagonal returned.
+inline LinkLengths evaluateSurfaceRow(const Model& model, const ChainRow& row, double time,
+                                      const Points& positions, const Points& velocities,
+                                      RowData& rows)
+{
+  const auto& entry =
+      std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables()).front();
+  const EffectContext context{ model.scene().surfaces, time };
+  evaluateRows(entry.record, context, positions, velocities,
+               RowBlock{ rows.value.data(), rows.jdot_v.data(), rows.violation.data(),
+                         rows.jacobian.data() });
+  const Vec3& j = rows.jacobian[0];
+  double diagonal = 0.0;
+  diagonal += row.w_first * j.squaredNorm();
+  rows.diagonal[0] = diagonal;
+  return { { j[0], j[1], j[2] }, 0.0, diagonal };
 }
 
 // Row k's LDL^T pivot (tridiagonal.cpp's factorizeShifted at delta = 0) from the row above's d
@@ -122,8 +142,8 @@ SolveReport countFusedFactorization(const Model& model, Data& data, double min_r
 // REUSED: the Jacobian and LDL^T in data are of these positions (Data::
 // chain_factorization_at_state): only the right-hand side and its forward substitution.
 template <bool REUSED>
-bool chainSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
-                  double& min_ratio)
+bool chainSweepUp(const Model& model, Data& data, double time, const Points& positions,
+                  const Points& velocities, double& min_ratio)
 {
   const ChainRow* links = model.chainRows().data();
   const LinkRows rows(data.rows);
@@ -136,16 +156,36 @@ bool chainSweepUp(const Model& model, Data& data, const Points& positions, const
   double* inverse_pivots = data.chain_inverse_pivots.data();
   min_ratio = 1.0;
   double inverse_pivot_above = 0.0, rhs_above = 0.0, d_above[3] = { 0.0, 0.0, 0.0 };
-  const int m = model.numRows();
-  for (int k = 0; k < m; ++k)
+  const int m = model.numRows(), s = model.chainSurfaceRows();
+  if (s == 1)
+  {
+    // the surface row: evaluated anew even when reused (its Jdot v is of these velocities), the
+    // right-hand side -(Jdot v + w J.f) as constraintForceStage sums it
+    const ChainRow& row = links[0];
+    const LinkLengths surface =
+        evaluateSurfaceRow(model, row, time, positions, velocities, data.rows);
+    double sum = data.rows.jdot_v[0] + 0.0;  // + 0.0: the generic sum's absent bias term
+    sum += row.w_first * dot3(surface.d[0], surface.d[1], surface.d[2], f + 3 * row.first);
+    std::copy(surface.d, surface.d + 3, d_above);
+    if constexpr (!REUSED)
+    {
+      double l = 0.0;
+      const double pivot = pivotOf(row, 0, surface, d_above, surface.diagonal, 0.0, l, min_ratio);
+      if (ConstraintSolver::isSingularPivot(pivot, surface.diagonal))
+        return false;
+      inverse_pivot_above = inverse_pivots[0] = 1.0 / pivot;
+    }
+    rhs_above = rhs[0] = -sum;
+  }
+  for (int k = s; k < m; ++k)
   {
     const ChainRow& link = links[k];
-    const int i = link.first, j = link.second;
+    const int i = link.first, j = link.second, block = 2 * k - s;
     LinkLengths lengths;
     if constexpr (REUSED)
-      std::copy(rows.jacobian[2 * k].data(), rows.jacobian[2 * k].data() + 3, lengths.d);
+      std::copy(rows.jacobian[block].data(), rows.jacobian[block].data() + 3, lengths.d);
     else
-      lengths = evaluateLink<false>(link, k, p, rows);
+      lengths = evaluateLink<false>(link, k, block, p, rows);
     const double* vi = v + 3 * i;
     const double* vj = v + 3 * j;
     const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
@@ -214,7 +254,7 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
   double* multipliers = data.multipliers.data();
   double* forces = data.constraint_forces.data();
   double* a = accelerations.data();
-  const int m = model.numRows();
+  const int m = model.numRows(), s = model.chainSurfaceRows();
   double lambda_below = 0.0;
   for (int k = m - 1; k >= 0; --k)
   {
@@ -223,8 +263,15 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
       lambda -= lower[k] * lambda_below;
     lambda_below = rhs[k] = multipliers[k] = lambda;
     const ChainRow& link = links[k];
+    if (k < s)
+    {
+      // the surface row, last: its one block on its particle
+      settleParticle(link.first, link.first_opens, link.first_closes, link.w_first,
+                     lambda * jacobian[0], f, forces, a);
+      break;
+    }
     // the second block is -d: lambda (-d) is -(lambda d) exactly, one product fewer
-    const Vec3 force = lambda * jacobian[2 * k];
+    const Vec3 force = lambda * jacobian[2 * k - s];
     settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, f, forces,
                    a);
     settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, f,
@@ -242,7 +289,7 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 // velocities), LDL^T, and the forward substitutions of C into data.rhs and of J v into
 // data.chain_velocity_rhs. Returns false at a singular pivot (the rows are still all evaluated;
 // the factorisation is then unusable).
-bool chainProjectionSweep(const Model& model, Data& data, const Points& positions,
+bool chainProjectionSweep(const Model& model, Data& data, double time, const Points& positions,
                           const Points& velocities, double& min_ratio)
 {
   const ChainRow* links = model.chainRows().data();
@@ -257,12 +304,34 @@ bool chainProjectionSweep(const Model& model, Data& data, const Points& position
   bool factorised = true;
   min_ratio = 1.0;
   double inverse_pivot_above = 0.0, y_above = 0.0, z_above = 0.0, d_above[3] = { 0.0, 0.0, 0.0 };
-  const int m = model.numRows();
-  for (int k = 0; k < m; ++k)
+  const int m = model.numRows(), s = model.chainSurfaceRows();
+  if (s == 1)
+  {
+    // the surface row at zero velocities, as projectPositions evaluates rows; J v as
+    // multiplyJacobian sums it
+    const ChainRow& row = links[0];
+    const LinkLengths surface =
+        evaluateSurfaceRow(model, row, time, positions, data.stages.zero, data.rows);
+    max_violation = worseError(max_violation, data.rows.violation[0]);
+    double jv = 0.0;
+    jv += dot3(surface.d[0], surface.d[1], surface.d[2], v + 3 * row.first);
+    std::copy(surface.d, surface.d + 3, d_above);
+    double l = 0.0;
+    const double pivot = pivotOf(row, 0, surface, d_above, surface.diagonal, 0.0, l, min_ratio);
+    if (ConstraintSolver::isSingularPivot(pivot, surface.diagonal))
+      factorised = false;
+    else
+    {
+      inverse_pivot_above = inverse_pivots[0] = 1.0 / pivot;
+      y_above = y[0] = data.rows.value[0];
+      z_above = z[0] = jv;
+    }
+  }
+  for (int k = s; k < m; ++k)
   {
     const ChainRow& link = links[k];
-    const int i = link.first, j = link.second;
-    const LinkLengths lengths = evaluateLink<true>(link, k, p, rows);
+    const int i = link.first, j = link.second, block = 2 * k - s;
+    const LinkLengths lengths = evaluateLink<true>(link, k, block, p, rows);
     rows.jdot_v[k] = 0.0;
     const double violation = std::abs(std::sqrt(lengths.squared) - link.length);
     rows.violation[k] = violation;
@@ -327,7 +396,7 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
   double* mu = x.data();
   double* pending = data.chain_pending.data();
   double* o = out.data();
-  const int m = model.numRows();
+  const int m = model.numRows(), surface_rows = model.chainSurfaceRows();
   double mu_below = 0.0;
   for (int k = m - 1; k >= 0; --k)
   {
@@ -337,10 +406,18 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
     mu_below = mu[k] = value;
     const double s = -1.0 * value;  // addInverseMassJacobianTranspose's scale * lambda
     const ChainRow& link = links[k];
+    if (k < surface_rows)
+    {
+      // the surface row, last: its one block on its particle
+      correctParticle(link.first, link.first_opens, link.first_closes,
+                      (link.w_first * s) * jacobian[0], pending, o);
+      break;
+    }
+    const int block = 2 * k - surface_rows;
     correctParticle(link.first, link.first_opens, link.first_closes,
-                    (link.w_first * s) * jacobian[2 * k], pending, o);
+                    (link.w_first * s) * jacobian[block], pending, o);
     correctParticle(link.second, link.second_opens, link.second_closes,
-                    (link.w_second * s) * jacobian[2 * k + 1], pending, o);
+                    (link.w_second * s) * jacobian[block + 1], pending, o);
   }
 }
 
@@ -356,13 +433,16 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   imposeEliminated(model, data, time, &positions, nullptr);
   imposeEliminated(model, data, time, nullptr, &velocities);
   const int m = model.numRows();
-  auto& counted_rows = data.counters.constraints[constraintKindIndex<LinkConstraint>()];
+  const int s = model.chainSurfaceRows();
+  auto& counted_links = data.counters.constraints[constraintKindIndex<LinkConstraint>()];
+  auto& counted_surfaces = data.counters.constraints[constraintKindIndex<SurfaceConstraint>()];
   bool factorised = false;
   double min_ratio = 1.0;
   for (int iteration = 0;; ++iteration)
   {
-    factorised = chainProjectionSweep(model, data, positions, velocities, min_ratio);
-    counted_rows += m;
+    factorised = chainProjectionSweep(model, data, time, positions, velocities, min_ratio);
+    counted_links += m - s;
+    counted_surfaces += s;
     report.max_position_error = data.rows.max_violation;
     report.converged = report.max_position_error <= tolerance;
     if (report.converged || iteration >= max_iterations ||
@@ -407,7 +487,9 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
   const int m = model.numRows();
   double min_ratio = 1.0;
   // the rows are counted once, as rowStage counts them, whichever path finishes the stage
-  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += m;
+  const int s = model.chainSurfaceRows();
+  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += m - s;
+  data.counters.constraints[constraintKindIndex<SurfaceConstraint>()] += s;
   // J W J^T depends on the positions only: at the positions the projection factorised at (a
   // step's first stage after a projected step), its L and D serve this stage's solve
   const bool reuse = data.chain_factorization_at_state &&
@@ -416,7 +498,7 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
   data.chain_factorization_at_state = false;
   if (reuse)
   {
-    chainSweepUp<true>(model, data, positions, velocities, min_ratio);
+    chainSweepUp<true>(model, data, time, positions, velocities, min_ratio);
     SolveReport report;
     report.method = model.solveMethod();
     report.min_pivot_ratio = data.chain_min_pivot_ratio;
@@ -426,7 +508,7 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
     heldAccelerations(model, data, accelerations);
     return report;
   }
-  if (!chainSweepUp<false>(model, data, positions, velocities, min_ratio))
+  if (!chainSweepUp<false>(model, data, time, positions, velocities, min_ratio))
   {
     // singular: the generic stages finish the rows and regularise the factorisation
     evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);

@@ -57,8 +57,11 @@ SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
 
 namespace
 {
-// The fused chain stages' rows (Model::fusedChain()), or none if the model has another structure.
-std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlinked)
+// The fused chain stages' rows (Model::fusedChain()), or none if the model has another structure:
+// links, after at most one surface row as row 0 (a chain whose first particle slides on a height
+// field; `surface_rows` says whether it is there).
+std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlinked,
+                                    int& surface_rows)
 {
   const int m = model.numRows();
   if (model.solveMethod() != SolveMethod::Tridiagonal || m < 1)
@@ -71,14 +74,19 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
             [&](const auto& table)
             {
               using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
-              if constexpr (!Kind::ELIMINATED && !std::is_same_v<Kind, LinkConstraint>)
+              if constexpr (!Kind::ELIMINATED && !std::is_same_v<Kind, LinkConstraint> &&
+                            !std::is_same_v<Kind, SurfaceConstraint>)
                 only_links = only_links && table.empty();
             }(tables),
             ...);
       },
       model.kindTables());
   const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
-  if (!only_links || static_cast<int>(links.size()) != m)
+  const auto& surfaces = std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables());
+  const int s = static_cast<int>(surfaces.size());
+  if (!only_links || s > 1 || static_cast<int>(links.size()) + s != m)
+    return {};
+  if (s == 1 && (surfaces[0].first_row != 0 || surfaces[0].first_block != 0))
     return {};
   std::vector<int> held(model.numBlocks(), -1);
   std::vector<int> held_blocks(model.numParticles(), 0);
@@ -92,22 +100,37 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
   }
   const auto& w = model.inverseMasses();
   std::vector<ChainRow> rows(m);
-  for (int k = 0; k < m; ++k)
+  if (s == 1)
   {
-    if (links[k].first_row != k || links[k].first_block != 2 * k)
+    // row 0, block 0: its particle in `first` (and `second`, for the sweeps' bookkeeping)
+    ChainRow& row = rows[0];
+    row.first = row.second = surfaces[0].record.particle;
+    row.w_first = w[row.first];
+    if (row.w_first == 0.0)
+      return {};  // a held particle on a surface: its row is always singular (generic)
+  }
+  for (int j = 0; j < static_cast<int>(links.size()); ++j)
+  {
+    // link rows follow the surface row: row k's blocks are 2k - s and 2k - s + 1
+    const int k = j + s, block = 2 * k - s;
+    if (links[j].first_row != k || links[j].first_block != block)
       return {};
-    const LinkConstraint& link = links[k].record;
+    const LinkConstraint& link = links[j].record;
     ChainRow& row = rows[k];
     row.first = link.first;
     row.second = link.second;
     row.length = link.length;
     row.w_first = w[link.first];
     row.w_second = w[link.second];
-    row.held_first = held[2 * k];
-    row.held_second = held[2 * k + 1];
+    row.held_first = held[block];
+    row.held_second = held[block + 1];
     if (row.w_first == 0.0 && row.w_second == 0.0)
       return {};  // a link between held particles: always singular, the generic solve's case
   }
+  // a block's sign against the vector the sweeps carry: a link's first block is d, its second
+  // -d; the surface row's is its Jacobian itself
+  auto sign = [s](int block)
+  { return (s == 1 && block == 0) || (block - s) % 2 == 0 ? 1.0 : -1.0; };
   const auto& start = model.incidenceStart();
   const auto& incidence = model.incidence();
   for (int i = 0; i < model.numParticles(); ++i)
@@ -120,9 +143,8 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
       if (row.coupling >= 0)
         return {};  // two links between the same two particles: the generic solve sums them
       row.coupling = i;
-      // a link's second block is -d: multiplying by -1 is exact, so this sign gives the same sum
-      const double sign = (a.block % 2 == 0) == (b.block % 2 == 0) ? 1.0 : -1.0;
-      row.w_coupling_signed = sign * w[i];
+      // multiplying by -1 is exact, so the signs give the same sum
+      row.w_coupling_signed = sign(a.block) * sign(b.block) * w[i];
     }
   // where each particle's constraint force starts and ends in the down sweep (rows m-1 to 0)
   std::vector<int> lowest(model.numParticles(), m), highest(model.numParticles(), -1);
@@ -140,6 +162,7 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
     row.second_opens = highest[row.second] == k;
     row.second_closes = lowest[row.second] == k;
   }
+  surface_rows = s;
   unlinked.clear();
   for (int i = 0; i < model.numParticles(); ++i)
     if (highest[i] < 0)
@@ -266,7 +289,7 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
   else
     model.method_ = method;
   if (paths == StagePaths::Specialized)
-    model.chain_rows_ = findChainRows(model, model.chain_unlinked_);
+    model.chain_rows_ = findChainRows(model, model.chain_unlinked_, model.chain_surface_rows_);
   return model;
 }
 

@@ -81,7 +81,9 @@ enum class StagePaths
   Generic,      ///< always the generic stages (the equivalence tests' reference)
 };
 
-/// One link of a fused chain (Model::chainRows()): what its sweeps read, in one place.
+/// One row of a fused chain (Model::chainRows()): what its sweeps read, in one place. A link, or
+/// row 0's surface row (Model::chainSurfaceRows(); its particle and inverse mass in first and
+/// w_first, its flags in first_opens and first_closes).
 struct ChainRow
 {
   // ordered so that the record packs into 56 bytes, not 64: each stage reads it twice
@@ -209,8 +211,9 @@ public:
   {
     return incidence_;
   }
-  /// True if every row is a link, in row order, J W J^T is tridiagonal and adjacent rows share
-  /// at most one free particle: forward() then takes the fused chain stages (chain_stages.cpp).
+  /// True if every row is a link, in row order (after at most one surface row as row 0), J W J^T
+  /// is tridiagonal and adjacent rows share at most one free particle: forward() then takes the
+  /// fused chain stages (chain_stages.cpp).
   bool fusedChain() const
   {
     return !chain_rows_.empty();
@@ -219,6 +222,11 @@ public:
   const std::vector<ChainRow>& chainRows() const
   {
     return chain_rows_;
+  }
+  /// Fused chains: 1 if row 0 is a surface row (its particle in chainRows()[0].first), else 0.
+  int chainSurfaceRows() const
+  {
+    return chain_surface_rows_;
   }
   /// Fused chains: the particles no link touches (their constraint force is only a reaction).
   const std::vector<int>& chainUnlinked() const
@@ -249,6 +257,7 @@ private:
   SolveMethod method_ = SolveMethod::None;
   std::vector<ChainRow> chain_rows_;  // empty unless fusedChain()
   std::vector<int> chain_unlinked_;
+  int chain_surface_rows_ = 0;
 };
 
 /// True if rows touching each free particle are at most two and adjacent, so J W J^T is
