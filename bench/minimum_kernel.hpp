@@ -12,7 +12,8 @@
 // down the chain, back substitution, accelerations and the integrator's stage combination in
 // one. Projection (the engine's stopping rule: Newton on C until every |(|d_k| - l)| <= the
 // tolerance, or the iteration limit) reuses its last check's factorisation, taken at the final
-// positions, for the velocity projection dv = -W J^T (J W J^T)^-1 J v.
+// positions, for the velocity projection dv = -W J^T (J W J^T)^-1 J v, and the next step's first
+// stage, at those positions, reuses it too (only its right-hand side is new).
 #pragma once
 
 #include <algorithm>
@@ -54,6 +55,7 @@ public:
     std::copy(positions, positions + 3 * n_, p_.begin());
     std::copy(velocities, velocities + 3 * n_, v_.begin());
     v_[0] = v_[1] = v_[2] = 0.0;
+    factorised_ = false;  // rows_ are not of these positions
   }
 
   const std::vector<double>& positions() const
@@ -69,8 +71,11 @@ public:
   void step()
   {
     const double h = dt_;
-    // stage 1 at (p, v): v2 = v + h/2 a1, p2 = p + h/2 v; the sums start at (v, a1)
-    stage(p_.data(), v_.data(),
+    // stage 1 at (p, v): v2 = v + h/2 a1, p2 = p + h/2 v; the sums start at (v, a1); J and its
+    // LDL^T are the last projection's, at these positions
+    const bool reuse = factorised_;
+    factorised_ = false;
+    stage(p_.data(), v_.data(), reuse,
           [&](int c, double a)
           {
             sum_p_[c] = v_[c];
@@ -79,7 +84,7 @@ public:
             v_stage_[c] = v_[c] + 0.5 * h * a;
           });
     // stage 2 at (p2, v2): v3 = v + h/2 a2, p3 = p + h/2 v2 (v2 read before it is overwritten)
-    stage(p_stage_.data(), v_stage_.data(),
+    stage(p_stage_.data(), v_stage_.data(), false,
           [&](int c, double a)
           {
             sum_p_[c] += 2.0 * v_stage_[c];
@@ -88,7 +93,7 @@ public:
             v_stage_[c] = v_[c] + 0.5 * h * a;
           });
     // stage 3 at (p3, v3): v4 = v + h a3, p4 = p + h v3
-    stage(p_stage_.data(), v_stage_.data(),
+    stage(p_stage_.data(), v_stage_.data(), false,
           [&](int c, double a)
           {
             sum_p_[c] += 2.0 * v_stage_[c];
@@ -97,7 +102,7 @@ public:
             v_stage_[c] = v_[c] + h * a;
           });
     // stage 4 at (p4, v4): the step, p += h/6 (v + 2 v2 + 2 v3 + v4), v += h/6 (a1 + ... + a4)
-    stage(p_stage_.data(), v_stage_.data(),
+    stage(p_stage_.data(), v_stage_.data(), false,
           [&](int c, double a)
           {
             p_[c] += (h / 6.0) * (sum_p_[c] + v_stage_[c]);
@@ -134,12 +139,23 @@ private:
   }
 
   /// Accelerations at (p, v): emit(component index 3 i + c, a) for every particle, last first.
+  /// `reuse`: rows_ hold d and the LDL^T at p (the last projection's): the right-hand side only.
   template <typename Emit>
-  void stage(const double* p, const double* v, Emit&& emit)
+  void stage(const double* p, const double* v, bool reuse, Emit&& emit)
   {
     // up: rows, assembly, LDL^T and forward substitution of -(Jdot v + J a0)
     double previous_d[3] = { 0.0, 0.0, 0.0 }, previous_lower_y = 0.0;
-    for (int k = 0; k < m_; ++k)
+    for (int k = 0; k < m_ && reuse; ++k)
+    {
+      Row& row = rows_[k];
+      const double* u = v + 3 * k;
+      const double ux = u[0] - u[3], uy = u[1] - u[4], uz = u[2] - u[5];
+      double rhs = -(ux * ux + uy * uy + uz * uz + (k == 0 ? -row.d[2] * g_ : 0.0));
+      if (k > 0)
+        rhs -= rows_[k - 1].lower * previous_lower_y;
+      row.y = previous_lower_y = rhs;
+    }
+    for (int k = 0; k < m_ && !reuse; ++k)
     {
       Row& row = rows_[k];
       const double* a = p + 3 * k;
@@ -248,7 +264,10 @@ private:
         d_below = row.d;
       }
       if (done)
+      {
+        factorised_ = true;  // of the final positions: the next step's first stage takes it
         return;
+      }
     }
   }
 
@@ -257,6 +276,7 @@ private:
   int max_iterations_;
   std::vector<double> p_, v_, p_stage_, v_stage_, sum_p_, sum_v_;
   std::vector<Row> rows_;
+  bool factorised_ = false;  // rows_ hold d and the LDL^T at p_ (set by project())
 };
 
 }  // namespace bench
