@@ -141,7 +141,7 @@ SolveReport countFusedFactorization(const Model& model, Data& data, double min_r
 // link) are read by the projections and Baumgarte only, after evaluating rows of their own.
 // REUSED: the Jacobian and LDL^T in data are of these positions (Data::
 // chain_factorization_at_state): only the right-hand side and its forward substitution.
-template <bool REUSED>
+template <bool REUSED, int S>
 bool chainSweepUp(const Model& model, Data& data, double time, const Points& positions,
                   const Points& velocities, double& min_ratio)
 {
@@ -156,8 +156,9 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
   double* inverse_pivots = data.chain_inverse_pivots.data();
   min_ratio = 1.0;
   double inverse_pivot_above = 0.0, rhs_above = 0.0, d_above[3] = { 0.0, 0.0, 0.0 };
-  const int m = model.numRows(), s = model.chainSurfaceRows();
-  if (s == 1)
+  const int m = model.numRows();
+  constexpr int s = S;
+  if constexpr (S == 1)
   {
     // the surface row: evaluated anew even when reused (its Jdot v is of these velocities), the
     // right-hand side -(Jdot v + w J.f) as constraintForceStage sums it
@@ -243,6 +244,7 @@ inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3&
 
 // Down the chain: lambda = D^-1 y - L^T lambda, the multipliers, f_c = J^T lambda and each
 // linked particle's acceleration; a particle no link touches has f_c = 0, a = W f.
+template <int S>
 void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 {
   const ChainRow* links = model.chainRows().data();
@@ -254,28 +256,35 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
   double* multipliers = data.multipliers.data();
   double* forces = data.constraint_forces.data();
   double* a = accelerations.data();
-  const int m = model.numRows(), s = model.chainSurfaceRows();
+  const int m = model.numRows();
+  constexpr int s = S;
+  // link k's first block is 2k - s: the links' blocks from `link_blocks` on, two a row
+  const Vec3* link_blocks = jacobian + s;
   double lambda_below = 0.0;
-  for (int k = m - 1; k >= 0; --k)
+  for (int k = m - 1; k >= s; --k)
   {
     double lambda = rhs[k] * inverse_pivots[k];
     if (k + 1 < m)
       lambda -= lower[k] * lambda_below;
     lambda_below = rhs[k] = multipliers[k] = lambda;
     const ChainRow& link = links[k];
-    if (k < s)
-    {
-      // the surface row, last: its one block on its particle
-      settleParticle(link.first, link.first_opens, link.first_closes, link.w_first,
-                     lambda * jacobian[0], f, forces, a);
-      break;
-    }
     // the second block is -d: lambda (-d) is -(lambda d) exactly, one product fewer
-    const Vec3 force = lambda * jacobian[2 * k - s];
+    const Vec3 force = lambda * link_blocks[2 * (k - s)];
     settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, f, forces,
                    a);
     settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, f,
                    forces, a);
+  }
+  if constexpr (S == 1)
+  {
+    // the surface row, last: its one block on its particle
+    double lambda = rhs[0] * inverse_pivots[0];
+    if (m > 1)
+      lambda -= lower[0] * lambda_below;
+    rhs[0] = multipliers[0] = lambda;
+    const ChainRow& row = links[0];
+    settleParticle(row.first, row.first_opens, row.first_closes, row.w_first, lambda * jacobian[0],
+                   f, forces, a);
   }
   const auto& w = model.inverseMasses();
   for (int i : model.chainUnlinked())
@@ -289,6 +298,7 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 // velocities), LDL^T, and the forward substitutions of C into data.rhs and of J v into
 // data.chain_velocity_rhs. Returns false at a singular pivot (the rows are still all evaluated;
 // the factorisation is then unusable).
+template <int S>
 bool chainProjectionSweep(const Model& model, Data& data, double time, const Points& positions,
                           const Points& velocities, double& min_ratio)
 {
@@ -304,8 +314,9 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
   bool factorised = true;
   min_ratio = 1.0;
   double inverse_pivot_above = 0.0, y_above = 0.0, z_above = 0.0, d_above[3] = { 0.0, 0.0, 0.0 };
-  const int m = model.numRows(), s = model.chainSurfaceRows();
-  if (s == 1)
+  const int m = model.numRows();
+  constexpr int s = S;
+  if constexpr (S == 1)
   {
     // the surface row at zero velocities, as projectPositions evaluates rows; J v as
     // multiplyJacobian sums it
@@ -387,6 +398,7 @@ inline void correctParticle(int i, bool opens, bool closes, const Vec3& delta, d
 // Down the chain: mu = D^-1 x - L^T mu from the bottom, in place in `x` (the back half of the
 // fused solve), and out -= W J^T mu (addInverseMassJacobianTranspose at scale -1) in the same
 // sweep.
+template <int S>
 void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out)
 {
   const ChainRow* links = model.chainRows().data();
@@ -396,9 +408,11 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
   double* mu = x.data();
   double* pending = data.chain_pending.data();
   double* o = out.data();
-  const int m = model.numRows(), surface_rows = model.chainSurfaceRows();
+  const int m = model.numRows();
+  constexpr int surface_rows = S;
+  const Vec3* link_blocks = jacobian + surface_rows;  // link k's first: 2 (k - surface_rows)
   double mu_below = 0.0;
-  for (int k = m - 1; k >= 0; --k)
+  for (int k = m - 1; k >= surface_rows; --k)
   {
     double value = mu[k] * inverse_pivots[k];
     if (k + 1 < m)
@@ -406,19 +420,55 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
     mu_below = mu[k] = value;
     const double s = -1.0 * value;  // addInverseMassJacobianTranspose's scale * lambda
     const ChainRow& link = links[k];
-    if (k < surface_rows)
-    {
-      // the surface row, last: its one block on its particle
-      correctParticle(link.first, link.first_opens, link.first_closes,
-                      (link.w_first * s) * jacobian[0], pending, o);
-      break;
-    }
-    const int block = 2 * k - surface_rows;
-    correctParticle(link.first, link.first_opens, link.first_closes,
-                    (link.w_first * s) * jacobian[block], pending, o);
+    const Vec3* blocks = link_blocks + 2 * (k - surface_rows);
+    correctParticle(link.first, link.first_opens, link.first_closes, (link.w_first * s) * blocks[0],
+                    pending, o);
     correctParticle(link.second, link.second_opens, link.second_closes,
-                    (link.w_second * s) * jacobian[block + 1], pending, o);
+                    (link.w_second * s) * blocks[1], pending, o);
   }
+  if constexpr (S == 1)
+  {
+    // the surface row, last: its one block on its particle
+    double value = mu[0] * inverse_pivots[0];
+    if (m > 1)
+      value -= lower[0] * mu_below;
+    mu[0] = value;
+    const double s = -1.0 * value;
+    const ChainRow& row = links[0];
+    correctParticle(row.first, row.first_opens, row.first_closes, (row.w_first * s) * jacobian[0],
+                    pending, o);
+  }
+}
+
+// The sweeps for the model's structure, each compiled for chains without a surface row (S = 0,
+// the link loops as written) and with one (S = 1): the row offset is then a constant.
+bool projectionSweep(const Model& model, Data& data, double time, const Points& positions,
+                     const Points& velocities, double& min_ratio)
+{
+  return model.chainSurfaceRows() == 1
+             ? chainProjectionSweep<1>(model, data, time, positions, velocities, min_ratio)
+             : chainProjectionSweep<0>(model, data, time, positions, velocities, min_ratio);
+}
+
+void correct(const Model& model, Data& data, Eigen::VectorXd& x, Points& out)
+{
+  model.chainSurfaceRows() == 1 ? chainCorrect<1>(model, data, x, out)
+                                : chainCorrect<0>(model, data, x, out);
+}
+
+template <bool REUSED>
+bool sweepUp(const Model& model, Data& data, double time, const Points& positions,
+             const Points& velocities, double& min_ratio)
+{
+  return model.chainSurfaceRows() == 1
+             ? chainSweepUp<REUSED, 1>(model, data, time, positions, velocities, min_ratio)
+             : chainSweepUp<REUSED, 0>(model, data, time, positions, velocities, min_ratio);
+}
+
+void sweepDown(const Model& model, Data& data, Points& accelerations)
+{
+  model.chainSurfaceRows() == 1 ? chainSweepDown<1>(model, data, accelerations)
+                                : chainSweepDown<0>(model, data, accelerations);
 }
 
 }  // namespace
@@ -440,7 +490,7 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   double min_ratio = 1.0;
   for (int iteration = 0;; ++iteration)
   {
-    factorised = chainProjectionSweep(model, data, time, positions, velocities, min_ratio);
+    factorised = projectionSweep(model, data, time, positions, velocities, min_ratio);
     counted_links += m - s;
     counted_surfaces += s;
     report.max_position_error = data.rows.max_violation;
@@ -452,7 +502,7 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
     if (factorised)
     {
       countFusedFactorization(model, data, min_ratio);
-      chainCorrect(model, data, data.rhs, positions);
+      correct(model, data, data.rhs, positions);
     }
     else
     {
@@ -465,7 +515,7 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   if (factorised)
   {
     countFusedFactorization(model, data, min_ratio);
-    chainCorrect(model, data, data.chain_velocity_rhs, velocities);
+    correct(model, data, data.chain_velocity_rhs, velocities);
   }
   else
   {
@@ -498,17 +548,17 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
   data.chain_factorization_at_state = false;
   if (reuse)
   {
-    chainSweepUp<true>(model, data, time, positions, velocities, min_ratio);
+    sweepUp<true>(model, data, time, positions, velocities, min_ratio);
     SolveReport report;
     report.method = model.solveMethod();
     report.min_pivot_ratio = data.chain_min_pivot_ratio;
     data.statistics.solve.mergeReused(report);
-    chainSweepDown(model, data, accelerations);
+    sweepDown(model, data, accelerations);
     addEliminatedReactions(model, data);
     heldAccelerations(model, data, accelerations);
     return report;
   }
-  if (!chainSweepUp<false>(model, data, time, positions, velocities, min_ratio))
+  if (!sweepUp<false>(model, data, time, positions, velocities, min_ratio))
   {
     // singular: the generic stages finish the rows and regularise the factorisation
     evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
@@ -517,7 +567,7 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
     return report;
   }
   const SolveReport report = countFusedFactorization(model, data, min_ratio);
-  chainSweepDown(model, data, accelerations);
+  sweepDown(model, data, accelerations);
   addEliminatedReactions(model, data);
   heldAccelerations(model, data, accelerations);
   return report;
