@@ -456,19 +456,53 @@ void correct(const Model& model, Data& data, Eigen::VectorXd& x, Points& out)
                                 : chainCorrect<0>(model, data, x, out);
 }
 
-template <bool REUSED>
-bool sweepUp(const Model& model, Data& data, double time, const Points& positions,
-             const Points& velocities, double& min_ratio)
+// chainForward() for S surface rows: one function each, so that the chain without one keeps the
+// code (and the registers of its hot loop) it had before the surface row.
+template <int S>
+#if defined(__GNUC__)
+__attribute__((noinline))
+#endif
+SolveReport
+forwardOf(const Model& model, Data& data, double time, const Points& positions,
+          const Points& velocities, Points& accelerations)
 {
-  return model.chainSurfaceRows() == 1
-             ? chainSweepUp<REUSED, 1>(model, data, time, positions, velocities, min_ratio)
-             : chainSweepUp<REUSED, 0>(model, data, time, positions, velocities, min_ratio);
-}
-
-void sweepDown(const Model& model, Data& data, Points& accelerations)
-{
-  model.chainSurfaceRows() == 1 ? chainSweepDown<1>(model, data, accelerations)
-                                : chainSweepDown<0>(model, data, accelerations);
+  appliedForceStage(model, data, positions, velocities);
+  const int m = model.numRows();
+  double min_ratio = 1.0;
+  // the rows are counted once, as rowStage counts them, whichever path finishes the stage
+  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += m - S;
+  data.counters.constraints[constraintKindIndex<SurfaceConstraint>()] += S;
+  // J W J^T depends on the positions only: at the positions the projection factorised at (a
+  // step's first stage after a projected step), its L and D serve this stage's solve
+  const bool reuse = data.chain_factorization_at_state &&
+                     positions.data() == data.state.positions.data() &&
+                     time == data.chain_factorization_time;
+  data.chain_factorization_at_state = false;
+  if (reuse)
+  {
+    chainSweepUp<true, S>(model, data, time, positions, velocities, min_ratio);
+    SolveReport report;
+    report.method = model.solveMethod();
+    report.min_pivot_ratio = data.chain_min_pivot_ratio;
+    data.statistics.solve.mergeReused(report);
+    chainSweepDown<S>(model, data, accelerations);
+    addEliminatedReactions(model, data);
+    heldAccelerations(model, data, accelerations);
+    return report;
+  }
+  if (!chainSweepUp<false, S>(model, data, time, positions, velocities, min_ratio))
+  {
+    // singular: the generic stages finish the rows and regularise the factorisation
+    evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
+    const SolveReport report = constraintForceStage(model, data, nullptr);
+    accelerationStage(model, data, accelerations);
+    return report;
+  }
+  const SolveReport report = countFusedFactorization(model, data, min_ratio);
+  chainSweepDown<S>(model, data, accelerations);
+  addEliminatedReactions(model, data);
+  heldAccelerations(model, data, accelerations);
+  return report;
 }
 
 }  // namespace
@@ -533,44 +567,9 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations)
 {
-  appliedForceStage(model, data, positions, velocities);
-  const int m = model.numRows();
-  double min_ratio = 1.0;
-  // the rows are counted once, as rowStage counts them, whichever path finishes the stage
-  const int s = model.chainSurfaceRows();
-  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += m - s;
-  data.counters.constraints[constraintKindIndex<SurfaceConstraint>()] += s;
-  // J W J^T depends on the positions only: at the positions the projection factorised at (a
-  // step's first stage after a projected step), its L and D serve this stage's solve
-  const bool reuse = data.chain_factorization_at_state &&
-                     positions.data() == data.state.positions.data() &&
-                     time == data.chain_factorization_time;
-  data.chain_factorization_at_state = false;
-  if (reuse)
-  {
-    sweepUp<true>(model, data, time, positions, velocities, min_ratio);
-    SolveReport report;
-    report.method = model.solveMethod();
-    report.min_pivot_ratio = data.chain_min_pivot_ratio;
-    data.statistics.solve.mergeReused(report);
-    sweepDown(model, data, accelerations);
-    addEliminatedReactions(model, data);
-    heldAccelerations(model, data, accelerations);
-    return report;
-  }
-  if (!sweepUp<false>(model, data, time, positions, velocities, min_ratio))
-  {
-    // singular: the generic stages finish the rows and regularise the factorisation
-    evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
-    const SolveReport report = constraintForceStage(model, data, nullptr);
-    accelerationStage(model, data, accelerations);
-    return report;
-  }
-  const SolveReport report = countFusedFactorization(model, data, min_ratio);
-  sweepDown(model, data, accelerations);
-  addEliminatedReactions(model, data);
-  heldAccelerations(model, data, accelerations);
-  return report;
+  return model.chainSurfaceRows() == 1
+             ? forwardOf<1>(model, data, time, positions, velocities, accelerations)
+             : forwardOf<0>(model, data, time, positions, velocities, accelerations);
 }
 
 }  // namespace constrained_particles
