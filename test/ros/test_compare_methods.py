@@ -107,7 +107,16 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
         """Sends `goal`, cancels it once feedback satisfies `under_way` (plus 0.5 s), and returns
         (feedback at the cancel, feedback, result, seconds from the cancel to the result)."""
         feedback = []
-        self.client.send_goal(goal, feedback_cb=feedback.append)
+        # the server frees itself just after a study's result goes out: a goal sent at once may
+        # be rejected as "a study is running", as it says; then it is sent again
+        deadline = time.monotonic() + 60.0
+        while True:
+            self.client.send_goal(goal, feedback_cb=feedback.append)
+            self.wait_until(lambda: feedback or self.client.get_state() == GoalStatus.REJECTED,
+                            "the goal accepted or rejected", timeout=60.0)
+            if feedback or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
         self.wait_until(lambda: feedback and under_way(feedback[-1]), "the study under way",
                         timeout=240.0)
         time.sleep(0.5)
@@ -122,12 +131,15 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
 
     def test_cancel_stops_within_one_run(self):
         slow = Method(integrator="explicit_euler", stabilization="none", dt=1e-6)
-        # inside the reference (run 1 of the feedback's count): 3600 s of it take minutes
+        # inside the references (the reference and its check, done 0 and 1 of the feedback's
+        # count): 3600 s of surface_chain's take 6 and 13 s of CPU here, and the client may miss
+        # the first feedback (sent as the goal is accepted), so the cancel may land in either
         at_cancel, feedback, result, _ = self.cancel_once_under_way(
             CompareMethodsGoal(horizon=3600.0, methods=[slow]), lambda f: True)
-        self.assertEqual(at_cancel.done, 0, at_cancel.current)
+        seen = [(f.done, f.current) for f in feedback]
+        self.assertLessEqual(at_cancel.done, 1, seen)
         self.assertEqual(len(result.runs), 0)
-        self.assertEqual(feedback[-1].done, 0)
+        self.assertEqual(feedback[-1].done, at_cancel.done, seen)
         # inside a method's run: the references of 20 s take a fifth of a second here (minutes at
         # low priority under a sanitizer: 100 s took over 240 s in CI's ASan pass), the run
         # 2 x 10^7 steps (about 5 s of CPU here, far longer under a sanitizer or a loaded machine)
