@@ -194,7 +194,7 @@ void CompareMethodsServer::goalCallback(GoalHandle goal)
     return;
   }
   if (worker_.joinable())
-    worker_.join();  // the last study's thread, already done
+    worker_.join();  // the last study's thread: done, or sending its result
   busy_ = true;
   cancel_ = false;
   current_ = goal;
@@ -213,6 +213,15 @@ void CompareMethodsServer::work(GoalHandle goal, Job job)
 {
   // the study yields the cores to live stepping: it is the one that may take longer
   lowerThreadPriority();
+  // free for the next goal before the result goes out: a client that sends one as soon as it has
+  // this result is not refused as busy (goalCallback then joins this thread, which only has the
+  // result to send: actionlib calls goalCallback without its own lock held)
+  auto finish = [this]
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    busy_ = false;
+    current_.reset();
+  };
   CompareMethodsResult result;
   result.recommended = -1;
   result.scenario = job.scenario;
@@ -252,6 +261,7 @@ void CompareMethodsServer::work(GoalHandle goal, Job job)
     if (study.cancelled)
     {
       result.message = "cancelled after " + std::to_string(study.runs.size()) + " runs";
+      finish();
       goal.setCanceled(result, result.message);
     }
     else
@@ -268,6 +278,7 @@ void CompareMethodsServer::work(GoalHandle goal, Job job)
         if (const std::string problem = writeOutputs(job, study, result); !problem.empty())
           result.message += "; " + problem;
       ROS_INFO("~compare_methods on '%s': %s", job.scenario.c_str(), result.message.c_str());
+      finish();
       goal.setSucceeded(result, result.message);
     }
   }
@@ -275,11 +286,9 @@ void CompareMethodsServer::work(GoalHandle goal, Job job)
   {
     result.message = std::string("study failed: ") + e.what();
     ROS_WARN("~compare_methods: %s", result.message.c_str());
+    finish();
     goal.setAborted(result, result.message);
   }
-  std::lock_guard<std::mutex> lock(mutex_);
-  busy_ = false;
-  current_.reset();
 }
 
 std::string CompareMethodsServer::writeOutputs(const Job& job, const StudyResult& study,
