@@ -125,6 +125,15 @@ inline double pivotOf(const ChainRow& link, int k, const LinkLengths& row, const
   return pivot;
 }
 
+// Counts one evaluation of every row record, as rowStage counts them: the links and the surface
+// row, if any.
+void countChainRows(const Model& model, Data& data)
+{
+  const int s = model.chainSurfaceRows();
+  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += model.numRows() - s;
+  data.counters.constraints[constraintKindIndex<SurfaceConstraint>()] += s;
+}
+
 // Counts a fused factorisation and merges its report, as factorizeRows() does the solver's.
 SolveReport countFusedFactorization(const Model& model, Data& data, double min_ratio)
 {
@@ -467,38 +476,33 @@ forwardOf(const Model& model, Data& data, double time, const Points& positions,
           const Points& velocities, Points& accelerations)
 {
   appliedForceStage(model, data, positions, velocities);
-  const int m = model.numRows();
   double min_ratio = 1.0;
   // the rows are counted once, as rowStage counts them, whichever path finishes the stage
-  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += m - S;
-  data.counters.constraints[constraintKindIndex<SurfaceConstraint>()] += S;
+  countChainRows(model, data);
   // J W J^T depends on the positions only: at the positions the projection factorised at (a
   // step's first stage after a projected step), its L and D serve this stage's solve
   const bool reuse = data.chain_factorization_at_state &&
                      positions.data() == data.state.positions.data() &&
                      time == data.chain_factorization_time;
   data.chain_factorization_at_state = false;
+  SolveReport report;
   if (reuse)
   {
     chainSweepUp<true, S>(model, data, time, positions, velocities, min_ratio);
-    SolveReport report;
     report.method = model.solveMethod();
     report.min_pivot_ratio = data.chain_min_pivot_ratio;
     data.statistics.solve.mergeReused(report);
-    chainSweepDown<S>(model, data, accelerations);
-    addEliminatedReactions(model, data);
-    heldAccelerations(model, data, accelerations);
-    return report;
   }
-  if (!chainSweepUp<false, S>(model, data, time, positions, velocities, min_ratio))
+  else if (chainSweepUp<false, S>(model, data, time, positions, velocities, min_ratio))
+    report = countFusedFactorization(model, data, min_ratio);
+  else
   {
     // singular: the generic stages finish the rows and regularise the factorisation
     evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
-    const SolveReport report = constraintForceStage(model, data, nullptr);
+    report = constraintForceStage(model, data, nullptr);
     accelerationStage(model, data, accelerations);
     return report;
   }
-  const SolveReport report = countFusedFactorization(model, data, min_ratio);
   chainSweepDown<S>(model, data, accelerations);
   addEliminatedReactions(model, data);
   heldAccelerations(model, data, accelerations);
@@ -516,17 +520,12 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   data.chain_factorization_at_state = false;
   imposeEliminated(model, data, time, &positions, nullptr);
   imposeEliminated(model, data, time, nullptr, &velocities);
-  const int m = model.numRows();
-  const int s = model.chainSurfaceRows();
-  auto& counted_links = data.counters.constraints[constraintKindIndex<LinkConstraint>()];
-  auto& counted_surfaces = data.counters.constraints[constraintKindIndex<SurfaceConstraint>()];
   bool factorised = false;
   double min_ratio = 1.0;
   for (int iteration = 0;; ++iteration)
   {
     factorised = projectionSweep(model, data, time, positions, velocities, min_ratio);
-    counted_links += m - s;
-    counted_surfaces += s;
+    countChainRows(model, data);
     report.max_position_error = data.rows.max_violation;
     report.converged = report.max_position_error <= tolerance;
     if (report.converged || iteration >= max_iterations ||

@@ -4,6 +4,7 @@
 // fused step's first stage reuses from its projection, counted apart). A singular chain takes the
 // generic regularised solve from the fused path and still agrees.
 #include "stabilization.hpp"
+#include "test_helpers.hpp"
 
 #include "constrained_particles/core/diagnostics.hpp"
 #include "constrained_particles/core/integrators.hpp"
@@ -106,6 +107,18 @@ bool expectSameMotion(const Scene& scene, const State& start, const StepSettings
   if (moved_out)
     *moved_out = moved;
   return fused.model().fusedChain();
+}
+
+// n particles at rest along +x from the origin, 0.1 m apart: a 0.1 m testing::pinnedChain laid
+// out straight.
+State horizontalStart(int n)
+{
+  State start;
+  start.positions.setZero(3, n);
+  start.velocities.setZero(3, n);
+  for (int i = 0; i < n; ++i)
+    start.positions(0, i) = 0.1 * i;
+  return start;
 }
 
 }  // namespace
@@ -329,18 +342,10 @@ TEST(StagePaths, ASingularChainTakesTheGenericRegularisedSolve)
 // (the energy check's) comes between a write and the next step to clear it by the way.
 TEST(StagePaths, TheFirstStageReusesTheProjectionsFactorisation)
 {
-  Scene scene;
   const int n = 8;
-  scene.masses.assign(n, 0.1);
-  scene.forces = { GravityForce{}, LinearDampingForce{ 0.01 } };
-  State start;
-  start.positions.setZero(3, n);
-  start.velocities.setZero(3, n);
-  for (int i = 0; i < n; ++i)
-    start.positions(0, i) = 0.1 * i;
-  for (int k = 0; k + 1 < n; ++k)
-    scene.constraints.push_back(LinkConstraint{ k, k + 1, 0.1 });
-  scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  Scene scene = constrained_particles::testing::pinnedChain(std::vector<double>(n, 0.1), 0.1);
+  scene.forces.push_back(LinearDampingForce{ 0.01 });
+  const State start = horizontalStart(n);
   StepSettings settings;
   settings.integrator = "rk4";
   settings.stabilization = Stabilization::Projection;
@@ -389,18 +394,10 @@ TEST(StagePaths, TheFirstStageReusesTheProjectionsFactorisation)
 // stages'.
 TEST(StagePaths, ARetakenStepDoesNotReuseTheRejectedAttemptsFactorisation)
 {
-  Scene scene;
   const int n = 6;
-  scene.masses.assign(n, 0.05);
-  scene.forces = { GravityForce{} };
-  State start;
-  start.positions.setZero(3, n);
-  start.velocities.setZero(3, n);
-  for (int i = 0; i < n; ++i)
-    start.positions(0, i) = 0.1 * i;
-  for (int k = 0; k + 1 < n; ++k)
-    scene.constraints.push_back(LinkConstraint{ k, k + 1, 0.1 });
-  scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  const Scene scene =
+      constrained_particles::testing::pinnedChain(std::vector<double>(n, 0.05), 0.1);
+  const State start = horizontalStart(n);
   StepSettings settings;
   // one Newton iteration cannot take a whole step's drift to 1e-10 m; a half step's it can
   settings.integrator = "rk4";
