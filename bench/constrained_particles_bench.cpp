@@ -518,7 +518,8 @@ int scenes(const std::string& out, bool quick)
   const double budget = quick ? 0.15 : 1.5;
   std::ofstream csv(out + "/scenes.csv");
   csv << "scene,particles,rows,solve,integrator,stabilization,seconds_per_step,"
-         "forces_per_step,constraints_per_step,factorizations_per_step\n";
+         "forces_per_step,constraints_per_step,factorizations_per_step,stages,"
+         "generic_seconds_per_step\n";
   for (const std::string& name : listScenes(SCENES_DIR))
   {
     const SceneDescription d = loadSceneFile(std::string(SCENES_DIR) + "/" + name + ".yaml");
@@ -527,6 +528,11 @@ int scenes(const std::string& out, bool quick)
     settings.max_substeps = 1;  // a step as the scene asks (stability measures sub-steps)
     Simulator simulator(built.scene, built.initial_state, settings, d.solver.solve_method);
     const double seconds = medianSecondsPerCall([&] { simulator.step(); }, budget);
+    // the same scene on the generic stages: what the fused chain stages save where they apply
+    Simulator generic(built.scene, built.initial_state, settings, d.solver.solve_method,
+                      StagePaths::Generic);
+    const double generic_seconds = medianSecondsPerCall([&] { generic.step(); }, budget);
+    const char* stages = simulator.model().fusedChain() ? "fused" : "generic";
     // counts of exactly 100 further steps
     Simulator counted(built.scene, built.initial_state, settings, d.solver.solve_method);
     const EffectCounters before = counted.effectCounters();
@@ -547,8 +553,9 @@ int scenes(const std::string& out, bool quick)
         << "," << solveMethodName(simulator.model().solveMethod()) << "," << settings.integrator
         << "," << stabilizationName(settings.stabilization) << "," << seconds << "," << forces
         << "," << constraints << "," << (factorizations.str().empty() ? "-" : factorizations.str())
-        << "\n";
-    std::cerr << "[scenes] " << name << ": " << seconds * 1e6 << " us/step, "
+        << "," << stages << "," << generic_seconds << "\n";
+    std::cerr << "[scenes] " << name << ": " << seconds * 1e6 << " us/step (" << stages
+              << " stages; generic " << generic_seconds * 1e6 << "), "
               << solveMethodName(simulator.model().solveMethod()) << "; forces " << forces
               << "; constraints " << constraints << "\n";
   }

@@ -214,13 +214,18 @@ def scenes_section(out):
     lines = ["", "## Scenes: what each evaluates per step, and what a step costs", "",
              "Counts are evaluations per step from the effect counters (RK4 evaluates forces 4 "
              "times a step; projection adds row evaluations).", "",
-             "| scene | particles | rows | solve | integrator + stabilization | us per step | "
-             "forces per step | constraints per step |", "|---|---|---|---|---|---|---|---|"]
+             "| scene | particles | rows | solve | integrator + stabilization | stages | "
+             "us per step | on the generic stages | forces per step | constraints per step |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in read(out / "scenes.csv"):
+        # scenes.csv before the fused-stages columns: shown as unknown
+        stages = r.get("stages") or "-"
+        generic = r.get("generic_seconds_per_step")
+        generic = f"{1e6 * float(generic):.3g}" if generic else "-"
         lines.append(f"| {r['scene']} | {r['particles']} | {r['rows']} | {r['solve']} | "
-                     f"{r['integrator']} + {r['stabilization']} | "
-                     f"{1e6 * float(r['seconds_per_step']):.3g} | {r['forces_per_step']} | "
-                     f"{r['constraints_per_step']} |")
+                     f"{r['integrator']} + {r['stabilization']} | {stages} | "
+                     f"{1e6 * float(r['seconds_per_step']):.3g} | {generic} | "
+                     f"{r['forces_per_step']} | {r['constraints_per_step']} |")
     if not (out / "trees.csv").exists():
         return lines
     rows = read(out / "trees.csv")

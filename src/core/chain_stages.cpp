@@ -1,5 +1,6 @@
-// The fused chain stages (issue 17): for a model whose rows are all links with a tridiagonal
-// J W J^T (Model::fusedChain()), the row, constraint-force, solve and acceleration stages in two
+// The fused chain stages (issue 17): for a model whose rows are all links and surface rows (chains
+// whose particles slide on height fields) with a tridiagonal J W J^T (Model::fusedChain()), the
+// row, constraint-force, solve and acceleration stages in two
 // sweeps instead of seven: up the chain, each link's Jacobian blocks, right-hand side, LDL^T pivot
 // and forward substitution; down the chain, the back substitution, the multipliers, J^T lambda
 // and the accelerations. The projection likewise: each Newton check's sweep also factorises, and
@@ -80,25 +81,77 @@ inline LinkLengths evaluateLink(const ChainRow& link, int k, int block, const do
   return { { dx, dy, dz }, squared, diagonal };
 }
 
-// Row 0 of a chain on a surface (Model::chainSurfaceRows()): C, J, Jdot v and the violation by
-// the surface kind's own evaluateRows, and the diagonal entry of J W J^T summed as evaluateKind
-// sums it, into `rows`; its J (the vector the sweeps carry on to row 1) and diagonal returned.
-inline LinkLengths evaluateSurfaceRow(const Model& model, const ChainRow& row, double time,
-                                      const Points& positions, const Points& velocities,
-                                      RowData& rows)
+// Surface row k (Model::chainSurfaceRecords(): `record` in the surface kind table, its block
+// `block`): C, J, Jdot v and the violation by the surface kind's own evaluateRows, and the
+// diagonal entry of J W J^T summed as evaluateKind sums it, into `rows`; its J (the vector the
+// sweeps carry on to the row below) and diagonal returned.
+inline LinkLengths evaluateSurfaceRow(const Model& model, const ChainRow& row, int record, int k,
+                                      int block, double time, const Points& positions,
+                                      const Points& velocities, RowData& rows)
 {
   const auto& entry =
-      std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables()).front();
+      std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables())[record];
   const EffectContext context{ model.scene().surfaces, time };
   evaluateRows(entry.record, context, positions, velocities,
-               RowBlock{ rows.value.data(), rows.jdot_v.data(), rows.violation.data(),
-                         rows.jacobian.data() });
-  const Vec3& j = rows.jacobian[0];
+               RowBlock{ rows.value.data() + k, rows.jdot_v.data() + k, rows.violation.data() + k,
+                         rows.jacobian.data() + block });
+  const Vec3& j = rows.jacobian[block];
   double diagonal = 0.0;
   diagonal += row.w_first * j.squaredNorm();
-  rows.diagonal[0] = diagonal;
+  rows.diagonal[k] = diagonal;
   return { { j[0], j[1], j[2] }, 0.0, diagonal };
 }
+
+// The row layouts the sweeps are compiled for (Model::chainSurfaceRows()): links only, row k's
+// blocks 2k and 2k + 1; one surface row, row 0 (a chain under a bead: seed problem 3), then the
+// links, row k's first block 2k - 1; surface rows anywhere (several chains on surfaces), looked
+// up per row. The first two are constants in the sweeps' loops, with no lookup per row.
+enum Layout
+{
+  LINKS_ONLY,
+  SURFACE_ROW_0,
+  ANY_SURFACE_ROWS
+};
+
+Layout layoutOf(const Model& model)
+{
+  const int s = model.chainSurfaceRows();
+  if (s == 0)
+    return LINKS_ONLY;
+  return s == 1 && model.chainSurfaceRecords()[0] == 0 ? SURFACE_ROW_0 : ANY_SURFACE_ROWS;
+}
+
+// Where a sweep finds row k's first block and whether it is a surface row, for layout L.
+template <Layout L>
+struct RowLayout
+{
+  explicit RowLayout(const Model& model)
+    : start(model.rowStart().data())
+    , surface(L == ANY_SURFACE_ROWS ? model.chainSurfaceRecords().data() : nullptr)
+  {
+  }
+  int block(int k) const
+  {
+    if constexpr (L == LINKS_ONLY)
+      return 2 * k;
+    else if constexpr (L == SURFACE_ROW_0)
+      return k == 0 ? 0 : 2 * k - 1;
+    else
+      return start[k];
+  }
+  /// The row's index in the surface kind table, or -1 for a link.
+  int surfaceRecord(int k) const
+  {
+    if constexpr (L == LINKS_ONLY)
+      return -1;
+    else if constexpr (L == SURFACE_ROW_0)
+      return k == 0 ? 0 : -1;
+    else
+      return surface[k];
+  }
+  const int* start;
+  const int* surface;
+};
 
 // Row k's LDL^T pivot (tridiagonal.cpp's factorizeShifted at delta = 0) from the row above's d
 // and inverse pivot, carried in registers rather than reloaded (the inverse pivot is the
@@ -150,12 +203,13 @@ SolveReport countFusedFactorization(const Model& model, Data& data, double min_r
 // link) are read by the projections and Baumgarte only, after evaluating rows of their own.
 // REUSED: the Jacobian and LDL^T in data are of these positions (Data::
 // chain_factorization_at_state): only the right-hand side and its forward substitution.
-template <bool REUSED, int S>
+template <bool REUSED, Layout L>
 bool chainSweepUp(const Model& model, Data& data, double time, const Points& positions,
                   const Points& velocities, double& min_ratio)
 {
   const ChainRow* links = model.chainRows().data();
   const LinkRows rows(data.rows);
+  const RowLayout<L> layout(model);
   const double* p = positions.data();
   const double* v = velocities.data();
   const double* f = data.applied_forces.data();
@@ -166,50 +220,44 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
   min_ratio = 1.0;
   double inverse_pivot_above = 0.0, rhs_above = 0.0, d_above[3] = { 0.0, 0.0, 0.0 };
   const int m = model.numRows();
-  constexpr int s = S;
-  if constexpr (S == 1)
-  {
-    // the surface row: evaluated anew even when reused (its Jdot v is of these velocities), the
-    // right-hand side -(Jdot v + w J.f) as constraintForceStage sums it
-    const ChainRow& row = links[0];
-    const LinkLengths surface =
-        evaluateSurfaceRow(model, row, time, positions, velocities, data.rows);
-    double sum = data.rows.jdot_v[0] + 0.0;  // + 0.0: the generic sum's absent bias term
-    sum += row.w_first * dot3(surface.d[0], surface.d[1], surface.d[2], f + 3 * row.first);
-    std::copy(surface.d, surface.d + 3, d_above);
-    if constexpr (!REUSED)
-    {
-      double l = 0.0;
-      const double pivot = pivotOf(row, 0, surface, d_above, surface.diagonal, 0.0, l, min_ratio);
-      if (ConstraintSolver::isSingularPivot(pivot, surface.diagonal))
-        return false;
-      inverse_pivot_above = inverse_pivots[0] = 1.0 / pivot;
-    }
-    rhs_above = rhs[0] = -sum;
-  }
-  for (int k = s; k < m; ++k)
+  for (int k = 0; k < m; ++k)
   {
     const ChainRow& link = links[k];
-    const int i = link.first, j = link.second, block = 2 * k - s;
+    const int i = link.first, j = link.second, block = layout.block(k);
     LinkLengths lengths;
-    if constexpr (REUSED)
-      std::copy(rows.jacobian[block].data(), rows.jacobian[block].data() + 3, lengths.d);
+    double r;
+    if (const int record = layout.surfaceRecord(k); L != LINKS_ONLY && record >= 0)
+    {
+      // a surface row: evaluated anew even when reused (its Jdot v is of these velocities), the
+      // right-hand side -(Jdot v + w J.f) as constraintForceStage sums it (its particle is
+      // never held: findChainRows)
+      lengths =
+          evaluateSurfaceRow(model, link, record, k, block, time, positions, velocities, data.rows);
+      double sum = data.rows.jdot_v[k] + 0.0;  // + 0.0: the generic sum's absent bias term
+      sum += link.w_first * dot3(lengths.d[0], lengths.d[1], lengths.d[2], f + 3 * i);
+      r = -sum;
+    }
     else
-      lengths = evaluateLink<false>(link, k, block, p, rows);
-    const double* vi = v + 3 * i;
-    const double* vj = v + 3 * j;
-    const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
-    const double jdot_v = ux * ux + uy * uy + uz * uz;
-    // the right-hand side -(Jdot v + J W f) - J a_held (stages.cpp's constraintForceStage)
-    const double dx = lengths.d[0], dy = lengths.d[1], dz = lengths.d[2];
-    double sum = jdot_v;
-    sum += link.w_first * dot3(dx, dy, dz, f + 3 * i);
-    sum += link.w_second * dot3(-dx, -dy, -dz, f + 3 * j);
-    double r = -sum;
-    if (link.held_first >= 0)
-      r -= dot3(dx, dy, dz, imposed[link.held_first].acceleration.data());
-    if (link.held_second >= 0)
-      r -= dot3(-dx, -dy, -dz, imposed[link.held_second].acceleration.data());
+    {
+      if constexpr (REUSED)
+        std::copy(rows.jacobian[block].data(), rows.jacobian[block].data() + 3, lengths.d);
+      else
+        lengths = evaluateLink<false>(link, k, block, p, rows);
+      const double* vi = v + 3 * i;
+      const double* vj = v + 3 * j;
+      const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
+      const double jdot_v = ux * ux + uy * uy + uz * uz;
+      // the right-hand side -(Jdot v + J W f) - J a_held (stages.cpp's constraintForceStage)
+      const double dx = lengths.d[0], dy = lengths.d[1], dz = lengths.d[2];
+      double sum = jdot_v;
+      sum += link.w_first * dot3(dx, dy, dz, f + 3 * i);
+      sum += link.w_second * dot3(-dx, -dy, -dz, f + 3 * j);
+      r = -sum;
+      if (link.held_first >= 0)
+        r -= dot3(dx, dy, dz, imposed[link.held_first].acceleration.data());
+      if (link.held_second >= 0)
+        r -= dot3(-dx, -dy, -dz, imposed[link.held_second].acceleration.data());
+    }
     if constexpr (REUSED)
     {
       // the forward substitution with the L the projection left
@@ -253,10 +301,11 @@ inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3&
 
 // Down the chain: lambda = D^-1 y - L^T lambda, the multipliers, f_c = J^T lambda and each
 // linked particle's acceleration; a particle no link touches has f_c = 0, a = W f.
-template <int S>
+template <Layout L>
 void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 {
   const ChainRow* links = model.chainRows().data();
+  const RowLayout<L> layout(model);
   const Vec3* jacobian = data.rows.jacobian.data();
   const double* lower = data.chain_lower.data();
   const double* inverse_pivots = data.chain_inverse_pivots.data();
@@ -266,34 +315,21 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
   double* forces = data.constraint_forces.data();
   double* a = accelerations.data();
   const int m = model.numRows();
-  constexpr int s = S;
-  // link k's first block is 2k - s: the links' blocks from `link_blocks` on, two a row
-  const Vec3* link_blocks = jacobian + s;
   double lambda_below = 0.0;
-  for (int k = m - 1; k >= s; --k)
+  for (int k = m - 1; k >= 0; --k)
   {
     double lambda = rhs[k] * inverse_pivots[k];
     if (k + 1 < m)
       lambda -= lower[k] * lambda_below;
     lambda_below = rhs[k] = multipliers[k] = lambda;
     const ChainRow& link = links[k];
-    // the second block is -d: lambda (-d) is -(lambda d) exactly, one product fewer
-    const Vec3 force = lambda * link_blocks[2 * (k - s)];
+    const Vec3 force = lambda * jacobian[layout.block(k)];
     settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, f, forces,
                    a);
-    settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, f,
-                   forces, a);
-  }
-  if constexpr (S == 1)
-  {
-    // the surface row, last: its one block on its particle
-    double lambda = rhs[0] * inverse_pivots[0];
-    if (m > 1)
-      lambda -= lower[0] * lambda_below;
-    rhs[0] = multipliers[0] = lambda;
-    const ChainRow& row = links[0];
-    settleParticle(row.first, row.first_opens, row.first_closes, row.w_first, lambda * jacobian[0],
-                   f, forces, a);
+    // a surface row has one block; a link's second is -d: lambda (-d) is -(lambda d) exactly
+    if (L == LINKS_ONLY || layout.surfaceRecord(k) < 0)
+      settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, f,
+                     forces, a);
   }
   const auto& w = model.inverseMasses();
   for (int i : model.chainUnlinked())
@@ -307,12 +343,13 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 // velocities), LDL^T, and the forward substitutions of C into data.rhs and of J v into
 // data.chain_velocity_rhs. Returns false at a singular pivot (the rows are still all evaluated;
 // the factorisation is then unusable).
-template <int S>
+template <Layout L>
 bool chainProjectionSweep(const Model& model, Data& data, double time, const Points& positions,
                           const Points& velocities, double& min_ratio)
 {
   const ChainRow* links = model.chainRows().data();
   const LinkRows rows(data.rows);
+  const RowLayout<L> layout(model);
   const double* p = positions.data();
   const double* v = velocities.data();
   double* y = data.rhs.data();
@@ -324,44 +361,36 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
   min_ratio = 1.0;
   double inverse_pivot_above = 0.0, y_above = 0.0, z_above = 0.0, d_above[3] = { 0.0, 0.0, 0.0 };
   const int m = model.numRows();
-  constexpr int s = S;
-  if constexpr (S == 1)
-  {
-    // the surface row at zero velocities, as projectPositions evaluates rows; J v as
-    // multiplyJacobian sums it
-    const ChainRow& row = links[0];
-    const LinkLengths surface =
-        evaluateSurfaceRow(model, row, time, positions, data.stages.zero, data.rows);
-    max_violation = worseError(max_violation, data.rows.violation[0]);
-    double jv = 0.0;
-    jv += dot3(surface.d[0], surface.d[1], surface.d[2], v + 3 * row.first);
-    std::copy(surface.d, surface.d + 3, d_above);
-    double l = 0.0;
-    const double pivot = pivotOf(row, 0, surface, d_above, surface.diagonal, 0.0, l, min_ratio);
-    if (ConstraintSolver::isSingularPivot(pivot, surface.diagonal))
-      factorised = false;
-    else
-    {
-      inverse_pivot_above = inverse_pivots[0] = 1.0 / pivot;
-      y_above = y[0] = data.rows.value[0];
-      z_above = z[0] = jv;
-    }
-  }
-  for (int k = s; k < m; ++k)
+  for (int k = 0; k < m; ++k)
   {
     const ChainRow& link = links[k];
-    const int i = link.first, j = link.second, block = 2 * k - s;
-    const LinkLengths lengths = evaluateLink<true>(link, k, block, p, rows);
-    rows.jdot_v[k] = 0.0;
-    const double violation = std::abs(std::sqrt(lengths.squared) - link.length);
-    rows.violation[k] = violation;
-    max_violation = worseError(max_violation, violation);
+    const int i = link.first, j = link.second, block = layout.block(k);
+    LinkLengths lengths;
+    double jv = 0.0;
+    if (const int record = layout.surfaceRecord(k); L != LINKS_ONLY && record >= 0)
+    {
+      // a surface row at zero velocities, as projectPositions evaluates rows; J v as
+      // multiplyJacobian sums it
+      lengths = evaluateSurfaceRow(model, link, record, k, block, time, positions, data.stages.zero,
+                                   data.rows);
+      max_violation = worseError(max_violation, data.rows.violation[k]);
+      jv += dot3(lengths.d[0], lengths.d[1], lengths.d[2], v + 3 * i);
+    }
+    else
+    {
+      lengths = evaluateLink<true>(link, k, block, p, rows);
+      rows.jdot_v[k] = 0.0;
+      const double violation = std::abs(std::sqrt(lengths.squared) - link.length);
+      rows.violation[k] = violation;
+      max_violation = worseError(max_violation, violation);
+      if (!factorised)
+        continue;
+      // J v as multiplyJacobian sums it
+      jv += dot3(lengths.d[0], lengths.d[1], lengths.d[2], v + 3 * i);
+      jv += dot3(-lengths.d[0], -lengths.d[1], -lengths.d[2], v + 3 * j);
+    }
     if (!factorised)
       continue;
-    // J v as multiplyJacobian sums it
-    double jv = 0.0;
-    jv += dot3(lengths.d[0], lengths.d[1], lengths.d[2], v + 3 * i);
-    jv += dot3(-lengths.d[0], -lengths.d[1], -lengths.d[2], v + 3 * j);
     double c = rows.value[k];
     double l = 0.0;
     const double pivot =
@@ -387,16 +416,22 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
 }
 
 // One row's correction -W J^T mu on particle i, added in the generic order
-// (addInverseMassJacobianTranspose sums rows upwards; this sweep goes down): a particle's lower
-// row's share waits in `pending` until its upper row's is added.
-inline void correctParticle(int i, bool opens, bool closes, const Vec3& delta, double* pending,
-                            double* out)
+// (addInverseMassJacobianTranspose sums rows by kind, surface rows first, then upwards; this
+// sweep goes down): a particle's lower row's share waits in `pending` until its upper row's is
+// added, before it or, below a surface row's share (ChainRow::CLOSES_OWN_LAST), after it.
+inline void correctParticle(int i, bool opens, std::uint8_t closes, const Vec3& delta,
+                            double* pending, double* out)
 {
   Eigen::Map<Vec3> x(out + 3 * i);
   if (opens && closes)
     x += delta;
   else if (opens)
     Eigen::Map<Vec3>(pending + 3 * i) = delta;
+  else if (closes == ChainRow::CLOSES_OWN_LAST)
+  {
+    x += Eigen::Map<const Vec3>(pending + 3 * i);
+    x += delta;
+  }
   else
   {
     x += delta;
@@ -407,10 +442,11 @@ inline void correctParticle(int i, bool opens, bool closes, const Vec3& delta, d
 // Down the chain: mu = D^-1 x - L^T mu from the bottom, in place in `x` (the back half of the
 // fused solve), and out -= W J^T mu (addInverseMassJacobianTranspose at scale -1) in the same
 // sweep.
-template <int S>
+template <Layout L>
 void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out)
 {
   const ChainRow* links = model.chainRows().data();
+  const RowLayout<L> layout(model);
   const Vec3* jacobian = data.rows.jacobian.data();
   const double* lower = data.chain_lower.data();
   const double* inverse_pivots = data.chain_inverse_pivots.data();
@@ -418,10 +454,8 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
   double* pending = data.chain_pending.data();
   double* o = out.data();
   const int m = model.numRows();
-  constexpr int surface_rows = S;
-  const Vec3* link_blocks = jacobian + surface_rows;  // link k's first: 2 (k - surface_rows)
   double mu_below = 0.0;
-  for (int k = m - 1; k >= surface_rows; --k)
+  for (int k = m - 1; k >= 0; --k)
   {
     double value = mu[k] * inverse_pivots[k];
     if (k + 1 < m)
@@ -429,45 +463,48 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
     mu_below = mu[k] = value;
     const double s = -1.0 * value;  // addInverseMassJacobianTranspose's scale * lambda
     const ChainRow& link = links[k];
-    const Vec3* blocks = link_blocks + 2 * (k - surface_rows);
+    const Vec3* blocks = jacobian + layout.block(k);
     correctParticle(link.first, link.first_opens, link.first_closes, (link.w_first * s) * blocks[0],
                     pending, o);
-    correctParticle(link.second, link.second_opens, link.second_closes,
-                    (link.w_second * s) * blocks[1], pending, o);
-  }
-  if constexpr (S == 1)
-  {
-    // the surface row, last: its one block on its particle
-    double value = mu[0] * inverse_pivots[0];
-    if (m > 1)
-      value -= lower[0] * mu_below;
-    mu[0] = value;
-    const double s = -1.0 * value;
-    const ChainRow& row = links[0];
-    correctParticle(row.first, row.first_opens, row.first_closes, (row.w_first * s) * jacobian[0],
-                    pending, o);
+    if (L == LINKS_ONLY || layout.surfaceRecord(k) < 0)  // a surface row has one block
+      correctParticle(link.second, link.second_opens, link.second_closes,
+                      (link.w_second * s) * blocks[1], pending, o);
   }
 }
 
-// The sweeps for the model's structure, each compiled for chains without a surface row (S = 0,
-// the link loops as written) and with one (S = 1): the row offset is then a constant.
+// The sweeps for the model's row layout (layoutOf), one compiled for each.
 bool projectionSweep(const Model& model, Data& data, double time, const Points& positions,
                      const Points& velocities, double& min_ratio)
 {
-  return model.chainSurfaceRows() == 1
-             ? chainProjectionSweep<1>(model, data, time, positions, velocities, min_ratio)
-             : chainProjectionSweep<0>(model, data, time, positions, velocities, min_ratio);
+  switch (layoutOf(model))
+  {
+    case LINKS_ONLY:
+      return chainProjectionSweep<LINKS_ONLY>(model, data, time, positions, velocities, min_ratio);
+    case SURFACE_ROW_0:
+      return chainProjectionSweep<SURFACE_ROW_0>(model, data, time, positions, velocities,
+                                                 min_ratio);
+    default:
+      return chainProjectionSweep<ANY_SURFACE_ROWS>(model, data, time, positions, velocities,
+                                                    min_ratio);
+  }
 }
 
 void correct(const Model& model, Data& data, Eigen::VectorXd& x, Points& out)
 {
-  model.chainSurfaceRows() == 1 ? chainCorrect<1>(model, data, x, out)
-                                : chainCorrect<0>(model, data, x, out);
+  switch (layoutOf(model))
+  {
+    case LINKS_ONLY:
+      return chainCorrect<LINKS_ONLY>(model, data, x, out);
+    case SURFACE_ROW_0:
+      return chainCorrect<SURFACE_ROW_0>(model, data, x, out);
+    default:
+      return chainCorrect<ANY_SURFACE_ROWS>(model, data, x, out);
+  }
 }
 
-// chainForward() for S surface rows: one function each, so that the chain without one keeps the
-// code (and the registers of its hot loop) it had before the surface row.
-template <int S>
+// chainForward() for each row layout: one function each, so that the chain of links keeps the
+// code (and the registers of its hot loop) it had before surface rows were fused.
+template <Layout L>
 #if defined(__GNUC__)
 __attribute__((noinline))
 #endif
@@ -488,12 +525,12 @@ forwardOf(const Model& model, Data& data, double time, const Points& positions,
   SolveReport report;
   if (reuse)
   {
-    chainSweepUp<true, S>(model, data, time, positions, velocities, min_ratio);
+    chainSweepUp<true, L>(model, data, time, positions, velocities, min_ratio);
     report.method = model.solveMethod();
     report.min_pivot_ratio = data.chain_min_pivot_ratio;
     data.statistics.solve.mergeReused(report);
   }
-  else if (chainSweepUp<false, S>(model, data, time, positions, velocities, min_ratio))
+  else if (chainSweepUp<false, L>(model, data, time, positions, velocities, min_ratio))
     report = countFusedFactorization(model, data, min_ratio);
   else
   {
@@ -503,7 +540,7 @@ forwardOf(const Model& model, Data& data, double time, const Points& positions,
     accelerationStage(model, data, accelerations);
     return report;
   }
-  chainSweepDown<S>(model, data, accelerations);
+  chainSweepDown<L>(model, data, accelerations);
   addEliminatedReactions(model, data);
   heldAccelerations(model, data, accelerations);
   return report;
@@ -566,9 +603,15 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations)
 {
-  return model.chainSurfaceRows() == 1
-             ? forwardOf<1>(model, data, time, positions, velocities, accelerations)
-             : forwardOf<0>(model, data, time, positions, velocities, accelerations);
+  switch (layoutOf(model))
+  {
+    case LINKS_ONLY:
+      return forwardOf<LINKS_ONLY>(model, data, time, positions, velocities, accelerations);
+    case SURFACE_ROW_0:
+      return forwardOf<SURFACE_ROW_0>(model, data, time, positions, velocities, accelerations);
+    default:
+      return forwardOf<ANY_SURFACE_ROWS>(model, data, time, positions, velocities, accelerations);
+  }
 }
 
 }  // namespace constrained_particles

@@ -58,11 +58,14 @@ SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
 namespace
 {
 // The fused chain stages' rows (Model::fusedChain()), or none if the model has another structure:
-// links, after at most one surface row as row 0 (a chain whose first particle slides on a height
-// field; `surface_rows` says whether it is there).
+// links and surface rows (chains whose particles slide on height fields), in any order the
+// tridiagonal solve takes; `surface_rows` counts the surface rows and `surface_records` gives
+// each row's index in the surface kind table (-1 for a link; empty without surface rows).
 std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlinked,
-                                    int& surface_rows)
+                                    int& surface_rows, std::vector<int>& surface_records)
 {
+  surface_rows = 0;
+  surface_records.clear();
   const int m = model.numRows();
   if (model.solveMethod() != SolveMethod::Tridiagonal || m < 1)
     return {};
@@ -84,10 +87,16 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
   const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
   const auto& surfaces = std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables());
   const int s = static_cast<int>(surfaces.size());
-  if (!only_links || s > 1 || static_cast<int>(links.size()) + s != m)
+  if (!only_links || static_cast<int>(links.size()) + s != m)
     return {};
-  if (s == 1 && (surfaces[0].first_row != 0 || surfaces[0].first_block != 0))
-    return {};
+  // each row's kind: a surface row is one row of one block, a link one row of two
+  std::vector<int> surface_of(m, -1);
+  for (int j = 0; j < s; ++j)
+    surface_of[surfaces[j].first_row] = j;
+  const auto& row_start = model.rowStart();
+  for (int k = 0; k < m; ++k)
+    if (row_start[k + 1] - row_start[k] != (surface_of[k] >= 0 ? 1 : 2))
+      return {};
   std::vector<int> held(model.numBlocks(), -1);
   std::vector<int> held_blocks(model.numParticles(), 0);
   for (const EliminatedBlock& block : model.eliminatedBlocks())
@@ -100,21 +109,18 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
   }
   const auto& w = model.inverseMasses();
   std::vector<ChainRow> rows(m);
-  if (s == 1)
+  for (const KindRecord<SurfaceConstraint>& surface : surfaces)
   {
-    // row 0, block 0: its particle in `first` (and `second`, for the sweeps' bookkeeping)
-    ChainRow& row = rows[0];
-    row.first = row.second = surfaces[0].record.particle;
+    // its particle in `first` (and `second`, for the sweeps' bookkeeping)
+    ChainRow& row = rows[surface.first_row];
+    row.first = row.second = surface.record.particle;
     row.w_first = w[row.first];
     if (row.w_first == 0.0)
       return {};  // a held particle on a surface: its row is always singular (generic)
   }
   for (int j = 0; j < static_cast<int>(links.size()); ++j)
   {
-    // link rows follow the surface row: row k's blocks are 2k - s and 2k - s + 1
-    const int k = j + s, block = 2 * k - s;
-    if (links[j].first_row != k || links[j].first_block != block)
-      return {};
+    const int k = links[j].first_row, block = links[j].first_block;
     const LinkConstraint& link = links[j].record;
     ChainRow& row = rows[k];
     row.first = link.first;
@@ -128,9 +134,13 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
       return {};  // a link between held particles: always singular, the generic solve's case
   }
   // a block's sign against the vector the sweeps carry: a link's first block is d, its second
-  // -d; the surface row's is its Jacobian itself
-  auto sign = [s](int block)
-  { return (s == 1 && block == 0) || (block - s) % 2 == 0 ? 1.0 : -1.0; };
+  // -d; a surface row's is its Jacobian itself
+  const auto& block_row = model.blockRow();
+  auto sign = [&](int block)
+  {
+    const int r = block_row[block];
+    return surface_of[r] >= 0 || block == row_start[r] ? 1.0 : -1.0;
+  };
   const auto& start = model.incidenceStart();
   const auto& incidence = model.incidence();
   for (int i = 0; i < model.numParticles(); ++i)
@@ -157,12 +167,24 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
   for (int k = 0; k < m; ++k)
   {
     ChainRow& row = rows[k];
+    // the generic stages add a particle's shares by kind, surface rows first, then in row order:
+    // this row's last only where it is a link above the surface row that opened the particle
+    auto closes = [&](int i)
+    {
+      if (lowest[i] != k)
+        return std::uint8_t{ 0 };
+      return surface_of[k] < 0 && highest[i] != k && surface_of[highest[i]] >= 0
+                 ? ChainRow::CLOSES_OWN_LAST
+                 : ChainRow::CLOSES_OWN_FIRST;
+    };
     row.first_opens = highest[row.first] == k;
-    row.first_closes = lowest[row.first] == k;
+    row.first_closes = closes(row.first);
     row.second_opens = highest[row.second] == k;
-    row.second_closes = lowest[row.second] == k;
+    row.second_closes = closes(row.second);
   }
   surface_rows = s;
+  if (s > 0)
+    surface_records = surface_of;
   unlinked.clear();
   for (int i = 0; i < model.numParticles(); ++i)
     if (highest[i] < 0)
@@ -289,7 +311,8 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
   else
     model.method_ = method;
   if (paths == StagePaths::Specialized)
-    model.chain_rows_ = findChainRows(model, model.chain_unlinked_, model.chain_surface_rows_);
+    model.chain_rows_ = findChainRows(model, model.chain_unlinked_, model.chain_surface_rows_,
+                                      model.chain_surface_records_);
   return model;
 }
 

@@ -121,6 +121,39 @@ State horizontalStart(int n)
   return start;
 }
 
+// The height fields random chains slide on: one of each family's shapes.
+const std::vector<std::pair<std::string, std::vector<double>>> RANDOM_SURFACES = {
+  { "bowl", { 1.0, 0.6 } },
+  { "saddle", { 0.8, 0.5 } },
+  { "waves", { 0.2, 2.0, 1.5 } },
+  { "plane", { 0.3, -0.2, 0.1 } },
+};
+
+// Random case c on surfaces, stepped both ways for 1,000 steps with the c-th integrator and
+// stabilisation in turn (dt = 1 ms): it must move, and where the fused stages apply (not with
+// Baumgarte's bias) take them with `surface_rows` surface rows. Returns whether it took them.
+bool expectSurfaceCaseSame(const Scene& scene, const State& start, int c, int surface_rows,
+                           const std::string& what)
+{
+  const std::vector<std::string> integrators = integratorNames();
+  StepSettings settings;
+  settings.integrator = integrators[c % integrators.size()];
+  settings.stabilization = static_cast<Stabilization>((c / 2) % 3);
+  settings.dt = 1e-3;
+  double moved = 0.0;
+  const std::string named = what + " (" + settings.integrator + ")";
+  const bool took = expectSameMotion(scene, start, settings, SolveMethod::Automatic, named, 1000,
+                                     nullptr, &moved);
+  EXPECT_GT(moved, 1e-2) << named;
+  if (settings.stabilization != Stabilization::Baumgarte)
+  {
+    Simulator probe(scene, start, settings);
+    EXPECT_TRUE(probe.model().fusedChain()) << named;
+    EXPECT_EQ(probe.model().chainSurfaceRows(), surface_rows) << named;
+  }
+  return took;
+}
+
 }  // namespace
 
 TEST(StagePaths, EveryShippedSceneMovesTheSameBothWays)
@@ -134,15 +167,16 @@ TEST(StagePaths, EveryShippedSceneMovesTheSameBothWays)
     const bool took = expectSameMotion(built.scene, built.initial_state, settings,
                                        description.solver.solve_method, name);
     fused += took;
-    // a chain under a bead (seed problem 3) takes the fused stages with its surface row
-    if (name == "surface_chain")
+    // a chain under a bead (seed problem 3) takes the fused stages with its surface row, two
+    // chains on one saddle with one each
+    if (name == "surface_chain" || name == "two_chains_on_surface")
     {
       EXPECT_TRUE(took) << name;
     }
   }
   // the chains among them (chain, its pinned-both-ends and shaken variants, pinned_pendulum,
-  // surface_chain) take the path
-  EXPECT_GE(fused, 5);
+  // surface_chain, two_chains_on_surface) take the path
+  EXPECT_GE(fused, 6);
 }
 
 TEST(StagePaths, RandomChainsMoveTheSameBothWays)
@@ -248,13 +282,7 @@ TEST(StagePaths, RandomChainsOnSurfacesMoveTheSameBothWays)
 {
   std::mt19937 random(20261202);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const std::vector<std::string> integrators = integratorNames();
-  const std::vector<std::pair<std::string, std::vector<double>>> surfaces = {
-    { "bowl", { 1.0, 0.6 } },
-    { "saddle", { 0.8, 0.5 } },
-    { "waves", { 0.2, 2.0, 1.5 } },
-    { "plane", { 0.3, -0.2, 0.1 } },
-  };
+  const auto& surfaces = RANDOM_SURFACES;
   int fused = 0;
   for (int c = 0; c < 24; ++c)
   {
@@ -293,23 +321,94 @@ TEST(StagePaths, RandomChainsOnSurfacesMoveTheSameBothWays)
     scene.forces = { GravityForce{} };
     if (c % 3 == 0)
       scene.forces.push_back(LinearDampingForce{ 0.1 });
-    StepSettings settings;
-    settings.integrator = integrators[c % integrators.size()];
-    settings.stabilization = static_cast<Stabilization>((c / 2) % 3);
-    settings.dt = 1e-3;
-    double moved = 0.0;
-    const std::string what =
-        scene.name + " (" + type + ", " + settings.integrator + ", n = " + std::to_string(n) + ")";
-    const bool took = expectSameMotion(scene, start, settings, SolveMethod::Automatic, what, 1000,
-                                       nullptr, &moved);
-    fused += took;
-    EXPECT_GT(moved, 1e-2) << what;
-    if (settings.stabilization != Stabilization::Baumgarte)
+    fused += expectSurfaceCaseSame(scene, start, c, n > 1 ? 1 : 0,
+                                   scene.name + ", " + type + ", n = " + std::to_string(n));
+  }
+  EXPECT_GE(fused, 20);
+}
+
+// Several chains in one scene, each either free, with its first particle on a surface or with
+// its last particle on one (the surface row then below its chain's links, coupled to the link
+// above it): surface rows anywhere in the row order. Random surfaces, masses, lengths and
+// directions, every integrator and stabilisation, a spring between two chains' ends.
+TEST(StagePaths, RandomChainsOnSeveralSurfacesMoveTheSameBothWays)
+{
+  std::mt19937 random(20261203);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const auto& surfaces = RANDOM_SURFACES;
+  int fused = 0;
+  for (int c = 0; c < 24; ++c)
+  {
+    Scene scene;
+    scene.name = "random_surface_chains_" + std::to_string(c);
+    for (int k = 0; k < 2; ++k)
     {
-      Simulator probe(scene, start, settings);
-      EXPECT_TRUE(probe.model().fusedChain()) << what;
-      EXPECT_EQ(probe.model().chainSurfaceRows(), n > 1 ? 1 : 0) << what;
+      const auto& [type, coefficients] = surfaces[(c + k) % surfaces.size()];
+      scene.surfaces.push_back(makeSurface(type, coefficients));
     }
+    const int chains = 2 + c % 3;
+    std::vector<Vec3> positions, velocities;
+    std::vector<int> ends;
+    int surface_rows = 0;
+    for (int chain = 0; chain < chains; ++chain)
+    {
+      const int n = 2 + static_cast<int>(unit(random) * 8);
+      const int first = static_cast<int>(positions.size());
+      // 0: free; 1: first particle on a surface (row before its links); 2: last particle on one
+      // (row after its links)
+      const int on = (c + chain) % 3;
+      const int surface = static_cast<int>(unit(random) * 2);
+      Vec3 p(unit(random) - 0.5 + 2.0 * chain, unit(random) - 0.5, 0.0);
+      if (on == 1)
+      {
+        p.z() = evaluateSurface(scene.surfaces[surface], p.x(), p.y()).z;
+        scene.constraints.push_back(SurfaceConstraint{ first, surface });
+        ++surface_rows;
+      }
+      for (int i = 0; i < n; ++i)
+      {
+        scene.masses.push_back(0.05 + 2.0 * unit(random));
+        positions.push_back(p);
+        velocities.push_back(Vec3(unit(random) - 0.5, unit(random) - 0.5, unit(random) - 0.5));
+        if (i + 1 < n)
+        {
+          // each link leaning a random way: down below a bead, up towards a surface above
+          const Vec3 step(unit(random) - 0.5, unit(random) - 0.5, on == 2 ? 1.0 : -1.0);
+          const double length = 0.05 + 0.2 * unit(random);
+          Vec3 next = p + length * step.normalized();
+          if (on == 2 && i + 2 == n)
+            next.z() = evaluateSurface(scene.surfaces[surface], next.x(), next.y()).z;
+          const double l = (next - p).norm();
+          if (unit(random) < 0.5)
+            scene.constraints.push_back(LinkConstraint{ first + i, first + i + 1, l });
+          else
+            scene.constraints.push_back(LinkConstraint{ first + i + 1, first + i, l });
+          p = next;
+        }
+      }
+      if (on == 2)
+      {
+        scene.constraints.push_back(SurfaceConstraint{ first + n - 1, surface });
+        ++surface_rows;
+      }
+      ends.push_back(first + n - 1);
+    }
+    const int n = static_cast<int>(positions.size());
+    State start;
+    start.positions.resize(3, n);
+    start.velocities.resize(3, n);
+    for (int i = 0; i < n; ++i)
+    {
+      start.positions.col(i) = positions[i];
+      start.velocities.col(i) = velocities[i];
+    }
+    scene.forces = { GravityForce{} };
+    scene.forces.push_back(SpringForce{ ends[0], ends[1], 20.0, 1.0 });
+    if (c % 3 == 0)
+      scene.forces.push_back(LinearDampingForce{ 0.1 });
+    fused += expectSurfaceCaseSame(scene, start, c, surface_rows,
+                                   scene.name + ", " + std::to_string(chains) + " chains, " +
+                                       std::to_string(surface_rows) + " surface rows");
   }
   EXPECT_GE(fused, 20);
 }

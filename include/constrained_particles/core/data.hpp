@@ -51,7 +51,9 @@ struct StageBuffers
 /// What the step's checks and sub-steps carry from one step to the next (simulator.hpp).
 struct StepControl
 {
-  State start;                       ///< the state the step being taken started from
+  /// The state the step being taken started from: its time only where no step is retaken
+  /// (max_substeps = 1), the whole state otherwise.
+  State start;
   Eigen::VectorXd stiffness;         ///< the stability estimate's workspace (n) [N/m]
   int rejection_substeps = 1;        ///< sub-steps the last rejection asked for; relaxes back
   int accepted_since_rejection = 0;  ///< steps accepted since it was last changed

@@ -5,6 +5,7 @@
 
 #include "constrained_particles/core/scene.hpp"
 
+#include <cstdint>
 #include <string>
 #include <tuple>
 #include <variant>
@@ -82,7 +83,7 @@ enum class StagePaths
 };
 
 /// One row of a fused chain (Model::chainRows()): what its sweeps read, in one place. A link, or
-/// row 0's surface row (Model::chainSurfaceRows(); its particle and inverse mass in first and
+/// a surface row (Model::chainSurfaceRecords(); its particle and inverse mass in first and
 /// w_first, its flags in first_opens and first_closes).
 struct ChainRow
 {
@@ -97,8 +98,15 @@ struct ChainRow
   int held_first = -1, held_second = -1;  ///< index in eliminated() of their record, -1 if free
   int coupling = -1;  ///< the free particle it shares with the row above, -1 if none
   /// Down the chain (rows m-1 to 0): this row is the first to touch the particle (its J^T lambda
-  /// is written, not added) and the last (its constraint force is then complete).
-  bool first_opens = false, first_closes = false, second_opens = false, second_closes = false;
+  /// is written, not added) and the last (its constraint force is then complete): 0 if not,
+  /// CLOSES_OWN_FIRST or CLOSES_OWN_LAST, the order in which the generic stages add this row's
+  /// share and the other row's to the particle (rows by kind, surface rows first, then in order).
+  bool first_opens = false;
+  std::uint8_t first_closes = 0;
+  bool second_opens = false;
+  std::uint8_t second_closes = 0;
+  static constexpr std::uint8_t CLOSES_OWN_FIRST = 1;  ///< then the share of the row below
+  static constexpr std::uint8_t CLOSES_OWN_LAST = 2;   ///< a link above a surface row's particle
 };
 static_assert(sizeof(ChainRow) <= 56, "ChainRow's fields are ordered to pack into 56 bytes");
 
@@ -223,10 +231,17 @@ public:
   {
     return chain_rows_;
   }
-  /// Fused chains: 1 if row 0 is a surface row (its particle in chainRows()[0].first), else 0.
+  /// Fused chains: how many rows are surface rows (a chain whose first particle slides on a
+  /// height field has one; several chains on surfaces, one each), 0 for links only.
   int chainSurfaceRows() const
   {
     return chain_surface_rows_;
+  }
+  /// Fused chains with surface rows: for each row, its index in the SurfaceConstraint kind table
+  /// if it is a surface row, else -1 (empty when chainSurfaceRows() is 0).
+  const std::vector<int>& chainSurfaceRecords() const
+  {
+    return chain_surface_records_;
   }
   /// Fused chains: the particles no link touches (their constraint force is only a reaction).
   const std::vector<int>& chainUnlinked() const
@@ -258,6 +273,7 @@ private:
   std::vector<ChainRow> chain_rows_;  // empty unless fusedChain()
   std::vector<int> chain_unlinked_;
   int chain_surface_rows_ = 0;
+  std::vector<int> chain_surface_records_;
 };
 
 /// True if rows touching each free particle are at most two and adjacent, so J W J^T is
