@@ -4,7 +4,7 @@
 # Debian's packages. Takes about 15 minutes on 2 cores; progress goes to stderr.
 # Usage: scripts/bench.sh [--quick]   (--quick: a small sweep for a smoke test, into build/bench)
 #        scripts/bench.sh --scenes         (only the per-scene and solve-by-structure part, into
-#                                          docs/bench, then the summary again: about 1 minute)
+#                                          docs/bench, then the summary again: about 2 minutes)
 #        scripts/bench.sh --stability      (only what stability costs on the fine-link chains:
 #                                          docs/bench/stability.csv, about 2 minutes)
 #        scripts/bench.sh --cores [BASE]   (only this core's step cost against commit BASE's,
