@@ -352,6 +352,22 @@ int workPrecision(const std::string& out, bool quick)
   return 0;
 }
 
+// CPU seconds per call of `fn` over one run lasting at least `budget`
+template <typename Fn>
+double secondsPerCall(Fn& fn, double budget)
+{
+  long calls = 0;
+  const double start = bench::threadCpuSeconds();
+  double elapsed = 0;
+  do
+  {
+    fn();
+    ++calls;
+    elapsed = bench::threadCpuSeconds() - start;
+  } while (elapsed < budget);
+  return elapsed / calls;
+}
+
 // median CPU seconds per call of `fn`, each of REPEATS runs lasting at least budget / REPEATS
 template <typename Fn>
 double medianSecondsPerCall(Fn fn, double budget)
@@ -359,19 +375,31 @@ double medianSecondsPerCall(Fn fn, double budget)
   fn();  // warm caches and workspaces
   std::vector<double> per_call;
   for (int r = 0; r < REPEATS; ++r)
-  {
-    long calls = 0;
-    const double start = bench::threadCpuSeconds();
-    double elapsed = 0;
-    do
-    {
-      fn();
-      ++calls;
-      elapsed = bench::threadCpuSeconds() - start;
-    } while (elapsed < budget / REPEATS);
-    per_call.push_back(elapsed / calls);
-  }
+    per_call.push_back(secondsPerCall(fn, budget / REPEATS));
   return bench::median(per_call);
+}
+
+// `a` against `b` on a shared machine: 2 REPEATS + 1 rounds of one run of each, interleaved so
+// that both see the same load; the medians of a's and b's CPU seconds per call and of the
+// rounds' ratios a / b
+struct Paired
+{
+  double a, b, ratio;
+};
+template <typename A, typename B>
+Paired pairedSecondsPerCall(A a, B b, double budget)
+{
+  a();  // warm caches and workspaces
+  b();
+  const int rounds = 2 * REPEATS + 1;
+  std::vector<double> as, bs, ratios;
+  for (int r = 0; r < rounds; ++r)
+  {
+    as.push_back(secondsPerCall(a, budget / (2 * rounds)));
+    bs.push_back(secondsPerCall(b, budget / (2 * rounds)));
+    ratios.push_back(as.back() / bs.back());
+  }
+  return { bench::median(as), bench::median(bs), bench::median(ratios) };
 }
 
 /// Links of the scaling chain [m]: fixed, so that every n sees the same motion per link.
@@ -519,7 +547,7 @@ int scenes(const std::string& out, bool quick)
   std::ofstream csv(out + "/scenes.csv");
   csv << "scene,particles,rows,solve,integrator,stabilization,seconds_per_step,"
          "forces_per_step,constraints_per_step,factorizations_per_step,stages,"
-         "generic_seconds_per_step\n";
+         "generic_seconds_per_step,generic_ratio_median\n";
   for (const std::string& name : listScenes(SCENES_DIR))
   {
     const SceneDescription d = loadSceneFile(std::string(SCENES_DIR) + "/" + name + ".yaml");
@@ -527,12 +555,18 @@ int scenes(const std::string& out, bool quick)
     StepSettings settings = d.solver.applyTo(StepSettings{});
     settings.max_substeps = 1;  // a step as the scene asks (stability measures sub-steps)
     Simulator simulator(built.scene, built.initial_state, settings, d.solver.solve_method);
-    const double seconds = medianSecondsPerCall([&] { simulator.step(); }, budget);
-    // the same scene on the generic stages: what the fused chain stages save where they apply
+    // against the same scene on the generic stages, interleaved: what the fused chain stages save
     Simulator generic(built.scene, built.initial_state, settings, d.solver.solve_method,
                       StagePaths::Generic);
-    const double generic_seconds = medianSecondsPerCall([&] { generic.step(); }, budget);
-    const char* stages = simulator.model().fusedChain() ? "fused" : "generic";
+    const Paired paired =
+        pairedSecondsPerCall([&] { simulator.step(); }, [&] { generic.step(); }, 2.0 * budget);
+    const double seconds = paired.a, generic_seconds = paired.b;
+    // fused where its steps evaluate stages that take them: not under Baumgarte's bias, nor with
+    // an integrator that holds the constraints itself (velocity Verlet, fast projection)
+    const bool fused = simulator.model().fusedChain() &&
+                       settings.stabilization != Stabilization::Baumgarte &&
+                       !findIntegrator(settings.integrator).holds_constraints;
+    const char* stages = fused ? "fused" : "generic";
     // counts of exactly 100 further steps
     Simulator counted(built.scene, built.initial_state, settings, d.solver.solve_method);
     const EffectCounters before = counted.effectCounters();
@@ -553,9 +587,9 @@ int scenes(const std::string& out, bool quick)
         << "," << solveMethodName(simulator.model().solveMethod()) << "," << settings.integrator
         << "," << stabilizationName(settings.stabilization) << "," << seconds << "," << forces
         << "," << constraints << "," << (factorizations.str().empty() ? "-" : factorizations.str())
-        << "," << stages << "," << generic_seconds << "\n";
+        << "," << stages << "," << generic_seconds << "," << paired.ratio << "\n";
     std::cerr << "[scenes] " << name << ": " << seconds * 1e6 << " us/step (" << stages
-              << " stages; generic " << generic_seconds * 1e6 << "), "
+              << " stages; generic " << generic_seconds * 1e6 << ", ratio " << paired.ratio << "), "
               << solveMethodName(simulator.model().solveMethod()) << "; forces " << forces
               << "; constraints " << constraints << "\n";
   }

@@ -215,16 +215,19 @@ def scenes_section(out):
              "Counts are evaluations per step from the effect counters (RK4 evaluates forces 4 "
              "times a step; projection adds row evaluations).", "",
              "| scene | particles | rows | solve | integrator + stabilization | stages | "
-             "us per step | on the generic stages | forces per step | constraints per step |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "us per step | on the generic stages | ratio | forces per step | "
+             "constraints per step |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in read(out / "scenes.csv"):
         # scenes.csv before the fused-stages columns: shown as unknown
         stages = r.get("stages") or "-"
         generic = r.get("generic_seconds_per_step")
         generic = f"{1e6 * float(generic):.3g}" if generic else "-"
+        ratio = r.get("generic_ratio_median")
+        ratio = f"{float(ratio):.2f}" if ratio else "-"
         lines.append(f"| {r['scene']} | {r['particles']} | {r['rows']} | {r['solve']} | "
                      f"{r['integrator']} + {r['stabilization']} | {stages} | "
-                     f"{1e6 * float(r['seconds_per_step']):.3g} | {generic} | "
+                     f"{1e6 * float(r['seconds_per_step']):.3g} | {generic} | {ratio} | "
                      f"{r['forces_per_step']} | {r['constraints_per_step']} |")
     if not (out / "trees.csv").exists():
         return lines

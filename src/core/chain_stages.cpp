@@ -179,7 +179,7 @@ inline double pivotOf(const ChainRow& link, int k, const LinkLengths& row, const
 }
 
 // Counts one evaluation of every row record, as rowStage counts them: the links and the surface
-// row, if any.
+// rows.
 void countChainRows(const Model& model, Data& data)
 {
   const int s = model.chainSurfaceRows();
@@ -285,7 +285,7 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
   return true;
 }
 
-// One link's J^T lambda on particle i, and its acceleration W (f + f_c) once no link is left:
+// One row's J^T lambda on particle i, and its acceleration W (f + f_c) once no row is left:
 // accelerationStage's expression, a particle at a time while its forces are in cache.
 inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3& force,
                            const double* applied, double* forces, double* accelerations)
@@ -300,7 +300,7 @@ inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3&
 }
 
 // Down the chain: lambda = D^-1 y - L^T lambda, the multipliers, f_c = J^T lambda and each
-// linked particle's acceleration; a particle no link touches has f_c = 0, a = W f.
+// linked particle's acceleration; a particle no row touches has f_c = 0, a = W f.
 template <Layout L>
 void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 {

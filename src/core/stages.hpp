@@ -45,13 +45,13 @@ SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::Ve
 void addEliminatedReactions(const Model& model, Data& data);
 
 /// Stages 1, 2, 4 and 5 for a fused chain (Model::fusedChain(), no Baumgarte bias), in two
-/// sweeps over the links (the down sweep also sets each particle's acceleration)
-/// (chain_stages.cpp): the same data (of the rows, only the Jacobian: C, Jdot v, the diagonals
-/// and violations are read by the projections and Baumgarte only, after evaluating rows of their
-/// own), counters and report as the generic stages; a singular pivot hands the stage to them.
-/// At data.state.positions and the time its last fused projection factorised at
-/// (Data::chain_factorization_at_state) it solves with that factorisation, counted as reused;
-/// every call clears that flag. Eliminated motion already imposed.
+/// sweeps over the rows (the down sweep also sets each particle's acceleration)
+/// (chain_stages.cpp): the same data (of the links' rows only the Jacobian: C, Jdot v, the
+/// diagonals and violations are read by the projections and Baumgarte only, after evaluating rows
+/// of their own; a surface row's whole), counters and report as the generic stages; a singular
+/// pivot hands the stage to them. At data.state.positions and the time its last fused projection
+/// factorised at (Data::chain_factorization_at_state) it solves with that factorisation, counted as
+/// reused; every call clears that flag. Eliminated motion already imposed.
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations);
 

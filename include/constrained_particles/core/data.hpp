@@ -81,8 +81,9 @@ public:
 
   State state;  ///< positions, velocities (3 x n), time, steps
   /// Rows at the last evaluated stage; after a fused chain's forward stage (chain_stages.cpp) only
-  /// the Jacobian is of that stage, C, Jdot v, diagonals and violations of the last evaluation
-  /// that stored them (a projection, SHAKE, a generic fallback).
+  /// the Jacobian (and a surface row's C, Jdot v, diagonal and violation) is of that stage, the
+  /// links' C, Jdot v, diagonals and violations of the last evaluation that stored them (a
+  /// projection, SHAKE, a generic fallback).
   RowData rows;
   RowData trial_rows;     ///< rows at SHAKE's trial positions
   Points applied_forces;  ///< f at the last stage [N] (3 x n)

@@ -219,9 +219,9 @@ public:
   {
     return incidence_;
   }
-  /// True if every row is a link, in row order (after at most one surface row as row 0), J W J^T
-  /// is tridiagonal and adjacent rows share at most one free particle: forward() then takes the
-  /// fused chain stages (chain_stages.cpp).
+  /// True if every row is a link or a surface row (in any order), J W J^T is tridiagonal and
+  /// adjacent rows share at most one free particle: forward() then takes the fused chain stages
+  /// (chain_stages.cpp).
   bool fusedChain() const
   {
     return !chain_rows_.empty();
@@ -243,7 +243,7 @@ public:
   {
     return chain_surface_records_;
   }
-  /// Fused chains: the particles no link touches (their constraint force is only a reaction).
+  /// Fused chains: the particles no row touches (their constraint force is only a reaction).
   const std::vector<int>& chainUnlinked() const
   {
     return chain_unlinked_;
