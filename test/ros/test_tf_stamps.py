@@ -145,7 +145,11 @@ class TfStampsTest(WallClockWaits, unittest.TestCase):
         self.wait_until(lambda: self.latest_state().status == SimState.STATUS_PAUSED, "pause")
         self.assert_not_frozen("reset")
 
-        clocks = list(self.clocks)
+        # from the third message on: roscpp's latched publisher hands a new subscriber the last
+        # message after adding its link, outside the lock its publishing thread takes
+        # (Publication::addSubscriberLink), so the first message and one published meanwhile may
+        # arrive twice or swapped: the transport's, at connection, not the node's stamps
+        clocks = list(self.clocks)[2:]
         self.assertGreater(len(clocks), 100)
         self.assertTrue(all(b > a for a, b in zip(clocks, clocks[1:])),
                         "/clock repeated or went back")
