@@ -38,6 +38,7 @@ int main(int argc, char** argv)
     return 0;
   // outlives the node: destroying the last handle shuts ROS (and its logging) down
   ros::NodeHandle private_nh("~");
+  int status = 0;
   try
   {
     constrained_particles::SimulatorNode node(private_nh);
@@ -47,11 +48,14 @@ int main(int argc, char** argv)
     // Ctrl-C, or a shutdown asked over the master's API (rosnode kill)
     while (!interrupted && ros::ok() && !ros::isShuttingDown())
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    // another node took /clock just after we started (logged then): as a refusal at start-up
+    if (!node.refusal().empty())
+      status = 1;
     // within 0.5 s even inside one long step: then leave without waiting for it
     if (!node.shutdown(std::chrono::milliseconds(400)))
     {
       ROS_WARN("simulator_node: a step is still running; exiting without waiting for it");
-      std::_Exit(0);
+      std::_Exit(status);
     }
     ros::shutdown();
     spinner.stop();
@@ -61,5 +65,5 @@ int main(int argc, char** argv)
     ROS_FATAL("simulator_node: bad parameter: %s", e.what());
     return 1;
   }
-  return 0;
+  return status;
 }

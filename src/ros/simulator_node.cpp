@@ -122,7 +122,11 @@ std::string join(const std::vector<std::string>& items)
 
 /// Only one node may publish /clock: throws naming the others that do. Before advertising, any
 /// other counts; after (`advertised`), two started at once each see the other, and the one whose
-/// name sorts first keeps /clock.
+/// name sorts first keeps /clock. A check after advertising may run before the other node has
+/// registered (it passed its own check before we registered, then loaded its scene): the node
+/// repeats it for CLOCK_CHECK_PERIOD after advertising (SimulatorNode::refusal()).
+constexpr std::chrono::seconds CLOCK_CHECK_PERIOD{ 60 };  // wall; longer than a scene's load
+
 void requireClockFree(bool advertised)
 {
   std::vector<std::string> others = otherPublishers("/clock");
@@ -170,6 +174,11 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
     // latched: a node with use_sim_time started while we are paused still learns the time
     clock_publisher_ = ros::NodeHandle().advertise<rosgraph_msgs::Clock>("/clock", 10, true);
     requireClockFree(true);
+    // on nh_'s spinner (several threads), not the publishing one: the master's answers may be
+    // slow, and publishing must not wait for them
+    clock_check_until_ = std::chrono::steady_clock::now() + CLOCK_CHECK_PERIOD;
+    clock_check_timer_ =
+        nh_.createWallTimer(ros::WallDuration(1.0), &SimulatorNode::checkClockCallback, this);
   }
   // our own /tf publisher (tf2_ros::TransformBroadcaster is a thin wrapper of one) so the message
   // is built only with subscribers and reuses its frame names; queue as tf2_ros's broadcaster
@@ -240,6 +249,34 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
            parameters_.frame_prefix.c_str(), parameters_.fixed_frame.c_str());
 }
 
+void SimulatorNode::checkClockCallback(const ros::WallTimerEvent&)
+{
+  if (std::chrono::steady_clock::now() > clock_check_until_)
+  {
+    clock_check_timer_.stop();
+    return;
+  }
+  try
+  {
+    requireClockFree(true);
+  }
+  catch (const InvalidInput& e)
+  {
+    clock_check_timer_.stop();
+    // logged here: once ROS has shut down, rosconsole prints nothing
+    ROS_FATAL("simulator_node: bad parameter: %s", e.what());
+    std::lock_guard<std::mutex> lock(refusal_mutex_);
+    refusal_ = e.what();
+    ros::requestShutdown();
+  }
+}
+
+std::string SimulatorNode::refusal() const
+{
+  std::lock_guard<std::mutex> lock(refusal_mutex_);
+  return refusal_;
+}
+
 SimulatorNode::~SimulatorNode()
 {
   shutdown(std::chrono::milliseconds(0));
@@ -248,6 +285,7 @@ SimulatorNode::~SimulatorNode()
 bool SimulatorNode::shutdown(std::chrono::milliseconds timeout)
 {
   publish_spinner_.stop();
+  clock_check_timer_.stop();
   publish_timer_.stop();
   diagnostics_timer_.stop();
   status_timer_.stop();

@@ -106,6 +106,28 @@ class TwoSimulatorsTest(WallClockWaits, unittest.TestCase):
             for node in nodes:
                 interrupt(node)
 
+    def test_a_clock_publisher_sorting_first_soon_after_start_takes_clock(self):
+        # two nodes started together may check before the other registers: for a while after
+        # advertising, a node keeps checking, and gives way to one whose name sorts first
+        node = self.clock_node("clock_b")
+        other = None
+        try:
+            self.wait_until(lambda: clock_publishers() == ["/clock_test/clock_b"],
+                            "clock_b publishing /clock", 120.0)
+            other = subprocess.Popen(
+                ["rostopic", "pub", "-r", "10", "/clock", "rosgraph_msgs/Clock",
+                 "{clock: {secs: 1, nsecs: 0}}", "__name:=aaa_clock"],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+            self.wait_until(lambda: node.poll() is not None, "clock_b giving way", 60.0)
+            output = node.stdout.read()
+            self.assertEqual(node.returncode, 1, output)
+            self.assertIn("~publish_clock", output)
+            self.assertIn("/aaa_clock", output)
+        finally:
+            interrupt(node)
+            if other is not None:
+                interrupt(other)
+
     def test_a_dead_clock_publisher_does_not_block_a_start(self):
         # a publisher the master still lists but that no longer answers (as after SIGKILL)
         master = rosgraph.Master("/ghost")

@@ -50,12 +50,19 @@ public:
   /// Stops stepping and refuses waiting requests; false if a step still runs after `timeout`.
   bool shutdown(std::chrono::milliseconds timeout);
 
+  /// Why the node gave up after it started (another node took /clock: see the constructor's
+  /// clock check), or empty; then it has asked ROS to shut down and should exit with status 1.
+  std::string refusal() const;
+
   /// Publishes tf, ~state, /clock and the subscribed marker topics from the latest snapshot.
   /// With ~publish_clock only a snapshot newer than the last published one goes out, so no stamp
   /// is ever sent twice; otherwise every call publishes, stamped with wall time.
   void publish();
 
 private:
+  /// ~publish_clock, for CLOCK_CHECK_PERIOD after advertising: gives way (refusal(), shutdown)
+  /// to another live /clock publisher whose name sorts first.
+  void checkClockCallback(const ros::WallTimerEvent& event);
   /// Publishes the snapshot's accuracy report on ~accuracy once (latched).
   void publishAccuracy(const Snapshot& snap, const std_msgs::Header& header);
   /// Once per scene, whoever listens (latched, so a late subscriber gets the current scene's):
@@ -116,6 +123,11 @@ private:
       surface_publisher_, view_publisher_;
   std::vector<ros::ServiceServer> services_;
   ros::WallTimer publish_timer_, status_timer_, diagnostics_timer_;
+  // ~publish_clock: /clock's publishers checked again for a while after advertising
+  ros::WallTimer clock_check_timer_;
+  std::chrono::steady_clock::time_point clock_check_until_;
+  mutable std::mutex refusal_mutex_;
+  std::string refusal_;
   std::unique_ptr<ReconfigureServer<SimulatorConfig>> reconfigure_server_;
 };
 
