@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 namespace constrained_particles
 {
@@ -52,12 +53,12 @@ inline double dot3(double ax, double ay, double az, const double* b)
   return ax * b[0] + ay * b[1] + az * b[2];
 }
 
-// Link k's Jacobian blocks, C and diagonal entry of J W J^T at `positions`
-// (link_constraint.hpp's evaluateRows, evaluateRowRecords' diagonal). The diagonal is
-// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order. C and the
-// diagonal are stored only for a projection (STORE_ALL): its generic fallback reads them.
-template <bool STORE_ALL>
-inline LinkLengths evaluateLink(const ChainRow& link, int k, int block, const double* positions,
+// Link k's Jacobian and diagonal entry of J W J^T at `positions` (link_constraint.hpp's
+// evaluateRows, evaluateRowRecords' diagonal); only its first block d is stored: the second is
+// -d exactly, and not storing it saves 2.4 MB of writes a sweep at 10^5 links (the sweeps read
+// -d where the generic stages read the second block). The diagonal is w_i |d|^2 + w_j |d|^2:
+// |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order.
+inline LinkLengths evaluateLink(const ChainRow& link, int block, const double* positions,
                                 const LinkRows& rows)
 {
   const double* pi = positions + 3 * link.first;
@@ -65,19 +66,10 @@ inline LinkLengths evaluateLink(const ChainRow& link, int k, int block, const do
   const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
   const double squared = dx * dx + dy * dy + dz * dz;
   double* first = rows.jacobian[block].data();
-  double* second = rows.jacobian[block + 1].data();
   first[0] = dx;
   first[1] = dy;
   first[2] = dz;
-  second[0] = -dx;
-  second[1] = -dy;
-  second[2] = -dz;
   const double diagonal = link.w_first * squared + link.w_second * squared;
-  if constexpr (STORE_ALL)
-  {
-    rows.value[k] = 0.5 * (squared - link.length * link.length);
-    rows.diagonal[k] = diagonal;
-  }
   return { { dx, dy, dz }, squared, diagonal };
 }
 
@@ -242,7 +234,7 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
       if constexpr (REUSED)
         std::copy(rows.jacobian[block].data(), rows.jacobian[block].data() + 3, lengths.d);
       else
-        lengths = evaluateLink<false>(link, k, block, p, rows);
+        lengths = evaluateLink(link, block, p, rows);
       const double* vi = v + 3 * i;
       const double* vj = v + 3 * j;
       const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
@@ -339,10 +331,11 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
   }
 }
 
-// Up the chain for a projection at `positions`: the rows (with violations, Jdot v = 0 as at zero
-// velocities), LDL^T, and the forward substitutions of C into data.rhs and of J v into
-// data.chain_velocity_rhs. Returns false at a singular pivot (the rows are still all evaluated;
-// the factorisation is then unusable).
+// Up the chain for a projection at `positions`: the Jacobian blocks, the largest violation
+// (data.rows.max_violation), LDL^T, and the forward substitutions of C into data.rhs and of J v
+// into data.chain_velocity_rhs. The links' C, diagonals and violations are not stored (at 10^5
+// links, 3.2 MB a sweep): the generic fallback evaluates its own rows. Returns false at a
+// singular pivot (the violations are still all measured; the factorisation is then unusable).
 template <Layout L>
 bool chainProjectionSweep(const Model& model, Data& data, double time, const Points& positions,
                           const Points& velocities, double& min_ratio)
@@ -378,10 +371,8 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
     }
     else
     {
-      lengths = evaluateLink<true>(link, k, block, p, rows);
-      rows.jdot_v[k] = 0.0;
+      lengths = evaluateLink(link, block, p, rows);
       const double violation = std::abs(std::sqrt(lengths.squared) - link.length);
-      rows.violation[k] = violation;
       max_violation = worseError(max_violation, violation);
       if (!factorised)
         continue;
@@ -391,7 +382,10 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
     }
     if (!factorised)
       continue;
-    double c = rows.value[k];
+    // C as link_constraint.hpp's evaluateRows forms it (a surface row's own C for a surface row)
+    double c = L != LINKS_ONLY && layout.surfaceRecord(k) >= 0
+                   ? rows.value[k]
+                   : 0.5 * (lengths.squared - link.length * link.length);
     double l = 0.0;
     const double pivot =
         pivotOf(link, k, lengths, d_above, lengths.diagonal, inverse_pivot_above, l, min_ratio);
@@ -463,43 +457,47 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
     mu_below = mu[k] = value;
     const double s = -1.0 * value;  // addInverseMassJacobianTranspose's scale * lambda
     const ChainRow& link = links[k];
-    const Vec3* blocks = jacobian + layout.block(k);
-    correctParticle(link.first, link.first_opens, link.first_closes, (link.w_first * s) * blocks[0],
+    const Vec3& d = jacobian[layout.block(k)];
+    correctParticle(link.first, link.first_opens, link.first_closes, (link.w_first * s) * d,
                     pending, o);
-    if (L == LINKS_ONLY || layout.surfaceRecord(k) < 0)  // a surface row has one block
+    // a surface row has one block; a link's second, -d, not stored: (w s)(-d) is -((w s) d)
+    if (L == LINKS_ONLY || layout.surfaceRecord(k) < 0)
       correctParticle(link.second, link.second_opens, link.second_closes,
-                      (link.w_second * s) * blocks[1], pending, o);
+                      -((link.w_second * s) * d), pending, o);
   }
 }
 
-// The sweeps for the model's row layout (layoutOf), one compiled for each.
-bool projectionSweep(const Model& model, Data& data, double time, const Points& positions,
-                     const Points& velocities, double& min_ratio)
+// Calls fn(std::integral_constant<Layout, L>{}) for the model's row layout L (layoutOf): each
+// sweep compiled once per layout, the choice written once.
+template <typename Fn>
+decltype(auto) withLayout(const Model& model, Fn&& fn)
 {
   switch (layoutOf(model))
   {
     case LINKS_ONLY:
-      return chainProjectionSweep<LINKS_ONLY>(model, data, time, positions, velocities, min_ratio);
+      return fn(std::integral_constant<Layout, LINKS_ONLY>{});
     case SURFACE_ROW_0:
-      return chainProjectionSweep<SURFACE_ROW_0>(model, data, time, positions, velocities,
-                                                 min_ratio);
+      return fn(std::integral_constant<Layout, SURFACE_ROW_0>{});
     default:
-      return chainProjectionSweep<ANY_SURFACE_ROWS>(model, data, time, positions, velocities,
-                                                    min_ratio);
+      return fn(std::integral_constant<Layout, ANY_SURFACE_ROWS>{});
   }
+}
+
+bool projectionSweep(const Model& model, Data& data, double time, const Points& positions,
+                     const Points& velocities, double& min_ratio)
+{
+  return withLayout(model,
+                    [&](auto layout)
+                    {
+                      return chainProjectionSweep<decltype(layout)::value>(
+                          model, data, time, positions, velocities, min_ratio);
+                    });
 }
 
 void correct(const Model& model, Data& data, Eigen::VectorXd& x, Points& out)
 {
-  switch (layoutOf(model))
-  {
-    case LINKS_ONLY:
-      return chainCorrect<LINKS_ONLY>(model, data, x, out);
-    case SURFACE_ROW_0:
-      return chainCorrect<SURFACE_ROW_0>(model, data, x, out);
-    default:
-      return chainCorrect<ANY_SURFACE_ROWS>(model, data, x, out);
-  }
+  withLayout(model,
+             [&](auto layout) { chainCorrect<decltype(layout)::value>(model, data, x, out); });
 }
 
 // chainForward() for each row layout: one function each, so that the chain of links keeps the
@@ -563,6 +561,10 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
   {
     factorised = projectionSweep(model, data, time, positions, velocities, min_ratio);
     countChainRows(model, data);
+    // singular: the generic fallbacks below read every row's C and diagonal, which the sweep
+    // does not store (evaluated at zero velocities, as projectPositions evaluates them)
+    if (!factorised)
+      evaluateRowRecords(model, time, positions, data.stages.zero, data.rows, nullptr);
     report.max_position_error = data.rows.max_violation;
     report.converged = report.max_position_error <= tolerance;
     if (report.converged || iteration >= max_iterations ||
@@ -603,15 +605,12 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations)
 {
-  switch (layoutOf(model))
-  {
-    case LINKS_ONLY:
-      return forwardOf<LINKS_ONLY>(model, data, time, positions, velocities, accelerations);
-    case SURFACE_ROW_0:
-      return forwardOf<SURFACE_ROW_0>(model, data, time, positions, velocities, accelerations);
-    default:
-      return forwardOf<ANY_SURFACE_ROWS>(model, data, time, positions, velocities, accelerations);
-  }
+  return withLayout(model,
+                    [&](auto layout)
+                    {
+                      return forwardOf<decltype(layout)::value>(model, data, time, positions,
+                                                                velocities, accelerations);
+                    });
 }
 
 }  // namespace constrained_particles

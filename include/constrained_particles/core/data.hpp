@@ -80,13 +80,17 @@ public:
   Data& operator=(const Data&) = delete;
 
   State state;  ///< positions, velocities (3 x n), time, steps
-  /// Rows at the last evaluated stage; after a fused chain's forward stage (chain_stages.cpp) only
-  /// the Jacobian (and a surface row's C, Jdot v, diagonal and violation) is of that stage, the
-  /// links' C, Jdot v, diagonals and violations of the last evaluation that stored them (a
-  /// projection, SHAKE, a generic fallback).
+  /// Rows at the last evaluated stage; after a fused chain's forward stage or projection
+  /// (chain_stages.cpp) only each link's first Jacobian block d (its second is -d), a surface
+  /// row's C, J, Jdot v, diagonal and violation, and max_violation are of that stage; the rest
+  /// is of the last evaluation that stored it (a generic stage or projection, SHAKE, a generic
+  /// fallback). Read what a fused stage did not store through evaluateRowRecords.
   RowData rows;
   RowData trial_rows;     ///< rows at SHAKE's trial positions
   Points applied_forces;  ///< f at the last stage [N] (3 x n)
+  /// applied_forces hold m g of the scene's only force, gravity, with no perturbation: what every
+  /// stage would assign again (appliedForceStage)
+  bool applied_forces_are_gravity = false;
   /// Forces from outside the model, set between steps (MuJoCo's xfrc_applied and mouse
   /// perturbation): a push, a grabbed particle's target spring. Evaluated after the model's
   /// forces, and counted with them, only while set (Simulator::setPerturbations).
