@@ -174,6 +174,11 @@ TEST(Forces, PerturbationsActOnlyWhileSetAndAreCounted)
   simulator.step(200);
   EXPECT_NEAR(simulator.state().positions(0, 0), x2 + a * t2 * 0.2, 1e-10);
   EXPECT_EQ(simulator.effectCounters().forceCount<ExternalForce>(), pushes);
+  // pushed again after steps under gravity alone (whose m g the stages keep): the push acts
+  simulator.setPerturbations({ ExternalForce{ 0, push } });
+  const double x3 = simulator.state().positions(0, 0), v3 = a * t2;
+  simulator.step(100);
+  EXPECT_NEAR(simulator.state().positions(0, 0), x3 + v3 * 0.1 + 0.5 * a * 0.1 * 0.1, 1e-10);
   // a new scene starts without them
   simulator.setPerturbations({ ExternalForce{ 0, push } });
   simulator.setScene(scene, stateOf(Vec3::Zero(), Vec3::Zero()));
