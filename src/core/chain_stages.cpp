@@ -1,7 +1,7 @@
 // The fused chain stages (issue 17): for a model whose rows are all links and surface rows (chains
 // whose particles slide on height fields) with a tridiagonal J W J^T (Model::fusedChain()), the
 // row, constraint-force, solve and acceleration stages in two
-// sweeps instead of seven: up the chain, each link's Jacobian blocks, right-hand side, LDL^T pivot
+// sweeps instead of seven: up the chain, each link's Jacobian, right-hand side, LDL^T pivot
 // and forward substitution; down the chain, the back substitution, the multipliers, J^T lambda
 // and the accelerations. The projection likewise: each Newton check's sweep also factorises, and
 // the back substitution and the correction share one. The arithmetic is the generic stages'
@@ -191,8 +191,9 @@ SolveReport countFusedFactorization(const Model& model, Data& data, double min_r
 }
 
 // Up the chain; false at a singular pivot (data.rows then holds the rows before it only). Only
-// the Jacobian blocks are stored: C, Jdot v, the diagonals and the violations (a square root per
-// link) are read by the projections and Baumgarte only, after evaluating rows of their own.
+// each link's first Jacobian block is stored: C, Jdot v, the diagonals and the violations (a
+// square root per link) are read by the projections and Baumgarte only, after evaluating rows of
+// their own.
 // REUSED: the Jacobian and LDL^T in data are of these positions (Data::
 // chain_factorization_at_state): only the right-hand side and its forward substitution.
 template <bool REUSED, Layout L>

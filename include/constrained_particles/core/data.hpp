@@ -82,7 +82,8 @@ public:
   State state;  ///< positions, velocities (3 x n), time, steps
   /// Rows at the last evaluated stage; after a fused chain's forward stage or projection
   /// (chain_stages.cpp) only each link's first Jacobian block d (its second is -d), a surface
-  /// row's C, J, Jdot v, diagonal and violation, and max_violation are of that stage; the rest
+  /// row's C, J, Jdot v, diagonal and violation, and (after a projection) max_violation are of
+  /// that stage; the rest
   /// is of the last evaluation that stored it (a generic stage or projection, SHAKE, a generic
   /// fallback). Read what a fused stage did not store through evaluateRowRecords.
   RowData rows;

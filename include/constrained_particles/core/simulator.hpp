@@ -83,7 +83,8 @@ public:
   {
     return *model_;
   }
-  /// Rows, forces, multipliers and buffers of the last evaluation.
+  /// Rows, forces, multipliers and buffers of the last evaluation (after the fused chain stages
+  /// only part of `rows` is of it: Data::rows says which).
   const Data& data() const
   {
     return *data_;
