@@ -205,7 +205,8 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
   const RowLayout<L> layout(model);
   const double* p = positions.data();
   const double* v = velocities.data();
-  const double* f = data.applied_forces.data();
+  const double* a0 = data.free_accelerations.data();
+  const bool uniform = data.free_accelerations_uniform;
   const ImposedMotion* imposed = data.imposed.data();
   double* rhs = data.rhs.data();
   double* lower = data.chain_lower.data();
@@ -222,12 +223,13 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
     if (const int record = layout.surfaceRecord(k); L != LINKS_ONLY && record >= 0)
     {
       // a surface row: evaluated anew even when reused (its Jdot v is of these velocities), the
-      // right-hand side -(Jdot v + w J.f) as constraintForceStage sums it (its particle is
+      // right-hand side -(Jdot v + J a0) as constraintForceStage sums it (its particle is
       // never held: findChainRows)
       lengths =
           evaluateSurfaceRow(model, link, record, k, block, time, positions, velocities, data.rows);
+      const double j_a0 = 0.0 + dot3(lengths.d[0], lengths.d[1], lengths.d[2], a0 + 3 * i);
       double sum = data.rows.jdot_v[k] + 0.0;  // + 0.0: the generic sum's absent bias term
-      sum += link.w_first * dot3(lengths.d[0], lengths.d[1], lengths.d[2], f + 3 * i);
+      sum += j_a0;
       r = -sum;
     }
     else
@@ -240,16 +242,23 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
       const double* vj = v + 3 * j;
       const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
       const double jdot_v = ux * ux + uy * uy + uz * uz;
-      // the right-hand side -(Jdot v + J W f) - J a_held (stages.cpp's constraintForceStage)
+      // the right-hand side -(Jdot v + J a0) - J a_held (stages.cpp's constraintForceStage);
+      // jdot_v >= 0, so jdot_v + 0.0 (the absent bias) is jdot_v
       const double dx = lengths.d[0], dy = lengths.d[1], dz = lengths.d[2];
-      double sum = jdot_v;
-      sum += link.w_first * dot3(dx, dy, dz, f + 3 * i);
-      sum += link.w_second * dot3(-dx, -dy, -dz, f + 3 * j);
-      r = -sum;
-      if (link.held_first >= 0)
-        r -= dot3(dx, dy, dz, imposed[link.held_first].acceleration.data());
-      if (link.held_second >= 0)
-        r -= dot3(-dx, -dy, -dz, imposed[link.held_second].acceleration.data());
+      // both particles free: held_first = held_second = -1, all bits set (one test, not two)
+      if (uniform && (link.held_first & link.held_second) == -1)
+        r = -jdot_v;  // J a0 = (0 + d.g) + (-d).g = 0 exactly, and jdot_v + 0 = jdot_v
+      else
+      {
+        double j_a0 = 0.0;
+        j_a0 += dot3(dx, dy, dz, a0 + 3 * i);
+        j_a0 += dot3(-dx, -dy, -dz, a0 + 3 * j);
+        r = -(jdot_v + j_a0);
+        if (link.held_first >= 0)
+          r -= dot3(dx, dy, dz, imposed[link.held_first].acceleration.data());
+        if (link.held_second >= 0)
+          r -= dot3(-dx, -dy, -dz, imposed[link.held_second].acceleration.data());
+      }
     }
     if constexpr (REUSED)
     {
@@ -278,10 +287,10 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
   return true;
 }
 
-// One row's J^T lambda on particle i, and its acceleration W (f + f_c) once no row is left:
+// One row's J^T lambda on particle i, and its acceleration a0 + W f_c once no row is left:
 // accelerationStage's expression, a particle at a time while its forces are in cache.
 inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3& force,
-                           const double* applied, double* forces, double* accelerations)
+                           const double* a0, double* forces, double* accelerations)
 {
   Eigen::Map<Vec3> fc(forces + 3 * i);
   if (opens)
@@ -289,11 +298,11 @@ inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3&
   else
     fc += force;
   if (closes)
-    Eigen::Map<Vec3>(accelerations + 3 * i) = w * (Eigen::Map<const Vec3>(applied + 3 * i) + fc);
+    Eigen::Map<Vec3>(accelerations + 3 * i) = Eigen::Map<const Vec3>(a0 + 3 * i) + w * fc;
 }
 
 // Down the chain: lambda = D^-1 y - L^T lambda, the multipliers, f_c = J^T lambda and each
-// linked particle's acceleration; a particle no row touches has f_c = 0, a = W f.
+// linked particle's acceleration; a particle no row touches has f_c = 0, a = a0.
 template <Layout L>
 void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 {
@@ -302,7 +311,7 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
   const Vec3* jacobian = data.rows.jacobian.data();
   const double* lower = data.chain_lower.data();
   const double* inverse_pivots = data.chain_inverse_pivots.data();
-  const double* f = data.applied_forces.data();
+  const double* a0 = data.free_accelerations.data();
   double* rhs = data.rhs.data();
   double* multipliers = data.multipliers.data();
   double* forces = data.constraint_forces.data();
@@ -317,18 +326,18 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
     lambda_below = rhs[k] = multipliers[k] = lambda;
     const ChainRow& link = links[k];
     const Vec3 force = lambda * jacobian[layout.block(k)];
-    settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, f, forces,
+    settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, a0, forces,
                    a);
     // a surface row has one block; a link's second is -d: lambda (-d) is -(lambda d) exactly
     if (L == LINKS_ONLY || layout.surfaceRecord(k) < 0)
-      settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, f,
+      settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, a0,
                      forces, a);
   }
   const auto& w = model.inverseMasses();
   for (int i : model.chainUnlinked())
   {
     data.constraint_forces.col(i).setZero();
-    accelerations.col(i) = w[i] * (data.applied_forces.col(i) + data.constraint_forces.col(i));
+    accelerations.col(i) = data.free_accelerations.col(i) + w[i] * data.constraint_forces.col(i);
   }
 }
 

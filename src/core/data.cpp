@@ -28,6 +28,7 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   rows.resize(model);
   trial_rows.resize(model);
   applied_forces.setZero(3, n);
+  free_accelerations.setZero(3, n);
   imposed.assign(model.eliminated().size(),
                  ImposedMotion{ Vec3::Zero(), Vec3::Zero(), Vec3::Zero() });
   constraint_forces.setZero(3, n);

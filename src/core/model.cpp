@@ -213,7 +213,17 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
   model.scene_ = scene;
   model.inverse_masses_.resize(n);
   for (int i = 0; i < n; ++i)
+  {
     model.inverse_masses_[i] = 1.0 / scene.masses[i];
+    model.total_mass_ += scene.masses[i];
+  }
+  auto galilean = [](const auto& effect)
+  {
+    return std::visit([](const auto& e) { return std::decay_t<decltype(e)>::GALILEAN_INVARIANT; },
+                      effect);
+  };
+  model.isolated_ = std::all_of(scene.forces.begin(), scene.forces.end(), galilean) &&
+                    std::all_of(scene.constraints.begin(), scene.constraints.end(), galilean);
 
   // rows in scene order, each record's blocks row-major; eliminated particles get W = 0
   const int num_surfaces = static_cast<int>(scene.surfaces.size());

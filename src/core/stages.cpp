@@ -113,6 +113,20 @@ void appliedForceStage(const Model& model, Data& data, const Points& positions,
     return;
   }
   data.applied_forces_are_gravity = gravity_only;
+  data.free_accelerations_uniform = gravity_only;
+  const auto& w = model.inverseMasses();
+  Points& a0 = data.free_accelerations;
+  if (gravity_only)
+  {
+    // a0 = g on every free particle, not W (m g): the same vector, so a row between two free
+    // particles has J a0 = 0 exactly (Data::free_accelerations_uniform)
+    const GravityForce& gravity = std::get<GravityForce>(*first);
+    assignForce(gravity, scene.masses, data.applied_forces);
+    ++data.counters.forces[first->index()];
+    for (int i = 0; i < model.numParticles(); ++i)
+      a0.col(i) = w[i] > 0.0 ? gravity.acceleration : Vec3::Zero();
+    return;
+  }
   if (first != scene.forces.end() && std::holds_alternative<GravityForce>(*first))
   {
     // the usual first force sets the accumulator rather than adding to zeros: one pass fewer
@@ -124,6 +138,8 @@ void appliedForceStage(const Model& model, Data& data, const Points& positions,
     data.applied_forces.setZero();
   accumulate(first, scene.forces.end());
   accumulate(data.perturbations.begin(), data.perturbations.end());  // from outside, while set
+  for (int i = 0; i < model.numParticles(); ++i)
+    a0.col(i) = w[i] * data.applied_forces.col(i);
 }
 
 void rowVelocityStage(const Model& model, Data& data, const Points& velocities)
@@ -149,18 +165,20 @@ SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::Ve
   if (m > 0)
   {
     report = factorizeRows(model, data);
-    // one sweep: rhs_r = -(Jdot v + J W f)_r - bias_r
+    // one sweep: rhs_r = -((Jdot v + bias)_r + (J a0)_r), J a0 summed on its own first (the
+    // fused chain stages take a link's between free particles under gravity alone as 0)
     const auto& particle = model.blockParticle();
-    const auto& w = model.inverseMasses();
     const RowData& rows = data.rows;
-    const Points& f = data.applied_forces;
+    const Points& a0 = data.free_accelerations;
     Eigen::VectorXd& rhs = data.rhs;
     forEachRow(model,
                [&](int r, int b, auto width)
                {
-                 double sum = rows.jdot_v[r] + (bias ? (*bias)[r] : 0.0);
+                 double j_a0 = 0.0;
                  for (int k = 0; k < width; ++k)
-                   sum += w[particle[b + k]] * rows.jacobian[b + k].dot(f.col(particle[b + k]));
+                   j_a0 += rows.jacobian[b + k].dot(a0.col(particle[b + k]));
+                 double sum = rows.jdot_v[r] + (bias ? (*bias)[r] : 0.0);
+                 sum += j_a0;
                  rhs[r] = -sum;
                });
     // the eliminated particles' imposed accelerations, through their blocks
@@ -195,10 +213,10 @@ void addEliminatedReactions(const Model& model, Data& data)
 
 void accelerationStage(const Model& model, Data& data, Points& accelerations)
 {
-  // a = W (f + f_c); W = 0 on held particles, which take their imposed acceleration
+  // a = a0 + W f_c; W = 0 on held particles, which take their imposed acceleration
   const auto& w = model.inverseMasses();
   for (int i = 0; i < model.numParticles(); ++i)
-    accelerations.col(i) = w[i] * (data.applied_forces.col(i) + data.constraint_forces.col(i));
+    accelerations.col(i) = data.free_accelerations.col(i) + w[i] * data.constraint_forces.col(i);
   heldAccelerations(model, data, accelerations);
 }
 

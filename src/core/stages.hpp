@@ -3,7 +3,7 @@
 ///   rowStage -> appliedForceStage -> rowVelocityStage -> constraintForceStage -> accelerationStage
 /// and forward(), which calls them in order. Witkin's formulation: with W = M^-1, applied forces
 /// f and a0 = W f (an eliminated particle: its imposed acceleration),
-///   (J W J^T) lambda = -(Jdot v + J a0) - bias,   f_c = J^T lambda,   a = W (f + f_c),
+///   (J W J^T) lambda = -(Jdot v + J a0) - bias,   f_c = J^T lambda,   a = a0 + W f_c,
 /// bias = 2 zeta omega Cdot + omega^2 C under Baumgarte (stabilization.hpp), else 0.
 /// Also the Jacobian products the stages and the stabilisation share. Private to the core.
 #pragma once
@@ -28,7 +28,8 @@ void evaluateRowRecords(const Model& model, double time, const Points& positions
 void rowStage(const Model& model, Data& data, double time, const Points& positions,
               const Points& velocities, RowData& rows);
 
-/// Stage 2, applied forces: data.applied_forces = f(p, v) [N], only the forces the scene lists.
+/// Stage 2, applied forces: data.applied_forces = f(p, v) [N], only the forces the scene lists,
+/// and data.free_accelerations = a0 = W f [m/s^2] (g itself under gravity alone).
 void appliedForceStage(const Model& model, Data& data, const Points& positions,
                        const Points& velocities);
 
@@ -55,7 +56,7 @@ void addEliminatedReactions(const Model& model, Data& data);
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations);
 
-/// Stage 5, accelerations: a = W (f + f_c) into `accelerations` [m/s^2] (3 x n); an
+/// Stage 5, accelerations: a = a0 + W f_c into `accelerations` [m/s^2] (3 x n); an
 /// eliminated particle's is its imposed acceleration.
 void accelerationStage(const Model& model, Data& data, Points& accelerations);
 

@@ -593,8 +593,11 @@ TEST(StepCheckSums, OneSweepGivesTheKineticEnergyScaleAndFiniteness)
 {
   Scene scene;
   scene.masses = { 1.0, 2.0, 0.5 };
-  scene.forces = { GravityForce{} };
+  // damping acts from outside: the scale takes the whole T (an isolated scene's, below, T about
+  // the centre of mass)
+  scene.forces = { GravityForce{}, LinearDampingForce{} };
   const Model model = Model::compile(scene);
+  ASSERT_FALSE(model.isolated());
   State state;
   state.positions.resize(3, 3);
   state.velocities.resize(3, 3);
@@ -618,6 +621,14 @@ TEST(StepCheckSums, OneSweepGivesTheKineticEnergyScaleAndFiniteness)
   const Vec3 extent = state.positions.rowwise().maxCoeff() - state.positions.rowwise().minCoeff();
   EXPECT_DOUBLE_EQ(sums.scale,
                    kineticEnergy(model, state) + forces.colwise().norm().sum() * extent.norm());
+  // gravity alone: P = (2, 6, -0.5) kg m/s, M = 3.5 kg, |P|^2 / 2M = 40.25 / 7 = 5.75 J
+  scene.forces = { GravityForce{} };
+  const Model isolated = Model::compile(scene);
+  ASSERT_TRUE(isolated.isolated());
+  const StepCheckSums about_centre = stepCheckSums(isolated, state, forces);
+  EXPECT_DOUBLE_EQ(about_centre.kinetic, 10.75);
+  EXPECT_DOUBLE_EQ(about_centre.scale, 5.0 + 8.0 * std::sqrt(9.0 + 9.0 + 25.0));
+  EXPECT_EQ(about_centre.scale, energyScale(isolated, state, forces));
   const double bad[] = { std::numeric_limits<double>::infinity(),
                          -std::numeric_limits<double>::infinity(),
                          std::numeric_limits<double>::quiet_NaN() };

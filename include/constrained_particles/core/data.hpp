@@ -92,6 +92,14 @@ public:
   /// applied_forces hold m g of the scene's only force, gravity, with no perturbation: what every
   /// stage would assign again (appliedForceStage)
   bool applied_forces_are_gravity = false;
+  /// a0 = W f at the last stage [m/s^2] (3 x n): g itself on every free particle under gravity
+  /// alone (W (m g) is g but for rounding), 0 on eliminated particles (W = 0). The rows read
+  /// J a0 and the accelerations are a0 + W f_c (appliedForceStage sets it with applied_forces).
+  Points free_accelerations;
+  /// free_accelerations is the same vector on every free particle (gravity alone): J a0 of a row
+  /// between two free particles is then d.g + (-d).g = 0 exactly, which the fused chain stages
+  /// take without reading a0.
+  bool free_accelerations_uniform = false;
   /// Forces from outside the model, set between steps (MuJoCo's xfrc_applied and mouse
   /// perturbation): a push, a grabbed particle's target spring. Evaluated after the model's
   /// forces, and counted with them, only while set (Simulator::setPerturbations).

@@ -32,7 +32,9 @@ double potentialEnergy(const Model& model, const State& state);
 
 /// The energy a step could move about [J]: kinetic energy plus sum |f_i| D, the applied forces
 /// `forces` (3 x n) [N] times the diagonal D of the particles' bounding box [m] (for gravity
-/// M |g| D, the potential energy the scene could turn into motion). The step checks' scale.
+/// M |g| D, the potential energy the scene could turn into motion). In an isolated scene
+/// (Model::isolated()) the kinetic energy is that about the centre of mass, T - |P|^2 / 2M:
+/// the centre's free fall exchanges nothing with the rest. The step checks' scale.
 double energyScale(const Model& model, const State& state, const Points& forces);
 
 /// What the step checks read of a state, from one sweep over its particles instead of three.

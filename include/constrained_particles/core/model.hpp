@@ -162,6 +162,19 @@ public:
   {
     return inverse_masses_;
   }
+  /// Every force and constraint is GALILEAN_INVARIANT (links, angles, collinear rows, springs,
+  /// gravity): no eliminated particle, nothing acting from outside. The centre of mass then
+  /// falls freely and the motion about it is the scene's own, so the step checks measure the
+  /// kinetic energy that motion can exchange without the centre's (energyScale()).
+  bool isolated() const
+  {
+    return isolated_;
+  }
+  /// sum m_i [kg].
+  double totalMass() const
+  {
+    return total_mass_;
+  }
   /// The method actually used.
   SolveMethod solveMethod() const
   {
@@ -259,6 +272,8 @@ private:
 
   Scene scene_;
   std::vector<double> inverse_masses_;
+  bool isolated_ = false;
+  double total_mass_ = 0.0;
   std::vector<RowRecord> row_records_;
   std::vector<int> row_start_{ 0 };
   std::vector<int> block_particle_;

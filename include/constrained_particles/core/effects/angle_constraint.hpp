@@ -32,6 +32,8 @@ struct AngleConstraint
 
   static constexpr const char* KIND = "angle";
   static constexpr bool ELIMINATED = false;
+  static constexpr bool GALILEAN_INVARIANT =
+      true;                            ///< between its particles only (Model::isolated())
   static constexpr int ROWS = 1;       ///< one row of J
   static constexpr int PARTICLES = 3;  ///< touching i, j and k
   static constexpr auto fields()

@@ -35,6 +35,8 @@ struct CollinearConstraint
 
   static constexpr const char* KIND = "collinear";
   static constexpr bool ELIMINATED = false;
+  static constexpr bool GALILEAN_INVARIANT =
+      true;                            ///< between its particles only (Model::isolated())
   static constexpr int ROWS = 2;       ///< the two directions across the line
   static constexpr int PARTICLES = 3;  ///< each touching i, j and k
   static constexpr auto fields()

@@ -15,7 +15,8 @@ struct ExternalForce
   Vec3 force{ 0.0, 0.0, 0.0 };  ///< F [N]
 
   static constexpr const char* KIND = "external";
-  static constexpr bool CONSERVATIVE = false;  ///< not counted in the potential energy
+  static constexpr bool CONSERVATIVE = false;        ///< not counted in the potential energy
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
     return std::make_tuple(

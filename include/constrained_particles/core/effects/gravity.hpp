@@ -14,7 +14,8 @@ struct GravityForce
   Vec3 acceleration{ 0.0, 0.0, -9.81 };  ///< g [m/s^2]
 
   static constexpr const char* KIND = "gravity";
-  static constexpr bool CONSERVATIVE = true;  ///< f = -grad U, U its potentialEnergy()
+  static constexpr bool CONSERVATIVE = true;        ///< f = -grad U, U its potentialEnergy()
+  static constexpr bool GALILEAN_INVARIANT = true;  ///< alike on every particle (Model::isolated())
   static constexpr auto fields()
   {
     return std::make_tuple(field("acceleration", &GravityForce::acceleration, FieldKind::Vector,

@@ -14,7 +14,8 @@ struct LinearDampingForce
   double coefficient = 0.0;  ///< c [N s/m], >= 0
 
   static constexpr const char* KIND = "linear_damping";
-  static constexpr bool CONSERVATIVE = false;  ///< not counted in the potential energy
+  static constexpr bool CONSERVATIVE = false;        ///< not counted in the potential energy
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
     return std::make_tuple(field("coefficient", &LinearDampingForce::coefficient, FieldKind::Number,

@@ -21,6 +21,8 @@ struct LinkConstraint
 
   static constexpr const char* KIND = "link";
   static constexpr bool ELIMINATED = false;
+  static constexpr bool GALILEAN_INVARIANT =
+      true;                            ///< between its particles only (Model::isolated())
   static constexpr int ROWS = 1;       ///< one row of J
   static constexpr int PARTICLES = 2;  ///< touching i and j
   static constexpr auto fields()

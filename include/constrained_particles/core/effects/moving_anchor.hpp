@@ -23,7 +23,8 @@ struct MovingAnchorConstraint
   double phase = 0.0;               ///< phi [rad]
 
   static constexpr const char* KIND = "moving_anchor";
-  static constexpr bool ELIMINATED = true;  ///< no rows: inverse mass 0
+  static constexpr bool ELIMINATED = true;           ///< no rows: inverse mass 0
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
     return std::make_tuple(

@@ -18,7 +18,8 @@ struct PinConstraint
   Vec3 anchor{ NAN, NAN, NAN };  ///< a [m]; unset in a scene file: where the particle starts
 
   static constexpr const char* KIND = "pin";
-  static constexpr bool ELIMINATED = true;  ///< no rows: inverse mass 0
+  static constexpr bool ELIMINATED = true;           ///< no rows: inverse mass 0
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
     return std::make_tuple(

@@ -24,6 +24,7 @@ struct PointOnLineConstraint
 
   static constexpr const char* KIND = "point_on_line";
   static constexpr bool ELIMINATED = false;
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr int ROWS = 2;       ///< two rows of J: the two directions off the line
   static constexpr int PARTICLES = 1;  ///< both on particle i
   static constexpr auto fields()

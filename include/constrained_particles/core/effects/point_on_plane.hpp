@@ -21,8 +21,9 @@ struct PointOnPlaneConstraint
 
   static constexpr const char* KIND = "point_on_plane";
   static constexpr bool ELIMINATED = false;
-  static constexpr int ROWS = 1;       ///< one row of J
-  static constexpr int PARTICLES = 1;  ///< on particle i
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
+  static constexpr int ROWS = 1;                     ///< one row of J
+  static constexpr int PARTICLES = 1;                ///< on particle i
   static constexpr auto fields()
   {
     return std::make_tuple(

@@ -14,7 +14,8 @@ struct QuadraticDragForce
   double coefficient = 0.0;  ///< c [N s^2/m^2] = [kg/m], >= 0
 
   static constexpr const char* KIND = "quadratic_drag";
-  static constexpr bool CONSERVATIVE = false;  ///< not counted in the potential energy
+  static constexpr bool CONSERVATIVE = false;        ///< not counted in the potential energy
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
     return std::make_tuple(field("coefficient", &QuadraticDragForce::coefficient, FieldKind::Number,

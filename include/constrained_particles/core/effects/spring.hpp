@@ -21,6 +21,8 @@ struct SpringForce
 
   static constexpr const char* KIND = "spring";
   static constexpr bool CONSERVATIVE = true;  ///< f = -grad U, U its potentialEnergy()
+  static constexpr bool GALILEAN_INVARIANT =
+      true;  ///< between its particles only (Model::isolated())
   static constexpr auto fields()
   {
     return std::make_tuple(

@@ -20,8 +20,9 @@ struct SurfaceConstraint
 
   static constexpr const char* KIND = "surface";
   static constexpr bool ELIMINATED = false;
-  static constexpr int ROWS = 1;       ///< one row of J
-  static constexpr int PARTICLES = 1;  ///< touching i
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
+  static constexpr int ROWS = 1;                     ///< one row of J
+  static constexpr int PARTICLES = 1;                ///< touching i
   static constexpr auto fields()
   {
     return std::make_tuple(

@@ -19,7 +19,8 @@ struct TargetSpringForce
   double damping = 0.0;          ///< c [N s/m], >= 0
 
   static constexpr const char* KIND = "target_spring";
-  static constexpr bool CONSERVATIVE = false;  ///< the damping takes energy out
+  static constexpr bool CONSERVATIVE = false;        ///< the damping takes energy out
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
     return std::make_tuple(field("particle", &TargetSpringForce::particle, FieldKind::Particle,
