@@ -40,7 +40,20 @@ double energyScale(const Model& model, const State& state, const Points& forces)
   return stepCheckSums(model, state, forces).scale;
 }
 
-StepCheckSums stepCheckSums(const Model& model, const State& state, const Points& forces)
+double forceNormSum(const Points& forces)
+{
+  double sum = 0.0;
+  const double* f = forces.data();
+  for (Eigen::Index i = 0; i < forces.cols(); ++i)
+  {
+    const double* fi = f + 3 * i;
+    sum += std::sqrt(fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
+  }
+  return sum;
+}
+
+StepCheckSums stepCheckSums(const Model& model, const State& state, const Points& forces,
+                            const double* force_sum)
 {
   StepCheckSums sums;
   const int n = model.numParticles();
@@ -57,6 +70,7 @@ StepCheckSums stepCheckSums(const Model& model, const State& state, const Points
   if (n > 0)
     for (int c = 0; c < 3; ++c)
       low[c] = high[c] = p[c];
+  const bool sum_forces = force_sum == nullptr;
   for (int i = 0; i < n; ++i)
   {
     const double *pi = p + 3 * i, *vi = v + 3 * i, *fi = f + 3 * i;
@@ -64,7 +78,8 @@ StepCheckSums stepCheckSums(const Model& model, const State& state, const Points
     probe_v += (vi[0] - vi[0]) + (vi[1] - vi[1]) + (vi[2] - vi[2]);
     // kineticEnergy's and energyScale's sums, term for term
     kinetic += 0.5 * masses[i] * (vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2]);
-    force += std::sqrt(fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
+    if (sum_forces)  // forceNormSum's terms, in its order
+      force += std::sqrt(fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
     if (isolated)
       for (int c = 0; c < 3; ++c)
         momentum[c] += masses[i] * vi[c];
@@ -74,6 +89,8 @@ StepCheckSums stepCheckSums(const Model& model, const State& state, const Points
       high[c] = pi[c] > high[c] ? pi[c] : high[c];
     }
   }
+  if (!sum_forces)
+    force = *force_sum;
   sums.finite = probe_p == 0.0 && probe_v == 0.0;
   sums.kinetic = kinetic;
   const double dx = high[0] - low[0], dy = high[1] - low[1], dz = high[2] - low[2];

@@ -38,6 +38,13 @@ bool hasStiffness(const Model& model, const std::vector<Force>& perturbations)
   return false;
 }
 
+// sum |f_i| of the applied forces where it is known without a sweep (gravity alone, kept from
+// stage to stage), else null
+const double* appliedForceSum(const Data& data)
+{
+  return data.applied_forces_are_gravity ? &data.gravity_force_sum : nullptr;
+}
+
 // Forgets what the checks learnt of the previous state (reset, teleport, new scene).
 void forgetControl(Data& data)
 {
@@ -155,18 +162,21 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     data.statistics = StepStatistics{};
     data.statistics.solve.method = model.solveMethod();
     method.step(model, data, sub);
-    imposeEliminated(model, data, end, &x.positions, &x.velocities);
     if (!method.holds_constraints && settings_.stabilization == Stabilization::Projection)
     {
+      // projectStep imposes the eliminated motion at `end` on both, before it reads either
       projectStep(model, data, end, x.positions, x.velocities, settings_.projection_tolerance,
                   settings_.projection_max_iterations);
     }
+    else
+      imposeEliminated(model, data, end, &x.positions, &x.velocities);
     x.time = end;
     const StepStatistics& taken = data.statistics;
     attempt.merge(taken);
     // one sweep for the finiteness and energy checks (the same values as three)
     const StepCheckSums sums =
-        conservative_ ? stepCheckSums(model, x, data.applied_forces) : StepCheckSums{ isFinite(x) };
+        conservative_ ? stepCheckSums(model, x, data.applied_forces, appliedForceSum(data))
+                      : StepCheckSums{ isFinite(x) };
     if (!sums.finite)
       return StepCheck::NonFinite;
     if (taken.forced_internal_steps > 0)
@@ -281,7 +291,8 @@ StepStatistics Simulator::step(int count)
     }
     else if (conservative_)
     {
-      const StepCheckSums sums = stepCheckSums(model, x, data.applied_forces);
+      const StepCheckSums sums =
+          stepCheckSums(model, x, data.applied_forces, appliedForceSum(data));
       control.start_kinetic = sums.kinetic;
       control.start_potential = potentialEnergy(model, x);
       control.start_scale = sums.scale;

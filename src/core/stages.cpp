@@ -1,5 +1,7 @@
 #include "stages.hpp"
 
+#include "constrained_particles/core/diagnostics.hpp"
+
 #include "solvers/solver.hpp"
 #include "stabilization.hpp"
 
@@ -125,6 +127,7 @@ void appliedForceStage(const Model& model, Data& data, const Points& positions,
     ++data.counters.forces[first->index()];
     for (int i = 0; i < model.numParticles(); ++i)
       a0.col(i) = w[i] > 0.0 ? gravity.acceleration : Vec3::Zero();
+    data.gravity_force_sum = forceNormSum(data.applied_forces);
     return;
   }
   if (first != scene.forces.end() && std::holds_alternative<GravityForce>(*first))

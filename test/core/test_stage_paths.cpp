@@ -749,3 +749,31 @@ TEST(StepCheckSums, WritingTheStateOrForcesBetweenStepsForgetsTheEndEnergies)
     EXPECT_FALSE(simulator.data().control.end_energies_current) << name;
   }
 }
+
+// Under gravity alone the energy check reads sum |m_i g| kept from the stages
+// (Data::gravity_force_sum) instead of a square root per particle: the same sum as a sweep over
+// the applied forces gives, and the same scale; with a second force it is summed again.
+TEST(StepCheckSums, TheKeptGravitySumIsTheSweptOne)
+{
+  Scene scene = constrained_particles::testing::pinnedChain({ 0.1, 0.7, 0.3, 1.9 }, 0.2);
+  State start;
+  start.positions = Points::Zero(3, 4);
+  start.velocities = Points::Zero(3, 4);
+  for (int i = 0; i < 4; ++i)
+    start.positions(0, i) = 0.2 * i;
+  Simulator simulator(scene, start, StepSettings{});
+  simulator.step(3);
+  const Data& data = simulator.data();
+  ASSERT_TRUE(data.applied_forces_are_gravity);
+  const double swept = forceNormSum(data.applied_forces);
+  EXPECT_EQ(data.gravity_force_sum, swept);
+  const State& x = simulator.state();
+  EXPECT_EQ(stepCheckSums(simulator.model(), x, data.applied_forces, &data.gravity_force_sum).scale,
+            stepCheckSums(simulator.model(), x, data.applied_forces).scale);
+  // 3.0 kg in all: 3.0 |g| N, the pinned particle's m g included as applied
+  EXPECT_NEAR(swept, 3.0 * 9.81, 1e-12);
+  scene.forces.push_back(LinearDampingForce{});
+  Simulator damped(scene, x, StepSettings{});
+  damped.step(2);
+  EXPECT_FALSE(damped.data().applied_forces_are_gravity);
+}

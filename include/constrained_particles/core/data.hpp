@@ -92,6 +92,9 @@ public:
   /// applied_forces hold m g of the scene's only force, gravity, with no perturbation: what every
   /// stage would assign again (appliedForceStage)
   bool applied_forces_are_gravity = false;
+  /// sum |m_i g| [N] while applied_forces_are_gravity, summed as stepCheckSums sums sum |f_i|:
+  /// the energy check's scale reads it instead of a square root per particle
+  double gravity_force_sum = 0.0;
   /// a0 = W f at the last stage [m/s^2] (3 x n): g itself on every free particle under gravity
   /// alone (W (m g) is g but for rounding), 0 on eliminated particles (W = 0). The rows read
   /// J a0 and the accelerations are a0 + W f_c (appliedForceStage sets it with applied_forces).

@@ -45,8 +45,13 @@ struct StepCheckSums
   double scale = 0.0;    ///< energyScale(state, forces) [J]; meaningless unless finite
 };
 /// isFinite, kineticEnergy and energyScale of `state` with the applied `forces` (3 x n) [N], the
-/// same sums in the same order (so the same values) as those three give.
-StepCheckSums stepCheckSums(const Model& model, const State& state, const Points& forces);
+/// same sums in the same order (so the same values) as those three give. `force_sum`: sum |f_i|
+/// [N] if the caller knows it (Data::gravity_force_sum), else summed here.
+StepCheckSums stepCheckSums(const Model& model, const State& state, const Points& forces,
+                            const double* force_sum = nullptr);
+
+/// sum |f_i| [N] of `forces` (3 x n), in energyScale's order.
+double forceNormSum(const Points& forces);
 
 /// Evaluates the diagnostics of a state of the model. Allocates its row workspace.
 Diagnostics computeDiagnostics(const Model& model, const State& state);
