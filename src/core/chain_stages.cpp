@@ -206,7 +206,7 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
   const double* p = positions.data();
   const double* v = velocities.data();
   const double* a0 = data.free_accelerations.data();
-  const bool uniform = data.free_accelerations_uniform;
+  const bool uniform = data.applied_forces_are_gravity;  // a0 = g on every free particle
   const ImposedMotion* imposed = data.imposed.data();
   double* rhs = data.rhs.data();
   double* lower = data.chain_lower.data();

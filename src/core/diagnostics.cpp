@@ -7,6 +7,16 @@
 
 namespace constrained_particles
 {
+namespace
+{
+// |f_i|, one term of sum |f_i|: forceNormSum and stepCheckSums sum the same terms in the same
+// order, so the sum kept under gravity alone is the one the check would sweep
+inline double forceNorm(const double* fi)
+{
+  return std::sqrt(fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
+}
+}  // namespace
+
 bool Diagnostics::finite() const
 {
   return std::isfinite(max_position_error) && std::isfinite(max_velocity_error) &&
@@ -45,10 +55,7 @@ double forceNormSum(const Points& forces)
   double sum = 0.0;
   const double* f = forces.data();
   for (Eigen::Index i = 0; i < forces.cols(); ++i)
-  {
-    const double* fi = f + 3 * i;
-    sum += std::sqrt(fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
-  }
+    sum += forceNorm(f + 3 * i);
   return sum;
 }
 
@@ -79,7 +86,7 @@ StepCheckSums stepCheckSums(const Model& model, const State& state, const Points
     // kineticEnergy's and energyScale's sums, term for term
     kinetic += 0.5 * masses[i] * (vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2]);
     if (sum_forces)  // forceNormSum's terms, in its order
-      force += std::sqrt(fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
+      force += forceNorm(fi);
     if (isolated)
       for (int c = 0; c < 3; ++c)
         momentum[c] += masses[i] * vi[c];

@@ -141,8 +141,7 @@ Simulator::Simulator(const Scene& scene, const State& initial_state, const StepS
   reset();
 }
 
-StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, bool accept_singular,
-                                 StepStatistics& attempt)
+StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, bool accept_singular)
 {
   const Model& model = *model_;
   Data& data = *data_;
@@ -153,14 +152,17 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
   // the start's energies, taken once per step: a rejected attempt's forces may be anything
   double kinetic = data.control.start_kinetic, potential = data.control.start_potential;
   double scale = data.control.start_scale;
+  // the stages merge into it sub-step after sub-step (merging is associative); each check below
+  // reads a count or flag that only grows, and the first sub-step to fail one ends the attempt
+  data.statistics = StepStatistics{};
+  data.statistics.solve.method = model.solveMethod();
+  const StepStatistics& taken = data.statistics;
   for (int j = 1; j <= substeps; ++j)
   {
     // each sub-step takes h exactly (dt / 2^k is exact; (t + dt) - t is not, and its round-off
     // would jitter every step's length), and the last ends where one step of dt would
     const double end = j == substeps ? start.time + settings_.dt : start.time + j * h;
     sub.dt = h;
-    data.statistics = StepStatistics{};
-    data.statistics.solve.method = model.solveMethod();
     method.step(model, data, sub);
     if (!method.holds_constraints && settings_.stabilization == Stabilization::Projection)
     {
@@ -171,8 +173,6 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     else
       imposeEliminated(model, data, end, &x.positions, &x.velocities);
     x.time = end;
-    const StepStatistics& taken = data.statistics;
-    attempt.merge(taken);
     // one sweep for the finiteness and energy checks (the same values as three)
     const StepCheckSums sums =
         conservative_ ? stepCheckSums(model, x, data.applied_forces, appliedForceSum(data))
@@ -299,12 +299,11 @@ StepStatistics Simulator::step(int count)
     }
     control.end_energies_current = false;
     StepCheck failed = StepCheck::None;
-    StepStatistics attempt;
+    const StepStatistics& attempt = data.statistics;  // the last attempt's (attemptStep)
     for (;;)
     {
-      attempt = StepStatistics{};
       // at the finest split a new singular solve is accepted (regularised) and the step finished
-      failed = attemptStep(*method, substeps, substeps >= max_substeps, attempt);
+      failed = attemptStep(*method, substeps, substeps >= max_substeps);
       const bool finest = substeps >= max_substeps || failed == StepCheck::AdaptiveGuard;
       if (failed == StepCheck::None)
         break;

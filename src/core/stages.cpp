@@ -115,13 +115,12 @@ void appliedForceStage(const Model& model, Data& data, const Points& positions,
     return;
   }
   data.applied_forces_are_gravity = gravity_only;
-  data.free_accelerations_uniform = gravity_only;
   const auto& w = model.inverseMasses();
   Points& a0 = data.free_accelerations;
   if (gravity_only)
   {
     // a0 = g on every free particle, not W (m g): the same vector, so a row between two free
-    // particles has J a0 = 0 exactly (Data::free_accelerations_uniform)
+    // particles has J a0 = 0 exactly (Data::applied_forces_are_gravity)
     const GravityForce& gravity = std::get<GravityForce>(*first);
     assignForce(gravity, scene.masses, data.applied_forces);
     ++data.counters.forces[first->index()];
@@ -160,8 +159,9 @@ SolveReport factorizeRows(const Model& model, Data& data)
 SolveReport constraintForceStage(const Model& model, Data& data, const Eigen::VectorXd* bias)
 {
   const int m = model.numRows();
-  // (J W J^T) lambda = -(Jdot v + J a0) - bias, J a0 = J W f + the eliminated particles' imposed
-  // accelerations through their blocks (data.imposed, set by imposeEliminated at this time)
+  // (J W J^T) lambda = -(Jdot v + J a0) - bias, J a0 = J data.free_accelerations (W f, 0 on held
+  // particles) + the eliminated particles' imposed accelerations through their blocks
+  // (data.imposed, set by imposeEliminated at this time)
   SolveReport report;
   report.method = model.solveMethod();
   data.constraint_forces.setZero();

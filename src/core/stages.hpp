@@ -2,7 +2,8 @@
 /// @brief The named stages of one evaluation, in MuJoCo's shape (engine_forward.c):
 ///   rowStage -> appliedForceStage -> rowVelocityStage -> constraintForceStage -> accelerationStage
 /// and forward(), which calls them in order. Witkin's formulation: with W = M^-1, applied forces
-/// f and a0 = W f (an eliminated particle: its imposed acceleration),
+/// f and a0 = W f (an eliminated particle: its imposed acceleration, which data.free_accelerations
+/// leaves at 0, W = 0 there, and which enters J a0 through the particle's blocks),
 ///   (J W J^T) lambda = -(Jdot v + J a0) - bias,   f_c = J^T lambda,   a = a0 + W f_c,
 /// bias = 2 zeta omega Cdot + omega^2 C under Baumgarte (stabilization.hpp), else 0.
 /// Also the Jacobian products the stages and the stabilisation share. Private to the core.

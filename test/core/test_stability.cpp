@@ -215,6 +215,10 @@ TEST(StabilityEstimate, SplitsStepsThatOneRk4StepCannotTakeStably)
   EXPECT_LE(split, 1.01 * v0);
   EXPECT_EQ(split_statistics.max_substeps, 2);
   EXPECT_EQ(split_statistics.rejected_steps, 0);
+  // every sub-step's work is counted (an attempt's statistics gather all its sub-steps)
+  EXPECT_EQ(split_statistics.substeps, 2 * 200);
+  EXPECT_EQ(split_statistics.internal_steps, split_statistics.substeps);
+  EXPECT_EQ(split_statistics.projection.projections, split_statistics.substeps);
   EXPECT_NEAR(split_statistics.max_frequency, omega, 0.015 * omega);
 }
 

@@ -90,7 +90,9 @@ public:
   RowData trial_rows;     ///< rows at SHAKE's trial positions
   Points applied_forces;  ///< f at the last stage [N] (3 x n)
   /// applied_forces hold m g of the scene's only force, gravity, with no perturbation: what every
-  /// stage would assign again (appliedForceStage)
+  /// stage would assign again (appliedForceStage). free_accelerations is then g on every free
+  /// particle, so J a0 of a row between two free particles is d.g + (-d).g = 0 exactly, which
+  /// the fused chain stages take without reading a0.
   bool applied_forces_are_gravity = false;
   /// sum |m_i g| [N] while applied_forces_are_gravity, summed as stepCheckSums sums sum |f_i|:
   /// the energy check's scale reads it instead of a square root per particle
@@ -99,10 +101,6 @@ public:
   /// alone (W (m g) is g but for rounding), 0 on eliminated particles (W = 0). The rows read
   /// J a0 and the accelerations are a0 + W f_c (appliedForceStage sets it with applied_forces).
   Points free_accelerations;
-  /// free_accelerations is the same vector on every free particle (gravity alone): J a0 of a row
-  /// between two free particles is then d.g + (-d).g = 0 exactly, which the fused chain stages
-  /// take without reading a0.
-  bool free_accelerations_uniform = false;
   /// Forces from outside the model, set between steps (MuJoCo's xfrc_applied and mouse
   /// perturbation): a push, a grabbed particle's target spring. Evaluated after the model's
   /// forces, and counted with them, only while set (Simulator::setPerturbations).

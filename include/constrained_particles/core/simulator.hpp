@@ -137,9 +137,9 @@ private:
   /// forwardAtState() within a step, its solve merged into `total`.
   void evaluateCurrentState(StepStatistics& total);
 
-  /// `accept_singular`: a new singular solve passes (the finest split).
-  StepCheck attemptStep(const IntegratorInfo& method, int substeps, bool accept_singular,
-                        StepStatistics& attempt);
+  /// `accept_singular`: a new singular solve passes (the finest split). The attempt's
+  /// statistics, all its sub-steps merged, are left in data_->statistics.
+  StepCheck attemptStep(const IntegratorInfo& method, int substeps, bool accept_singular);
 
   /// Everything a scene change replaces together.
   struct Compiled
