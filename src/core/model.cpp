@@ -57,6 +57,28 @@ SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
 
 namespace
 {
+// Model::treeRows()'s structure: few rows on every free particle, few free particles on every row.
+bool fitsTreeRows(const Model& model)
+{
+  const auto& start = model.incidenceStart();
+  const auto& row_start = model.rowStart();
+  const auto& block_particle = model.blockParticle();
+  const auto& w = model.inverseMasses();
+  for (int i = 0; i < model.numParticles(); ++i)
+    if (start[i + 1] - start[i] > Model::TREE_ROWS_PER_PARTICLE)
+      return false;
+  // a row on three or more free particles would join their blocks
+  for (int r = 0; r < model.numRows(); ++r)
+  {
+    int free_particles = 0;
+    for (int b = row_start[r]; b < row_start[r + 1]; ++b)
+      free_particles += w[block_particle[b]] > 0.0 ? 1 : 0;
+    if (free_particles > 2)
+      return false;
+  }
+  return true;
+}
+
 // The fused chain stages' rows (Model::fusedChain()), or none if the model has another structure:
 // links and surface rows (chains whose particles slide on height fields), in any order the
 // tridiagonal solve takes; `surface_rows` counts the surface rows and `surface_records` gives
@@ -320,6 +342,9 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     throw InvalidInput("solve_method", "= none, but the scene has constraint rows");
   else
     model.method_ = method;
+  model.paths_ = paths;
+  model.tree_rows_ =
+      paths == StagePaths::Specialized && model.method_ == SolveMethod::Tree && fitsTreeRows(model);
   if (paths == StagePaths::Specialized)
     model.chain_rows_ = findChainRows(model, model.chain_unlinked_, model.chain_surface_rows_,
                                       model.chain_surface_records_);

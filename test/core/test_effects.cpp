@@ -59,16 +59,19 @@ struct Solved
 {
   Eigen::VectorXd multipliers;
   SolveReport report;
+  bool tree_rows = false;  // the tree solve eliminated rows (Model::treeRows())
 };
 
-Solved solve(const Scene& scene, SolveMethod method, const Points& p, const Points& v)
+Solved solve(const Scene& scene, SolveMethod method, const Points& p, const Points& v,
+             StagePaths paths = StagePaths::Specialized)
 {
-  const Model model = Model::compile(scene, method);
+  const Model model = Model::compile(scene, method, paths);
   Data data(model);
   Points a(3, p.cols());
   Solved s;
   s.report = computeAccelerations(model, data, p, v, a);
   s.multipliers = data.multipliers;
+  s.tree_rows = model.treeRows();
   return s;
 }
 
@@ -177,18 +180,25 @@ TEST(SolveSelection, ChosenByConstraintStructure)
 TEST(SolveSelection, SingleAndTreeMatchDenseSolves)
 {
   Random random(32);
+  int row_eliminations = 0;
   for (int trial = 0; trial < 30; ++trial)
   {
     Points p, v;
     const int n = 2 + trial * 3;
     const Scene tree = randomTree(n, trial % 2 == 0, random, p, v);
-    const Solved fast = solve(tree, SolveMethod::Tree, p, v);
     const Solved dense = solve(tree, SolveMethod::Dense, p, v);
-    EXPECT_EQ(fast.report.method, SolveMethod::Tree);
-    EXPECT_FALSE(fast.report.singular);
-    EXPECT_LE((fast.multipliers - dense.multipliers).norm(), 1e-9 * dense.multipliers.norm())
-        << "n = " << n;
+    // the particle elimination (generic paths) and, where it fits, the row elimination
+    for (const StagePaths paths : { StagePaths::Generic, StagePaths::Specialized })
+    {
+      const Solved fast = solve(tree, SolveMethod::Tree, p, v, paths);
+      EXPECT_EQ(fast.report.method, SolveMethod::Tree);
+      EXPECT_FALSE(fast.report.singular);
+      EXPECT_LE((fast.multipliers - dense.multipliers).norm(), 1e-9 * dense.multipliers.norm())
+          << "n = " << n << (fast.tree_rows ? ", rows eliminated" : ", particles eliminated");
+      row_eliminations += fast.tree_rows ? 1 : 0;
+    }
   }
+  EXPECT_GE(row_eliminations, 3);  // the smaller trees: random parents make hubs in the larger
   // one row: closed form
   Points p(3, 1), v(3, 1);
   p.col(0) = Vec3(0.3, -0.2, 0.1);
@@ -222,6 +232,7 @@ TEST(SolveSelection, TreeSolveHandlesLargeStarsAndStaysFiniteWhenSingular)
   const Scene small = star(10, p, v);
   const Solved tree = solve(small, SolveMethod::Tree, p, v);
   const Solved dense = solve(small, SolveMethod::Dense, p, v);
+  EXPECT_FALSE(tree.tree_rows);  // ten rows on the hub: its rows' block would be dense
   EXPECT_LE((tree.multipliers - dense.multipliers).norm(), 1e-10 * dense.multipliers.norm());
   // 20,000 links on one particle: J W J^T would have 4e8 entries; the tree solve needs none
   const Scene large = star(20000, p, v);
@@ -239,9 +250,80 @@ TEST(SolveSelection, TreeSolveHandlesLargeStarsAndStaysFiniteWhenSingular)
                         PinConstraint{ 0, Vec3::Zero() }, PinConstraint{ 1, Vec3(1, 0, 0) } };
   Points ps(3, 3), vs = Points::Zero(3, 3);
   ps << 0, 1, 2, 0, 0, 0, 0, 0, 0;
-  const Solved regularised = solve(stuck, SolveMethod::Tree, ps, vs);
-  EXPECT_TRUE(regularised.report.singular);
-  EXPECT_TRUE(regularised.multipliers.allFinite());
+  for (const StagePaths paths : { StagePaths::Generic, StagePaths::Specialized })
+  {
+    const Solved regularised = solve(stuck, SolveMethod::Tree, ps, vs, paths);
+    EXPECT_EQ(regularised.tree_rows, paths == StagePaths::Specialized);
+    EXPECT_TRUE(regularised.report.singular);
+    EXPECT_TRUE(regularised.multipliers.allFinite());
+  }
+}
+
+// The row elimination (Model::treeRows()) is taken where every free particle has at most four
+// rows and every row at most two free particles, on the specialised paths only; it solves what
+// the particle elimination solves, singular systems (regularised alike) included.
+TEST(SolveSelection, TheTreeEliminatesRowsWhereParticlesHaveFewRows)
+{
+  // particle k hangs from (k - 1) / 2: three rows on every inner particle, the root pinned
+  auto binaryTree = [](int n, Points& p, Points& v)
+  {
+    Scene scene;
+    scene.masses.assign(n, 0.1);
+    p.setZero(3, n);
+    v.setZero(3, n);
+    for (int k = 1; k < n; ++k)
+    {
+      const int parent = (k - 1) / 2;
+      const double angle = 2.0 * M_PI * k / n;
+      p.col(k) = p.col(parent) + 0.1 * Vec3(std::cos(angle), std::sin(angle), -1.0).normalized();
+      v.col(k) = Vec3(0.1 * std::sin(3.0 * k), 0.2, -0.1 * std::cos(k));
+      scene.constraints.push_back(LinkConstraint{ parent, k, 0.1 });
+    }
+    scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+    scene.forces = { GravityForce{} };
+    return scene;
+  };
+  Points p, v;
+  Scene tree = binaryTree(63, p, v);
+  EXPECT_TRUE(Model::compile(tree).treeRows());
+  EXPECT_FALSE(Model::compile(tree, SolveMethod::Automatic, StagePaths::Generic).treeRows());
+  EXPECT_FALSE(Model::compile(tree, SolveMethod::Sparse).treeRows());
+  const Solved rows = solve(tree, SolveMethod::Tree, p, v);
+  const Solved particles = solve(tree, SolveMethod::Tree, p, v, StagePaths::Generic);
+  ASSERT_TRUE(rows.tree_rows);
+  ASSERT_FALSE(particles.tree_rows);
+  EXPECT_LE((rows.multipliers - particles.multipliers).norm(),
+            1e-12 * particles.multipliers.norm());
+  EXPECT_EQ(rows.report.singular, false);
+  EXPECT_GT(rows.report.min_pivot_ratio, 0.0);
+  EXPECT_LT(rows.report.min_pivot_ratio, 1.0);
+  // a fifth row on particle 1 (a plane): its particles' elimination again
+  tree.surfaces = { makeSurface(SurfaceType::Plane, { 0.0, 0.0, 0.0 }) };
+  tree.constraints.push_back(SurfaceConstraint{ 1, 0 });
+  tree.constraints.push_back(SurfaceConstraint{ 2, 0 });
+  EXPECT_TRUE(Model::compile(tree).treeRows());  // four on each: rows
+  tree.constraints.push_back(PointOnPlaneConstraint{ 1, Vec3(p.col(1)), Vec3(1.0, 0.0, 0.0) });
+  EXPECT_FALSE(Model::compile(tree).treeRows());
+  // singular: particle 2's link to the pinned root along a line with a second pinned particle
+  Scene taut;
+  taut.masses = { 1.0, 1.0, 1.0, 1.0 };
+  taut.constraints = { LinkConstraint{ 0, 1, 1.0 }, LinkConstraint{ 1, 2, 1.0 },
+                       LinkConstraint{ 1, 3, 1.0 }, PinConstraint{ 0, Vec3::Zero() },
+                       PinConstraint{ 2, Vec3(2.0, 0.0, 0.0) } };
+  Points pt(3, 4), vt = Points::Zero(3, 4);
+  pt << 0, 1, 2, 1, 0, 0, 0, 0, 0, 0, 0, -1;
+  vt(2, 3) = 0.5;
+  const Solved singular_rows = solve(taut, SolveMethod::Tree, pt, vt);
+  const Solved singular_particles = solve(taut, SolveMethod::Tree, pt, vt, StagePaths::Generic);
+  const Solved singular_dense = solve(taut, SolveMethod::Dense, pt, vt);
+  ASSERT_TRUE(singular_rows.tree_rows);
+  EXPECT_TRUE(singular_rows.report.singular);
+  EXPECT_TRUE(singular_particles.report.singular);
+  EXPECT_TRUE(singular_dense.report.singular);
+  EXPECT_TRUE(singular_rows.multipliers.allFinite());
+  // regularised, each solves its own J W J^T + delta I: close, not equal
+  EXPECT_LE((singular_rows.multipliers - singular_dense.multipliers).norm(),
+            1e-6 * (1.0 + singular_dense.multipliers.norm()));
 }
 
 // step(count) reports the worst and the totals over all its steps, not only the last: the same
@@ -305,7 +387,7 @@ TEST(StepStatistics, BatchIsTheMergeOfItsSteps)
 TEST(SolveSelection, TreeMatchesDenseWhenParticlesCarryTheirOwnRows)
 {
   Random random(33);
-  int fallbacks = 0;
+  int fallbacks = 0, row_eliminations = 0;
   for (int trial = 0; trial < 40; ++trial)
   {
     Points p, v;
@@ -323,18 +405,26 @@ TEST(SolveSelection, TreeMatchesDenseWhenParticlesCarryTheirOwnRows)
     }
     if (!isForest(Model::compile(scene, SolveMethod::Dense)))
       continue;
-    const Solved tree = solve(scene, SolveMethod::Tree, p, v);
     const Solved dense = solve(scene, SolveMethod::Dense, p, v);
-    fallbacks += tree.report.fallback ? 1 : 0;
-    EXPECT_EQ(tree.report.singular, dense.report.singular) << trial;
-    if (!dense.report.singular)
+    // the particle elimination (generic paths) and, where it fits, the row elimination, which
+    // has no such breakdown: a particle's own rows are rows like the others
+    for (const StagePaths paths : { StagePaths::Generic, StagePaths::Specialized })
     {
-      EXPECT_LE((tree.multipliers - dense.multipliers).norm(),
-                1e-8 * (1.0 + dense.multipliers.norm()))
-          << "trial " << trial;
+      const Solved tree = solve(scene, SolveMethod::Tree, p, v, paths);
+      fallbacks += tree.report.fallback ? 1 : 0;
+      row_eliminations += tree.tree_rows ? 1 : 0;
+      EXPECT_FALSE(tree.tree_rows && tree.report.fallback) << trial;
+      EXPECT_EQ(tree.report.singular, dense.report.singular) << trial;
+      if (!dense.report.singular)
+      {
+        EXPECT_LE((tree.multipliers - dense.multipliers).norm(),
+                  1e-8 * (1.0 + dense.multipliers.norm()))
+            << "trial " << trial << (tree.tree_rows ? ", rows eliminated" : "");
+      }
     }
   }
   EXPECT_GT(fallbacks, 0);  // the cases that need it occur
+  EXPECT_GT(row_eliminations, 10);
 
   // a free particle linked to one on a wire: tree (automatic) and dense move alike for 3 s
   Scene wire;

@@ -23,7 +23,8 @@ enum class SolveMethod
   None,         ///< resolved method when a scene has no constraint rows
   Single,       ///< one row: the closed form lambda = b / (J W J^T), no matrix
   Tree,         ///< O(n) block elimination of the particle-row graph, leaves first, when it
-                ///< has no cycle (branched chains, stars, several chains); Baraff 1996
+                ///< has no cycle (branched chains, stars, several chains); Baraff 1996. Where
+                ///< every particle has few rows, LDL^T of J W J^T's rows (Model::treeRows())
 };
 
 /// Number of SolveMethod values.
@@ -78,7 +79,8 @@ using KindTables = KindTablesOf<Constraint>::type;
 /// Which evaluation paths a model may take (chosen at compile, like the solve method).
 enum class StagePaths
 {
-  Specialized,  ///< a structure-specialised path where the structure has one (chain_stages.cpp)
+  Specialized,  ///< a structure-specialised path where the structure has one (chain_stages.cpp,
+                ///< solvers/tree_rows.cpp)
   Generic,      ///< always the generic stages (the equivalence tests' reference)
 };
 
@@ -232,6 +234,22 @@ public:
   {
     return incidence_;
   }
+  /// Rows on one free particle beyond which the dense block of those rows (d^2 / 2 entries) costs
+  /// more than the particle elimination's 3 x 3 inverse (treeRows()).
+  static constexpr int TREE_ROWS_PER_PARTICLE = 4;
+  /// True if the Tree solve eliminates J W J^T's rows (solvers/tree_rows.cpp) rather than the
+  /// saddle-point matrix's particles (tree.cpp): StagePaths::Specialized, at most
+  /// TREE_ROWS_PER_PARTICLE rows on any free particle and at most two free particles on any row.
+  /// Both solve the same system; their rounding, and the pivot ratios they report, differ.
+  bool treeRows() const
+  {
+    return tree_rows_;
+  }
+  /// The evaluation paths it was compiled for.
+  StagePaths paths() const
+  {
+    return paths_;
+  }
   /// True if every row is a link or a surface row (in any order), J W J^T is tridiagonal and
   /// adjacent rows share at most one free particle: forward() then takes the fused chain stages
   /// (chain_stages.cpp).
@@ -285,6 +303,8 @@ private:
   std::vector<int> incidence_start_;
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;
+  StagePaths paths_ = StagePaths::Specialized;
+  bool tree_rows_ = false;
   std::vector<ChainRow> chain_rows_;  // empty unless fusedChain()
   std::vector<int> chain_unlinked_;
   int chain_surface_rows_ = 0;

@@ -1,8 +1,8 @@
 /// @file solver.hpp
 /// @brief The interface every solve of (J W J^T) x = b implements, one strategy per file:
-/// single_row.cpp, tridiagonal.cpp, tree.cpp, sparse.cpp, dense.cpp. Each assembles J W J^T (or
-/// what it needs of it) from the rows' Jacobian blocks and factorises it; the regularise-and-
-/// retry loop is written once, in factorize(). Private to the core.
+/// single_row.cpp, tridiagonal.cpp, tree.cpp (and tree_rows.cpp), sparse.cpp, dense.cpp. Each
+/// assembles J W J^T (or what it needs of it) from the rows' Jacobian blocks and factorises it; the
+/// regularise-and- retry loop is written once, in factorize(). Private to the core.
 #pragma once
 
 #include "constrained_particles/core/data.hpp"
@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <memory>
 
 namespace constrained_particles
@@ -52,6 +53,24 @@ protected:
   {
   }
 
+  /// One LDL^T pivot of J W J^T + delta I against its diagonal entry `d`, in elimination order:
+  /// lowers `min_ratio` to pivot / d; false if it is singular and delta = 0 (the attempt stops),
+  /// else `pivot` is one to divide by (at least delta when regularised).
+  static bool takePivot(double& pivot, double d, double delta, double& min_ratio)
+  {
+    if (!(d > 0.0))
+      min_ratio = 0.0;
+    else if (pivot < min_ratio * d)  // tracks min(pivot / d) without dividing every row
+      min_ratio = pivot / d;
+    if (!isSingularPivot(pivot, d))
+      return true;
+    if (delta == 0.0)
+      return false;
+    // regularised: exact pivots are >= delta; only rounding can push one below
+    pivot = std::max(pivot, delta);
+    return true;
+  }
+
   /// Takes what the factorisation needs from the rows (it may read them until the next call).
   virtual void assemble(const Model& model, const RowData& rows) = 0;
   /// The largest diagonal entry of J W J^T last assembled (asked only when it is singular).
@@ -81,6 +100,8 @@ std::unique_ptr<ConstraintSolver> makeSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeSingleRowSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeTridiagonalSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeTreeSolver(const Model& model);
+/// The tree solve in row space (tree_rows.cpp) if Model::treeRows(), else nullptr.
+std::unique_ptr<ConstraintSolver> makeTreeRowSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeSparseSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeDenseSolver(const Model& model);
 

@@ -412,6 +412,8 @@ void TreeSolver::solveInPlace(Eigen::VectorXd& b) const
 
 std::unique_ptr<ConstraintSolver> makeTreeSolver(const Model& model)
 {
+  if (std::unique_ptr<ConstraintSolver> rows = makeTreeRowSolver(model))
+    return rows;
   return std::make_unique<TreeSolver>(model);
 }
 

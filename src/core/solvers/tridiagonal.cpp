@@ -89,17 +89,8 @@ protected:
         lower_[k - 1] = off * inverse_pivots_[k - 1];
         pivot -= lower_[k - 1] * off;
       }
-      if (!(d > 0.0))
-        min_ratio = 0.0;
-      else if (pivot < min_ratio * d)  // tracks min(pivot / d) without dividing every row
-        min_ratio = pivot / d;
-      if (isSingularPivot(pivot, d))
-      {
-        if (delta == 0.0)
-          return { true, min_ratio };
-        // regularised: exact pivots are >= delta; only rounding can push one below
-        pivot = std::max(pivot, delta);
-      }
+      if (!takePivot(pivot, d, delta, min_ratio))
+        return { true, min_ratio };
       inverse_pivots_[k] = 1.0 / pivot;
     }
     return { false, min_ratio };
