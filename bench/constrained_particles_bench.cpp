@@ -566,7 +566,8 @@ int scenes(const std::string& out, bool quick)
     const bool fused = simulator.model().fusedChain() &&
                        settings.stabilization != Stabilization::Baumgarte &&
                        !findIntegrator(settings.integrator).holds_constraints;
-    const char* stages = fused ? "fused" : "generic";
+    // a tree solved by rows (Model::treeRows()) takes the generic stages with its own solve
+    const char* stages = fused ? "fused" : simulator.model().treeRows() ? "tree rows" : "generic";
     // counts of exactly 100 further steps
     Simulator counted(built.scene, built.initial_state, settings, d.solver.solve_method);
     const EffectCounters before = counted.effectCounters();
@@ -600,10 +601,23 @@ int scenes(const std::string& out, bool quick)
   std::vector<int> sizes = { 100, 1000, 10000, 100000 };
   if (quick)
     sizes = { 100, 1000, 10000 };
+  // the tree solve as it runs (by rows where every particle has few: Model::treeRows()), and its
+  // block elimination (tree.cpp), kept by the generic paths
+  struct Solve
+  {
+    SolveMethod method;
+    StagePaths paths;
+    const char* name;
+  };
+  const Solve solves[] = { { SolveMethod::Tree, StagePaths::Specialized, "tree" },
+                           { SolveMethod::Tree, StagePaths::Generic, "tree_blocks" },
+                           { SolveMethod::Sparse, StagePaths::Specialized, "sparse" },
+                           { SolveMethod::Dense, StagePaths::Specialized, "dense" } };
   for (const bool star : { false, true })
-    for (const SolveMethod method : { SolveMethod::Tree, SolveMethod::Sparse, SolveMethod::Dense })
+    for (const Solve& solve : solves)
       for (const int n : sizes)
       {
+        const SolveMethod method = solve.method;
         // dense is O(n^3); sparse on a star fills an n x n matrix
         if ((method == SolveMethod::Dense && n > 1000) ||
             (method == SolveMethod::Sparse && star && n > 1000))
@@ -612,16 +626,16 @@ int scenes(const std::string& out, bool quick)
         StepSettings settings;
         settings.max_substeps = 1;  // the integrator itself (stability measures sub-steps)
         settings.stabilization = Stabilization::None;
-        Simulator simulator(s.scene, s.initial_state, settings, method);
+        Simulator simulator(s.scene, s.initial_state, settings, method, solve.paths);
         Points forces;
         Eigen::VectorXd multipliers;
         // one evaluation of every stage at the state: rows, forces, assembly, factorisation, solve
         const double seconds = medianSecondsPerCall(
             [&] { simulator.constraintForces(forces, multipliers); }, quick ? 0.15 : 1.0);
         const char* shape = star ? "star" : "binary_tree";
-        trees << shape << "," << n << "," << solveMethodName(method) << "," << seconds << "\n";
+        trees << shape << "," << n << "," << solve.name << "," << seconds << "\n";
         trees.flush();
-        std::cerr << "[trees] " << shape << " n = " << n << " " << solveMethodName(method) << ": "
+        std::cerr << "[trees] " << shape << " n = " << n << " " << solve.name << ": "
                   << seconds * 1e6 << " us\n";
       }
   return 0;

@@ -234,13 +234,17 @@ def scenes_section(out):
     rows = read(out / "trees.csv")
     lines += ["", "## Solve by structure: one constraint-force evaluation against n", "",
               "binary_tree: particle k hangs from (k - 1) / 2, the root pinned; star: every "
-              "particle linked to one free hub (J W J^T is dense).", "",
-              "| shape | n | tree [us] | sparse [us] | dense [us] |", "|---|---|---|---|---|"]
+              "particle linked to one free hub (J W J^T is dense). tree: as it runs (by rows where "
+              "every particle has at most four, Model::treeRows()); tree, blocks: its block "
+              "elimination (tree.cpp), which the generic paths and stars keep.", "",
+              "| shape | n | tree [us] | tree, blocks [us] | sparse [us] | dense [us] |",
+              "|---|---|---|---|---|---|"]
     table = {}
     for r in rows:
         table.setdefault((r["shape"], int(r["n"])), {})[r["solve"]] = 1e6 * float(r["seconds_per_solve"])
     for (shape, n), by_solve in sorted(table.items()):
-        cells = [f"{by_solve[s]:.3g}" if s in by_solve else "-" for s in ("tree", "sparse", "dense")]
+        cells = [f"{by_solve[s]:.3g}" if s in by_solve else "-"
+                 for s in ("tree", "tree_blocks", "sparse", "dense")]
         lines.append(f"| {shape} | {n} | " + " | ".join(cells) + " |")
     lines += ["", "Fitted exponent of the tree solve's time against n (n >= 1,000):", ""]
     for shape in ("binary_tree", "star"):
