@@ -57,25 +57,13 @@ SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
 
 namespace
 {
-// Model::treeRows()'s structure: few rows on every free particle, few free particles on every row.
+// Model::treeRows()'s structure: few rows on every free particle.
 bool fitsTreeRows(const Model& model)
 {
   const auto& start = model.incidenceStart();
-  const auto& row_start = model.rowStart();
-  const auto& block_particle = model.blockParticle();
-  const auto& w = model.inverseMasses();
   for (int i = 0; i < model.numParticles(); ++i)
     if (start[i + 1] - start[i] > Model::TREE_ROWS_PER_PARTICLE)
       return false;
-  // a row on three or more free particles would join their blocks
-  for (int r = 0; r < model.numRows(); ++r)
-  {
-    int free_particles = 0;
-    for (int b = row_start[r]; b < row_start[r + 1]; ++b)
-      free_particles += w[block_particle[b]] > 0.0 ? 1 : 0;
-    if (free_particles > 2)
-      return false;
-  }
   return true;
 }
 

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 
 namespace
@@ -143,6 +144,27 @@ BuiltScene treeWithWires()
   return s;
 }
 
+// Six particles linked to a seventh, the hub, hanging from a pin: seven rows on the hub, so the
+// tree solve eliminates particles (tree.cpp) rather than rows.
+BuiltScene starOfSix()
+{
+  BuiltScene s;
+  s.scene.masses.assign(8, 0.3);
+  s.initial_state.positions.setZero(3, 8);
+  s.initial_state.velocities.setZero(3, 8);
+  s.initial_state.positions.col(0) = Vec3(0.0, 0.0, 0.5);
+  s.scene.constraints.push_back(LinkConstraint{ 0, 1, 0.5 });
+  for (int k = 2; k < 8; ++k)
+  {
+    const double angle = 2.0 * M_PI * k / 6.0;
+    s.initial_state.positions.col(k) = Vec3(0.4 * std::cos(angle), 0.4 * std::sin(angle), -0.3);
+    s.scene.constraints.push_back(LinkConstraint{ 1, k, 0.5 });
+  }
+  s.scene.constraints.push_back(PinConstraint{ 0, Vec3(0.0, 0.0, 0.5) });
+  s.scene.forces = { GravityForce{} };
+  return s;
+}
+
 }  // namespace
 
 TEST(Allocations, TheCounterSeesAllocations)
@@ -204,7 +226,10 @@ TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
     scenes.emplace_back(name, shippedScene(name));
   scenes.emplace_back("tree with wires", treeWithWires());
   scenes.emplace_back("wire across its link", wireAcrossItsLink());
+  scenes.emplace_back("star of six", starOfSix());
   int checked = 0;
+  // both tree solves are covered: by rows (Model::treeRows()) and by particles
+  int by_rows = 0, by_particles = 0;
   for (const auto& [name, built] : scenes)
     for (const IntegratorInfo* integrator : integratorTable())
       for (Stabilization stabilization :
@@ -213,6 +238,8 @@ TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
         Simulator simulator(built.scene, built.initial_state,
                             settingsOf(integrator->name, stabilization));
         const SolveMethod method = simulator.model().solveMethod();
+        if (method == SolveMethod::Tree)
+          (simulator.model().treeRows() ? by_rows : by_particles) += 1;
         ASSERT_TRUE(method == SolveMethod::Single || method == SolveMethod::Tridiagonal ||
                     method == SolveMethod::Tree)
             << name;
@@ -240,7 +267,9 @@ TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
         EXPECT_EQ(statistics.solve.fallbacks, 0) << name << " perturbed";
         ++checked;
       }
-  EXPECT_EQ(checked, 9 * static_cast<int>(integratorTable().size()) * 3);
+  EXPECT_EQ(checked, 10 * static_cast<int>(integratorTable().size()) * 3);
+  EXPECT_GT(by_rows, 0);
+  EXPECT_GT(by_particles, 0);
 }
 
 // the sparse path (cycles: a zig-zag of links and angles), and the tree's sparse fallback, keep

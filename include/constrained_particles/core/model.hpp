@@ -238,9 +238,9 @@ public:
   /// more than the particle elimination's 3 x 3 inverse (treeRows()).
   static constexpr int TREE_ROWS_PER_PARTICLE = 4;
   /// True if the Tree solve eliminates J W J^T's rows (solvers/tree_rows.cpp) rather than the
-  /// saddle-point matrix's particles (tree.cpp): StagePaths::Specialized, at most
-  /// TREE_ROWS_PER_PARTICLE rows on any free particle and at most two free particles on any row.
-  /// Both solve the same system; their rounding, and the pivot ratios they report, differ.
+  /// saddle-point matrix's particles (tree.cpp): StagePaths::Specialized and at most
+  /// TREE_ROWS_PER_PARTICLE rows on any free particle. Both solve the same system (a singular
+  /// one regularised alike); their rounding, and the pivot ratios they report, differ.
   bool treeRows() const
   {
     return tree_rows_;

@@ -20,6 +20,18 @@ SolveReport ConstraintSolver::factorize(const Model& model, const RowData& rows,
   return report;
 }
 
+double maxParticleRowWeight(const Model& model, const RowData& rows)
+{
+  const auto& w = model.inverseMasses();
+  const auto& start = model.incidenceStart();
+  const auto& incidence = model.incidence();
+  double max_diagonal = 0.0;
+  for (int i = 0; i < model.numParticles(); ++i)
+    for (int a = start[i]; a < start[i + 1]; ++a)
+      max_diagonal = std::max(max_diagonal, w[i] * rows.jacobian[incidence[a].block].squaredNorm());
+  return max_diagonal;
+}
+
 std::unique_ptr<ConstraintSolver> makeSolver(const Model& model)
 {
   switch (model.solveMethod())

@@ -2,7 +2,7 @@
 /// @brief The interface every solve of (J W J^T) x = b implements, one strategy per file:
 /// single_row.cpp, tridiagonal.cpp, tree.cpp (and tree_rows.cpp), sparse.cpp, dense.cpp. Each
 /// assembles J W J^T (or what it needs of it) from the rows' Jacobian blocks and factorises it; the
-/// regularise-and- retry loop is written once, in factorize(). Private to the core.
+/// regularise-and-retry loop is written once, in factorize(). Private to the core.
 #pragma once
 
 #include "constrained_particles/core/data.hpp"
@@ -93,6 +93,10 @@ void solveWith(const Factorization& factorization, Eigen::VectorXd& b)
   else
     b.setZero();
 }
+
+/// The largest w_i |J_ri|^2 of any row on any free particle: the tree solves' measure of
+/// J W J^T's diagonal for regularising (both alike, so they regularise a singular system alike).
+double maxParticleRowWeight(const Model& model, const RowData& rows);
 
 /// The strategy for model.solveMethod() (nullptr for SolveMethod::None).
 std::unique_ptr<ConstraintSolver> makeSolver(const Model& model);

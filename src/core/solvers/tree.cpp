@@ -187,16 +187,7 @@ void TreeSolver::assemble(const Model& /*model*/, const RowData& rows)
 
 double TreeSolver::maxDiagonal() const
 {
-  // the largest w_i |J_ri|^2 of any row on any free particle
-  const auto& w = model_.inverseMasses();
-  const auto& start = model_.incidenceStart();
-  const auto& incidence = model_.incidence();
-  double max_diagonal = 0.0;
-  for (int i = 0; i < model_.numParticles(); ++i)
-    for (int a = start[i]; a < start[i + 1]; ++a)
-      max_diagonal =
-          std::max(max_diagonal, w[i] * rows_->jacobian[incidence[a].block].squaredNorm());
-  return max_diagonal;
+  return maxParticleRowWeight(model_, *rows_);
 }
 
 SolveReport TreeSolver::factorize(const Model& model, const RowData& rows, EffectCounters& counters)

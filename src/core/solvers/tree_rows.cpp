@@ -11,6 +11,7 @@
 #include "solver.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <vector>
 
 namespace constrained_particles
@@ -44,18 +45,20 @@ private:
     int positions[MAX_ROWS];  ///< each row's place in order_
   };
 
-  std::vector<int> order_;          // rows, each after every row below it
-  std::vector<int> home_;           // per place in order_: the clique it is eliminated in, or -1
-  std::vector<int> local_;          // per place in order_: its index in that clique
-  std::vector<Clique> cliques_;     // one per free particle with two or more rows
-  std::vector<double> entries_;     // the cliques' lower triangles: J W J^T, then L
-  Eigen::VectorXd pivots_;          // per place in order_: the pivot as the elimination goes
-  Eigen::VectorXd inverse_pivots_;  // D^-1, per place in order_
-  const RowData* rows_ = nullptr;   // the rows of the last assembly
+  std::vector<int> order_;            // rows, each after every row below it
+  std::vector<int> clique_of_;        // per place in order_: the clique it is eliminated in, or -1
+  std::vector<int> index_in_clique_;  // per place in order_: its index in that clique
+  std::vector<Clique> cliques_;       // one per free particle with two or more rows
+  std::vector<double> entries_;       // the cliques' lower triangles: J W J^T ([J]^2 / kg), then L
+  Eigen::VectorXd pivots_;            // per place in order_: the pivot as the elimination goes
+  Eigen::VectorXd inverse_pivots_;    // D^-1, per place in order_
+  const Model& model_;
+  const RowData* rows_ = nullptr;           // the rows of the last assembly
   const std::vector<double>* w_ = nullptr;  // inverse masses
 };
 
-TreeRowSolver::TreeRowSolver(const Model& model) : ConstraintSolver(SolveMethod::Tree)
+TreeRowSolver::TreeRowSolver(const Model& model)
+  : ConstraintSolver(SolveMethod::Tree), model_(model)
 {
   const int n = model.numParticles();
   const int m = model.numRows();
@@ -109,17 +112,18 @@ TreeRowSolver::TreeRowSolver(const Model& model) : ConstraintSolver(SolveMethod:
   for (int k = 0; k < m; ++k)
     position[order_[k]] = k;
   // a clique per particle with two or more rows, in elimination order
-  home_.assign(m, -1);
-  local_.assign(m, 0);
+  clique_of_.assign(m, -1);
+  index_in_clique_.assign(m, 0);
   int offset = 0;
+  std::vector<RowIncidence> touches;
   for (int p = 0; p < n; ++p)
   {
     const int d = start[p + 1] - start[p];
     if (d < 2)
       continue;
+    assert(d <= MAX_ROWS);  // Model::treeRows()
     Clique clique{ p, d, offset, {}, {}, {} };
-    std::vector<RowIncidence> touches(incidence.begin() + start[p],
-                                      incidence.begin() + start[p + 1]);
+    touches.assign(incidence.begin() + start[p], incidence.begin() + start[p + 1]);
     std::sort(touches.begin(), touches.end(),
               [&](const RowIncidence& x, const RowIncidence& y)
               { return position[x.row] < position[y.row]; });
@@ -130,8 +134,8 @@ TreeRowSolver::TreeRowSolver(const Model& model) : ConstraintSolver(SolveMethod:
       clique.positions[a] = position[touches[a].row];
       if (parent_particle[touches[a].row] == p)
       {
-        home_[clique.positions[a]] = static_cast<int>(cliques_.size());
-        local_[clique.positions[a]] = a;
+        clique_of_[clique.positions[a]] = static_cast<int>(cliques_.size());
+        index_in_clique_[clique.positions[a]] = a;
       }
     }
     cliques_.push_back(clique);
@@ -152,7 +156,7 @@ void TreeRowSolver::assemble(const Model& model, const RowData& rows)
 
 double TreeRowSolver::maxDiagonal() const
 {
-  return rows_->diagonal.size() > 0 ? rows_->diagonal.maxCoeff() : 0.0;
+  return maxParticleRowWeight(model_, *rows_);
 }
 
 ConstraintSolver::Pivots TreeRowSolver::factorizeShifted(double delta)
@@ -180,12 +184,12 @@ ConstraintSolver::Pivots TreeRowSolver::factorizeShifted(double delta)
     if (!takePivot(pivot, d, delta, min_ratio))
       return { true, min_ratio };
     const double inverse = inverse_pivots_[k] = 1.0 / pivot;
-    if (home_[k] < 0)
+    if (clique_of_[k] < 0)
       continue;
     // the rows after it on its parent particle: L's column, and their update by l v^T
-    const Clique& c = cliques_[home_[k]];
+    const Clique& c = cliques_[clique_of_[k]];
     double* e = entries_.data() + c.offset;
-    const int a = local_[k];
+    const int a = index_in_clique_[k];
     double v[MAX_ROWS];
     for (int b = a + 1; b < c.size; ++b)
       v[b] = e[b * (b - 1) / 2 + a];
@@ -207,11 +211,11 @@ void TreeRowSolver::solveInPlace(Eigen::VectorXd& b) const
   // L y = b: each row hands its value to the rows after it on its parent particle
   for (int k = 0; k < m; ++k)
   {
-    if (home_[k] < 0)
+    if (clique_of_[k] < 0)
       continue;
-    const Clique& c = cliques_[home_[k]];
+    const Clique& c = cliques_[clique_of_[k]];
     const double* e = entries_.data() + c.offset;
-    const int a = local_[k];
+    const int a = index_in_clique_[k];
     const double y = b[order_[k]];
     for (int j = a + 1; j < c.size; ++j)
       b[c.rows[j]] -= e[j * (j - 1) / 2 + a] * y;
@@ -221,11 +225,11 @@ void TreeRowSolver::solveInPlace(Eigen::VectorXd& b) const
   // L^T x = D^-1 y, the last row first
   for (int k = m - 1; k >= 0; --k)
   {
-    if (home_[k] < 0)
+    if (clique_of_[k] < 0)
       continue;
-    const Clique& c = cliques_[home_[k]];
+    const Clique& c = cliques_[clique_of_[k]];
     const double* e = entries_.data() + c.offset;
-    const int a = local_[k];
+    const int a = index_in_clique_[k];
     double x = b[order_[k]];
     for (int j = a + 1; j < c.size; ++j)
       x -= e[j * (j - 1) / 2 + a] * b[c.rows[j]];
