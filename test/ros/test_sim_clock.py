@@ -34,16 +34,27 @@ class SimClockTest(unittest.TestCase):
         cls.tf_buffer = tf2_ros.Buffer()
         cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
 
-    def state_at(self, sim_time, timeout=30.0):
-        """The first state at `sim_time` [s] (waits in wall time: with use_sim_time, rospy's clock
-        is the node's sim time)."""
+    def index_at(self, sim_time, since, timeout=30.0):
+        """The index in self.states of the first state at `sim_time` [s] from self.states[since]
+        on (the scene ran through the same sim times before a reset, with other stamps); waits
+        in wall time: with use_sim_time, rospy's clock is the node's sim time."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            for state in reversed(self.states[-20:]):
-                if abs(state.sim_time - sim_time) < 1e-9:
-                    return state
+            for k in range(since, len(self.states)):
+                if abs(self.states[k].sim_time - sim_time) < 1e-9:
+                    return k
             time.sleep(0.01)
         self.fail(f"no ~state at sim time {sim_time} s")
+
+    def state_at(self, sim_time, since):
+        return self.states[self.index_at(sim_time, since)]
+
+    def reset_scene(self, name):
+        """Resets to `name`; returns the index of its first state (sim time 0) in self.states:
+        those after it are the new run's, whatever the old run's came late."""
+        before = len(self.states)
+        self.assertTrue(self.reset(name).success)
+        return self.index_at(0.0, before)
 
     def wait_clock(self, value):
         """/clock comes on its own connection: wait (wall time) until it shows `value`."""
@@ -55,9 +66,9 @@ class SimClockTest(unittest.TestCase):
     def test_clock_is_sim_time(self):
         self.assertTrue(rospy.get_param("/use_sim_time"))
         self.pause()
-        self.assertTrue(self.reset("bead").success)
+        mark = self.reset_scene("bead")
         self.assertTrue(self.step(250).success)
-        state = self.state_at(0.25)
+        state = self.state_at(0.25, mark)
         # the clock is sim time plus an offset that only resets and teleports change
         offset = state.header.stamp.to_sec() - 0.25
         self.assertGreaterEqual(offset, 0.0)
@@ -84,13 +95,15 @@ class SimClockTest(unittest.TestCase):
         self.assertTrue(late, "no /clock for a subscriber joining while paused")
         self.assertAlmostEqual(late[0].clock.to_sec(), 0.25 + offset, places=6)
         # stepping advances it by exactly the steps
+        mark = len(self.states)
         self.assertTrue(self.step(100).success)
-        self.assertAlmostEqual(self.state_at(0.35).header.stamp.to_sec(), 0.35 + offset, places=6)
+        self.assertAlmostEqual(self.state_at(0.35, mark).header.stamp.to_sec(), 0.35 + offset,
+                               places=6)
         self.wait_clock(0.35 + offset)
         # a reset sends the scene back to t = 0 but moves the clock forward
-        self.assertTrue(self.reset("").success)
+        mark = self.reset_scene("")
         self.assertTrue(self.step(10).success)
-        after = self.state_at(0.01)
+        after = self.state_at(0.01, mark)
         self.assertAlmostEqual(after.header.stamp.to_sec(), 0.35 + offset + 0.001 + 0.01, places=6)
         self.wait_clock(after.header.stamp.to_sec())
         # running: about one sim second per wall second
