@@ -330,7 +330,6 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     throw InvalidInput("solve_method", "= none, but the scene has constraint rows");
   else
     model.method_ = method;
-  model.paths_ = paths;
   model.tree_rows_ =
       paths == StagePaths::Specialized && model.method_ == SolveMethod::Tree && fitsTreeRows(model);
   if (paths == StagePaths::Specialized)

@@ -212,7 +212,6 @@ TEST(StagePaths, RandomTreesMoveTheSameBothWays)
   std::mt19937 random(20261203);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const std::vector<std::string> integrators = integratorNames();
-  int rows = 0;
   for (int c = 0; c < 16; ++c)
   {
     const int n = 4 + static_cast<int>(unit(random) * 20);
@@ -259,14 +258,12 @@ TEST(StagePaths, RandomTreesMoveTheSameBothWays)
     settings.dt = 1e-3;
     const std::string what = "random tree " + std::to_string(c) + " (" + settings.integrator + ")";
     const Simulator probe(scene, start, settings);
-    rows += probe.model().treeRows() ? 1 : 0;
     EXPECT_TRUE(probe.model().treeRows()) << what;
     double moved = 0.0;
     expectSameMotion(scene, probe.state(), settings, SolveMethod::Automatic, what, 1000, nullptr,
                      &moved);
     EXPECT_GT(moved, 1e-3) << what;
   }
-  EXPECT_EQ(rows, 16);
   // singular: a taut line between two pins through particle 1, particle 3 below it, moving. Both
   // tree solves regularise alike, but J W J^T + delta I (delta 1e-9 of the diagonal) amplifies
   // their different rounding by about 1 / delta, and near the threshold their pivot ratios (of

@@ -245,11 +245,6 @@ public:
   {
     return tree_rows_;
   }
-  /// The evaluation paths it was compiled for.
-  StagePaths paths() const
-  {
-    return paths_;
-  }
   /// True if every row is a link or a surface row (in any order), J W J^T is tridiagonal and
   /// adjacent rows share at most one free particle: forward() then takes the fused chain stages
   /// (chain_stages.cpp).
@@ -303,7 +298,6 @@ private:
   std::vector<int> incidence_start_;
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;
-  StagePaths paths_ = StagePaths::Specialized;
   bool tree_rows_ = false;
   std::vector<ChainRow> chain_rows_;  // empty unless fusedChain()
   std::vector<int> chain_unlinked_;

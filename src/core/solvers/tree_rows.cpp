@@ -39,11 +39,17 @@ private:
   {
     int particle;
     int size;    ///< d <= MAX_ROWS
-    int offset;  ///< entry (b, a), b > a, at entries_[offset + b (b - 1) / 2 + a]
+    int offset;  ///< entry (b, a), b > a, at entries_[offset + lower(b, a)]
     int rows[MAX_ROWS];
     int blocks[MAX_ROWS];     ///< each row's Jacobian block on the particle
     int positions[MAX_ROWS];  ///< each row's place in order_
   };
+
+  /// Entry (b, a), b > a, of a clique's strictly lower triangle, packed row by row.
+  static int lower(int b, int a)
+  {
+    return b * (b - 1) / 2 + a;
+  }
 
   std::vector<int> order_;            // rows, each after every row below it
   std::vector<int> clique_of_;        // per place in order_: the clique it is eliminated in, or -1
@@ -53,8 +59,7 @@ private:
   Eigen::VectorXd pivots_;            // per place in order_: the pivot as the elimination goes
   Eigen::VectorXd inverse_pivots_;    // D^-1, per place in order_
   const Model& model_;
-  const RowData* rows_ = nullptr;           // the rows of the last assembly
-  const std::vector<double>* w_ = nullptr;  // inverse masses
+  const RowData* rows_ = nullptr;  // the rows of the last assembly
 };
 
 TreeRowSolver::TreeRowSolver(const Model& model)
@@ -146,12 +151,11 @@ TreeRowSolver::TreeRowSolver(const Model& model)
   inverse_pivots_.setZero(m);
 }
 
-void TreeRowSolver::assemble(const Model& model, const RowData& rows)
+void TreeRowSolver::assemble(const Model& /*model*/, const RowData& rows)
 {
   // the diagonal comes with the rows (RowData::diagonal); each clique's other entries are formed
   // at the start of the factorisation
   rows_ = &rows;
-  w_ = &model.inverseMasses();
 }
 
 double TreeRowSolver::maxDiagonal() const
@@ -163,14 +167,14 @@ ConstraintSolver::Pivots TreeRowSolver::factorizeShifted(double delta)
 {
   const Eigen::VectorXd& diagonal = rows_->diagonal;
   const std::vector<Vec3>& jacobian = rows_->jacobian;
-  const std::vector<double>& w = *w_;
+  const std::vector<double>& w = model_.inverseMasses();
   // (J W J^T)_ab = w_p J_ap . J_bp for rows a, b sharing particle p (a forest: only that one)
   for (const Clique& c : cliques_)
   {
     double* e = entries_.data() + c.offset;
     for (int b = 1; b < c.size; ++b)
       for (int a = 0; a < b; ++a)
-        e[b * (b - 1) / 2 + a] = w[c.particle] * jacobian[c.blocks[b]].dot(jacobian[c.blocks[a]]);
+        e[lower(b, a)] = w[c.particle] * jacobian[c.blocks[b]].dot(jacobian[c.blocks[a]]);
   }
   const int m = static_cast<int>(order_.size());
   for (int k = 0; k < m; ++k)
@@ -192,13 +196,13 @@ ConstraintSolver::Pivots TreeRowSolver::factorizeShifted(double delta)
     const int a = index_in_clique_[k];
     double v[MAX_ROWS];
     for (int b = a + 1; b < c.size; ++b)
-      v[b] = e[b * (b - 1) / 2 + a];
+      v[b] = e[lower(b, a)];
     for (int b = a + 1; b < c.size; ++b)
     {
       const double l = v[b] * inverse;
-      e[b * (b - 1) / 2 + a] = l;
+      e[lower(b, a)] = l;
       for (int j = a + 1; j < b; ++j)
-        e[b * (b - 1) / 2 + j] -= l * v[j];
+        e[lower(b, j)] -= l * v[j];
       pivots_[c.positions[b]] -= l * v[b];
     }
   }
@@ -218,7 +222,7 @@ void TreeRowSolver::solveInPlace(Eigen::VectorXd& b) const
     const int a = index_in_clique_[k];
     const double y = b[order_[k]];
     for (int j = a + 1; j < c.size; ++j)
-      b[c.rows[j]] -= e[j * (j - 1) / 2 + a] * y;
+      b[c.rows[j]] -= e[lower(j, a)] * y;
   }
   for (int k = 0; k < m; ++k)
     b[order_[k]] *= inverse_pivots_[k];
@@ -232,7 +236,7 @@ void TreeRowSolver::solveInPlace(Eigen::VectorXd& b) const
     const int a = index_in_clique_[k];
     double x = b[order_[k]];
     for (int j = a + 1; j < c.size; ++j)
-      x -= e[j * (j - 1) / 2 + a] * b[c.rows[j]];
+      x -= e[lower(j, a)] * b[c.rows[j]];
     b[order_[k]] = x;
   }
 }
