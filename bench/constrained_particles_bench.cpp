@@ -563,11 +563,15 @@ int scenes(const std::string& out, bool quick)
     const double seconds = paired.a, generic_seconds = paired.b;
     // fused where its steps evaluate stages that take them: not under Baumgarte's bias, nor with
     // an integrator that holds the constraints itself (velocity Verlet, fast projection)
-    const bool fused = simulator.model().fusedChain() &&
-                       settings.stabilization != Stabilization::Baumgarte &&
-                       !findIntegrator(settings.integrator).holds_constraints;
-    // a tree solved by rows (Model::treeRows()) takes the generic stages with its own solve
-    const char* stages = fused ? "fused" : simulator.model().treeRows() ? "tree rows" : "generic";
+    const bool evaluated = settings.stabilization != Stabilization::Baumgarte &&
+                           !findIntegrator(settings.integrator).holds_constraints;
+    const Model& model = simulator.model();
+    // a tree of links takes the fused tree stages (Model::fusedTree()); another tree solved by
+    // rows (Model::treeRows()) the generic stages with its own solve
+    const char* stages = evaluated && model.fusedChain() ? "fused"
+                         : evaluated && model.fusedTree()
+                             ? "fused tree"
+                             : (model.treeRows() ? "tree rows" : "generic");
     // counts of exactly 100 further steps
     Simulator counted(built.scene, built.initial_state, settings, d.solver.solve_method);
     const EffectCounters before = counted.effectCounters();
@@ -601,8 +605,9 @@ int scenes(const std::string& out, bool quick)
   std::vector<int> sizes = { 100, 1000, 10000, 100000 };
   if (quick)
     sizes = { 100, 1000, 10000 };
-  // the tree solve as it runs (by rows where every particle has few: Model::treeRows()), and its
-  // block elimination (tree.cpp), kept by the generic paths
+  // the tree solve as it runs (a binary tree of links: the fused tree stages, Model::fusedTree();
+  // the star: the block elimination), and the block elimination (tree.cpp), which the generic
+  // paths keep
   struct Solve
   {
     SolveMethod method;

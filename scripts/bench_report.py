@@ -234,9 +234,11 @@ def scenes_section(out):
     rows = read(out / "trees.csv")
     lines += ["", "## Solve by structure: one constraint-force evaluation against n", "",
               "binary_tree: particle k hangs from (k - 1) / 2, the root pinned; star: every "
-              "particle linked to one free hub (J W J^T is dense). tree: as it runs (by rows where "
-              "every particle has at most four, Model::treeRows()); tree, blocks: its block "
-              "elimination (tree.cpp), which the generic paths and stars keep.", "",
+              "particle linked to one free hub (J W J^T is dense). tree: as it runs (the binary tree, "
+              "all links with at most four on a particle: the fused tree stages, "
+              "Model::fusedTree(); the star: the block elimination); tree, blocks: the generic "
+              "stages with the block elimination (tree.cpp), which the generic paths and stars "
+              "keep.", "",
               "| shape | n | tree [us] | tree, blocks [us] | sparse [us] | dense [us] |",
               "|---|---|---|---|---|---|"]
     table = {}

@@ -179,17 +179,6 @@ void countChainRows(const Model& model, Data& data)
   data.counters.constraints[constraintKindIndex<SurfaceConstraint>()] += s;
 }
 
-// Counts a fused factorisation and merges its report, as factorizeRows() does the solver's.
-SolveReport countFusedFactorization(const Model& model, Data& data, double min_ratio)
-{
-  ++data.counters.factorizations[static_cast<int>(SolveMethod::Tridiagonal)];
-  SolveReport report;
-  report.method = model.solveMethod();
-  report.min_pivot_ratio = min_ratio;
-  data.statistics.solve.merge(report);
-  return report;
-}
-
 // Up the chain; false at a singular pivot (data.rows then holds the rows before it only). Only
 // each link's first Jacobian block is stored: C, Jdot v, the diagonals and the violations (a
 // square root per link) are read by the projections and Baumgarte only, after evaluating rows of
@@ -285,20 +274,6 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
     rhs_above = rhs[k] = r;
   }
   return true;
-}
-
-// One row's J^T lambda on particle i, and its acceleration a0 + W f_c once no row is left:
-// accelerationStage's expression, a particle at a time while its forces are in cache.
-inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3& force,
-                           const double* a0, double* forces, double* accelerations)
-{
-  Eigen::Map<Vec3> fc(forces + 3 * i);
-  if (opens)
-    fc = force;  // the generic stages' 0 + force (the same, but -0 where they give +0)
-  else
-    fc += force;
-  if (closes)
-    Eigen::Map<Vec3>(accelerations + 3 * i) = Eigen::Map<const Vec3>(a0 + 3 * i) + w * fc;
 }
 
 // Down the chain: lambda = D^-1 y - L^T lambda, the multipliers, f_c = J^T lambda and each

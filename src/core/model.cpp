@@ -67,6 +67,195 @@ bool fitsTreeRows(const Model& model)
   return true;
 }
 
+// Where each particle's constraint force starts and ends in a fused down sweep (rows, or places,
+// m-1 to 0): the lowest and the highest index of a row touching it (m and -1 if none).
+template <typename Row>
+void sweepSpans(const std::vector<Row>& rows, int n, std::vector<int>& lowest,
+                std::vector<int>& highest)
+{
+  const int m = static_cast<int>(rows.size());
+  lowest.assign(n, m);
+  highest.assign(n, -1);
+  for (int k = 0; k < m; ++k)
+    for (int i : { rows[k].first, rows[k].second })
+    {
+      lowest[i] = std::min(lowest[i], k);
+      highest[i] = std::max(highest[i], k);
+    }
+}
+
+// Model::treeRows()'s elimination order and cliques (its docs and TreeClique's): returns the
+// scalars the cliques' triangles take.
+int planTreeElimination(const Model& model, std::vector<int>& order,
+                        std::vector<TreePlace>& eliminated_in, std::vector<TreeClique>& cliques)
+{
+  const int n = model.numParticles();
+  const int m = model.numRows();
+  const auto& start = model.incidenceStart();
+  const auto& incidence = model.incidence();
+  const auto& row_start = model.rowStart();
+  const auto& block_particle = model.blockParticle();
+  const auto& w = model.inverseMasses();
+  // breadth-first from a particle of each tree: a row's parent particle is the one it is reached
+  // from; its other free particle (if any) is reached through it, so hangs below it
+  std::vector<int> parent_particle(m, -1);
+  std::vector<char> seen_particle(n, 0), seen_row(m, 0);
+  std::vector<int> queue, reached;
+  queue.reserve(n);
+  reached.reserve(m);
+  for (int root = 0; root < n; ++root)
+  {
+    if (seen_particle[root] || w[root] == 0.0)
+      continue;
+    seen_particle[root] = 1;
+    queue.assign(1, root);
+    for (std::size_t head = 0; head < queue.size(); ++head)
+    {
+      const int p = queue[head];
+      for (int a = start[p]; a < start[p + 1]; ++a)
+      {
+        const int r = incidence[a].row;
+        if (seen_row[r])
+          continue;
+        seen_row[r] = 1;
+        parent_particle[r] = p;
+        reached.push_back(r);
+        for (int b = row_start[r]; b < row_start[r + 1]; ++b)
+        {
+          const int i = block_particle[b];
+          if (w[i] > 0.0 && !seen_particle[i])  // a forest: an unseen particle hangs below
+          {
+            seen_particle[i] = 1;
+            queue.push_back(i);
+          }
+        }
+      }
+    }
+  }
+  // reversed, every row comes after the rows below it; rows touching no free particle last
+  order.assign(reached.rbegin(), reached.rend());
+  for (int r = 0; r < m; ++r)
+    if (!seen_row[r])
+      order.push_back(r);
+  std::vector<int> position(m);
+  for (int k = 0; k < m; ++k)
+    position[order[k]] = k;
+  // a clique per particle with two or more rows, in elimination order
+  eliminated_in.assign(m, TreePlace{});
+  cliques.clear();
+  int offset = 0;
+  std::vector<RowIncidence> touches;
+  for (int p = 0; p < n; ++p)
+  {
+    const int d = start[p + 1] - start[p];
+    if (d < 2)
+      continue;
+    TreeClique clique;
+    clique.particle = p;
+    clique.size = d;
+    clique.offset = offset;
+    touches.assign(incidence.begin() + start[p], incidence.begin() + start[p + 1]);
+    std::sort(touches.begin(), touches.end(),
+              [&](const RowIncidence& x, const RowIncidence& y)
+              { return position[x.row] < position[y.row]; });
+    for (int a = 0; a < d; ++a)
+    {
+      clique.rows[a] = touches[a].row;
+      clique.blocks[a] = touches[a].block;
+      clique.positions[a] = position[touches[a].row];
+      clique.signs[a] = touches[a].block == row_start[touches[a].row] ? 1.0 : -1.0;
+      if (parent_particle[touches[a].row] == p)
+        eliminated_in[clique.positions[a]] = TreePlace{ static_cast<int>(cliques.size()), a };
+    }
+    cliques.push_back(clique);
+    offset += d * (d - 1) / 2;
+  }
+  return offset;
+}
+
+// The fused tree stages' links (Model::fusedTree()) in treeOrder(), or none unless every row of
+// a treeRows() model is a link between particles not both held; `unlinked` gets the particles no
+// link touches.
+std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlinked)
+{
+  const int m = model.numRows();
+  if (!model.treeRows() || m < 1)
+    return {};
+  bool only_links = true;
+  std::apply(
+      [&](const auto&... tables)
+      {
+        (
+            [&](const auto& table)
+            {
+              using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
+              if constexpr (!Kind::ELIMINATED && !std::is_same_v<Kind, LinkConstraint>)
+                only_links = only_links && table.empty();
+            }(tables),
+            ...);
+      },
+      model.kindTables());
+  const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
+  if (!only_links || static_cast<int>(links.size()) != m)
+    return {};
+  std::vector<int> held(model.numBlocks(), -1);
+  for (const EliminatedBlock& block : model.eliminatedBlocks())
+    held[block.block] = block.eliminated;
+  const auto& w = model.inverseMasses();
+  const auto& order = model.treeOrder();
+  std::vector<int> position(m);
+  for (int k = 0; k < m; ++k)
+    position[order[k]] = k;
+  std::vector<TreeLink> rows(m);
+  for (const KindRecord<LinkConstraint>& entry : links)
+  {
+    const LinkConstraint& link = entry.record;
+    TreeLink& row = rows[position[entry.first_row]];
+    row.row = entry.first_row;
+    row.block = entry.first_block;
+    row.first = link.first;
+    row.second = link.second;
+    row.length = link.length;
+    row.w_first = w[link.first];
+    row.w_second = w[link.second];
+    row.held_first = held[entry.first_block];
+    row.held_second = held[entry.first_block + 1];
+    if (row.w_first == 0.0 && row.w_second == 0.0)
+      return {};  // a link between held particles: always singular, the generic solve's case
+  }
+  const auto& cliques = model.treeCliques();
+  for (int c = 0; c < static_cast<int>(cliques.size()); ++c)
+    for (int a = 0; a < cliques[c].size; ++a)
+    {
+      TreeLink& row = rows[cliques[c].positions[a]];
+      if (row.first == cliques[c].particle)
+      {
+        row.clique_first = c;
+        row.index_first = static_cast<std::int8_t>(a);
+      }
+      else
+      {
+        row.clique_second = c;
+        row.index_second = static_cast<std::int8_t>(a);
+      }
+    }
+  std::vector<int> lowest, highest;
+  sweepSpans(rows, model.numParticles(), lowest, highest);
+  for (int k = 0; k < m; ++k)
+  {
+    TreeLink& row = rows[k];
+    row.first_opens = highest[row.first] == k;
+    row.first_closes = lowest[row.first] == k;
+    row.second_opens = highest[row.second] == k;
+    row.second_closes = lowest[row.second] == k;
+  }
+  unlinked.clear();
+  for (int i = 0; i < model.numParticles(); ++i)
+    if (highest[i] < 0)
+      unlinked.push_back(i);
+  return rows;
+}
+
 // The fused chain stages' rows (Model::fusedChain()), or none if the model has another structure:
 // links and surface rows (chains whose particles slide on height fields), in any order the
 // tridiagonal solve takes; `surface_rows` counts the surface rows and `surface_records` gives
@@ -166,14 +355,8 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
       // multiplying by -1 is exact, so the signs give the same sum
       row.w_coupling_signed = sign(a.block) * sign(b.block) * w[i];
     }
-  // where each particle's constraint force starts and ends in the down sweep (rows m-1 to 0)
-  std::vector<int> lowest(model.numParticles(), m), highest(model.numParticles(), -1);
-  for (int k = 0; k < m; ++k)
-    for (int i : { rows[k].first, rows[k].second })
-    {
-      lowest[i] = std::min(lowest[i], k);
-      highest[i] = std::max(highest[i], k);
-    }
+  std::vector<int> lowest, highest;
+  sweepSpans(rows, model.numParticles(), lowest, highest);
   for (int k = 0; k < m; ++k)
   {
     ChainRow& row = rows[k];
@@ -332,6 +515,12 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     model.method_ = method;
   model.tree_rows_ =
       paths == StagePaths::Specialized && model.method_ == SolveMethod::Tree && fitsTreeRows(model);
+  if (model.tree_rows_)
+  {
+    model.tree_clique_entries_ = planTreeElimination(
+        model, model.tree_order_, model.tree_eliminated_in_, model.tree_cliques_);
+    model.tree_links_ = findTreeLinks(model, model.tree_unlinked_);
+  }
   if (paths == StagePaths::Specialized)
     model.chain_rows_ = findChainRows(model, model.chain_unlinked_, model.chain_surface_rows_,
                                       model.chain_surface_records_);

@@ -223,6 +223,16 @@ void accelerationStage(const Model& model, Data& data, Points& accelerations)
   heldAccelerations(model, data, accelerations);
 }
 
+SolveReport countFusedFactorization(const Model& model, Data& data, double min_ratio)
+{
+  ++data.counters.factorizations[static_cast<int>(model.solveMethod())];
+  SolveReport report;
+  report.method = model.solveMethod();
+  report.min_pivot_ratio = min_ratio;
+  data.statistics.solve.merge(report);
+  return report;
+}
+
 void heldAccelerations(const Model& model, const Data& data, Points& accelerations)
 {
   const auto& held = model.eliminatedParticles();
@@ -237,6 +247,9 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
   // a chain of links: rows, solve and constraint forces in two sweeps (chain_stages.cpp)
   if (model.fusedChain() && settings.stabilization != Stabilization::Baumgarte)
     return chainForward(model, data, time, positions, velocities, accelerations);
+  // a tree of links: the same in two sweeps leaves first (tree_stages.cpp)
+  if (model.fusedTree() && settings.stabilization != Stabilization::Baumgarte)
+    return treeForward(model, data, time, positions, velocities, accelerations);
   rowStage(model, data, time, positions, velocities, data.rows);
   appliedForceStage(model, data, positions, velocities);
   const Eigen::VectorXd* bias = nullptr;

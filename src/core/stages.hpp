@@ -57,6 +57,33 @@ void addEliminatedReactions(const Model& model, Data& data);
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations);
 
+/// Stages 1, 2, 4 and 5 for a fused tree (Model::fusedTree(), no Baumgarte bias), in two sweeps
+/// over the links in elimination order (tree_stages.cpp): the same data as chainForward's (of the
+/// rows, both Jacobian blocks only), counters and report as the generic stages, and the same motion
+/// to rounding; a singular pivot hands the stage to them. Eliminated motion already imposed.
+SolveReport treeForward(const Model& model, Data& data, double time, const Points& positions,
+                        const Points& velocities, Points& accelerations);
+
+/// Counts a fused sweep's factorisation (model.solveMethod()'s) and merges its report (the
+/// smallest pivot / diagonal entry `min_ratio`), as factorizeRows() does the solver's.
+SolveReport countFusedFactorization(const Model& model, Data& data, double min_ratio);
+
+/// A fused down sweep's J^T lambda share `force` [N] of one row on particle i (3 x n `forces`),
+/// and its acceleration a0 + w f_c once no row is left (`closes`): accelerationStage's
+/// expression, a particle at a time while its forces are in cache. `opens`: the first share
+/// (written, not added: the generic stages' 0 + force, the same but -0 where they give +0).
+inline void settleParticle(int i, bool opens, bool closes, double w, const Vec3& force,
+                           const double* a0, double* forces, double* accelerations)
+{
+  Eigen::Map<Vec3> fc(forces + 3 * i);
+  if (opens)
+    fc = force;
+  else
+    fc += force;
+  if (closes)
+    Eigen::Map<Vec3>(accelerations + 3 * i) = Eigen::Map<const Vec3>(a0 + 3 * i) + w * fc;
+}
+
 /// Stage 5, accelerations: a = a0 + W f_c into `accelerations` [m/s^2] (3 x n); an
 /// eliminated particle's is its imposed acceleration.
 void accelerationStage(const Model& model, Data& data, Points& accelerations);

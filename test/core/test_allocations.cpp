@@ -228,8 +228,9 @@ TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
   scenes.emplace_back("wire across its link", wireAcrossItsLink());
   scenes.emplace_back("star of six", starOfSix());
   int checked = 0;
-  // both tree solves are covered: by rows (Model::treeRows()) and by particles
-  int by_rows = 0, by_particles = 0;
+  // every tree path is covered: the fused stages (Model::fusedTree()), the generic stages with the
+  // solve by rows (Model::treeRows()), and with the solve by particles
+  int fused = 0, by_rows = 0, by_particles = 0;
   for (const auto& [name, built] : scenes)
     for (const IntegratorInfo* integrator : integratorTable())
       for (Stabilization stabilization :
@@ -239,7 +240,9 @@ TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
                             settingsOf(integrator->name, stabilization));
         const SolveMethod method = simulator.model().solveMethod();
         if (method == SolveMethod::Tree)
-          (simulator.model().treeRows() ? by_rows : by_particles) += 1;
+          (simulator.model().fusedTree()  ? fused
+           : simulator.model().treeRows() ? by_rows
+                                          : by_particles) += 1;
         ASSERT_TRUE(method == SolveMethod::Single || method == SolveMethod::Tridiagonal ||
                     method == SolveMethod::Tree)
             << name;
@@ -268,6 +271,7 @@ TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
         ++checked;
       }
   EXPECT_EQ(checked, 10 * static_cast<int>(integratorTable().size()) * 3);
+  EXPECT_GT(fused, 0);
   EXPECT_GT(by_rows, 0);
   EXPECT_GT(by_particles, 0);
 }

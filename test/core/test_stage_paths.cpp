@@ -45,6 +45,7 @@ bool expectSameMotion(const Scene& scene, const State& start, const StepSettings
   Simulator fused(scene, start, settings, method, StagePaths::Specialized);
   Simulator generic(scene, start, settings, method, StagePaths::Generic);
   EXPECT_FALSE(generic.model().fusedChain()) << what;
+  EXPECT_FALSE(generic.model().fusedTree()) << what;
   // the tree solve in row space (Model::treeRows()) sums in another order than the particle
   // elimination: the same motion to rounding (1e-12 m and 1e-11 m/s, plus as much again per metre
   // moved: a tree falling freely for a second is 5 m away), pivot ratios of another
@@ -198,6 +199,11 @@ TEST(StagePaths, EveryShippedSceneMovesTheSameBothWays)
     {
       EXPECT_TRUE(took) << name;
     }
+    // a hub with three chains, all links: the fused tree stages
+    if (name == "mobile")
+    {
+      EXPECT_TRUE(Model::compile(built.scene, description.solver.solve_method).fusedTree());
+    }
   }
   // the chains among them (chain, its pinned-both-ends and shaken variants, pinned_pendulum,
   // surface_chain, two_chains_on_surface) take the path
@@ -205,13 +211,17 @@ TEST(StagePaths, EveryShippedSceneMovesTheSameBothWays)
 }
 
 // Random trees with at most three children a particle, some particles on a plane, the root
-// pinned or free: the row elimination (Model::treeRows()) moves them as the particle elimination
-// does, to 1e-12 over 1,000 steps, with the same counters.
+// pinned or free: the fused tree stages (Model::fusedTree(), trees of links) and the row
+// elimination (Model::treeRows()) move them as the particle elimination does, to 1e-12 over 1,000
+// steps, with the same counters.
 TEST(StagePaths, RandomTreesMoveTheSameBothWays)
 {
   std::mt19937 random(20261203);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const std::vector<std::string> integrators = integratorNames();
+  // trees of links take the fused tree stages (Model::fusedTree()), trees with surface rows the
+  // generic stages with the solve by rows: both are compared with the solve by particles
+  int fused = 0, solved_by_rows = 0;
   for (int c = 0; c < 16; ++c)
   {
     const int n = 4 + static_cast<int>(unit(random) * 20);
@@ -259,11 +269,15 @@ TEST(StagePaths, RandomTreesMoveTheSameBothWays)
     const std::string what = "random tree " + std::to_string(c) + " (" + settings.integrator + ")";
     const Simulator probe(scene, start, settings);
     EXPECT_TRUE(probe.model().treeRows()) << what;
+    EXPECT_EQ(probe.model().fusedTree(), scene.surfaces.empty()) << what;
+    ++(probe.model().fusedTree() ? fused : solved_by_rows);
     double moved = 0.0;
     expectSameMotion(scene, probe.state(), settings, SolveMethod::Automatic, what, 1000, nullptr,
                      &moved);
     EXPECT_GT(moved, 1e-3) << what;
   }
+  EXPECT_GE(fused, 4);
+  EXPECT_GE(solved_by_rows, 4);
   // singular: a taut line between two pins through particle 1, particle 3 below it, moving. Both
   // tree solves regularise alike, but J W J^T + delta I (delta 1e-9 of the diagonal) amplifies
   // their different rounding by about 1 / delta, and near the threshold their pivot ratios (of
@@ -283,7 +297,7 @@ TEST(StagePaths, RandomTreesMoveTheSameBothWays)
   settings.dt = 1e-3;
   Simulator by_rows(taut, start, settings);
   Simulator by_particles(taut, start, settings, SolveMethod::Automatic, StagePaths::Generic);
-  ASSERT_TRUE(by_rows.model().treeRows());
+  ASSERT_TRUE(by_rows.model().fusedTree());  // its singular pivots go to the solve by rows
   ASSERT_FALSE(by_particles.model().treeRows());
   long singular_rows = 0, singular_particles = 0;
   for (int done = 0; done < 1000; done += 100)
@@ -300,6 +314,57 @@ TEST(StagePaths, RandomTreesMoveTheSameBothWays)
   EXPECT_GT(singular_rows, 0);
   EXPECT_GT(singular_particles, 0);
   EXPECT_GT((by_rows.state().positions - start.positions).cwiseAbs().maxCoeff(), 1e-3);
+}
+
+// One evaluation of a binary tree of links with a pinned root, a particle no link touches and
+// damping besides gravity (so J a0 is summed, not taken as 0): the fused tree stages give the
+// generic stages' multipliers, constraint forces and accelerations to rounding.
+TEST(StagePaths, TheFusedTreeStagesGiveTheGenericForces)
+{
+  std::mt19937 random(20261204);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int n = 64;  // particles 0..62 the tree, 63 alone
+  Scene scene;
+  State start;
+  start.positions.setZero(3, n);
+  start.velocities.setZero(3, n);
+  for (int k = 0; k < n; ++k)
+  {
+    scene.masses.push_back(0.1 + unit(random));
+    start.velocities.col(k) = Vec3(unit(random) - 0.5, unit(random) - 0.5, unit(random) - 0.5);
+    if (k == 0 || k == n - 1)
+      continue;
+    const int parent = (k - 1) / 2;
+    const Vec3 step(unit(random) - 0.5, unit(random) - 0.5, -unit(random));
+    start.positions.col(k) = start.positions.col(parent) + 0.3 * step.normalized();
+    scene.constraints.push_back(LinkConstraint{ parent, k, 0.3 });
+  }
+  start.positions.col(n - 1) = Vec3(1.0, 1.0, 1.0);
+  scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  scene.forces = { GravityForce{}, LinearDampingForce{ 0.3 } };
+  StepSettings settings;
+  Simulator fused(scene, start, settings);
+  Simulator generic(scene, start, settings, SolveMethod::Automatic, StagePaths::Generic);
+  ASSERT_TRUE(fused.model().fusedTree());
+  Points f_fused, f_generic;
+  Eigen::VectorXd lambda_fused, lambda_generic;
+  fused.constraintForces(f_fused, lambda_fused);
+  generic.constraintForces(f_generic, lambda_generic);
+  ASSERT_EQ(lambda_fused.size(), lambda_generic.size());
+  const double lambda_scale = lambda_generic.cwiseAbs().maxCoeff();
+  EXPECT_GT(lambda_scale, 1.0);
+  std::cerr << "DBG " << (lambda_fused - lambda_generic).cwiseAbs().maxCoeff() << " "
+            << lambda_scale << " " << fused.data().counters.factorizations[6] << "\n";
+  EXPECT_LE((lambda_fused - lambda_generic).cwiseAbs().maxCoeff(), 1e-12 * lambda_scale);
+  EXPECT_LE((f_fused - f_generic).cwiseAbs().maxCoeff(), 1e-12 * f_generic.cwiseAbs().maxCoeff());
+  const Points& a = fused.data().accelerations;
+  const Points& b = generic.data().accelerations;
+  EXPECT_LE((a - b).cwiseAbs().maxCoeff(), 1e-12 * b.cwiseAbs().maxCoeff());
+  // the lone particle falls with damping, and the counters are the generic stages'
+  EXPECT_EQ(f_fused.col(n - 1), Vec3::Zero());
+  EXPECT_EQ(a.col(n - 1), b.col(n - 1));
+  EXPECT_EQ(fused.data().counters.constraints, generic.data().counters.constraints);
+  EXPECT_EQ(fused.data().counters.factorizations, generic.data().counters.factorizations);
 }
 
 TEST(StagePaths, RandomChainsMoveTheSameBothWays)

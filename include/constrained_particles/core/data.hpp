@@ -83,7 +83,7 @@ public:
   /// Rows at the last evaluated stage; after a fused chain's forward stage or projection
   /// (chain_stages.cpp) only each link's first Jacobian block d (its second is -d), a surface
   /// row's C, J, Jdot v, diagonal and violation, and (after a projection) max_violation are of
-  /// that stage; the rest
+  /// that stage (after a fused tree's forward stage, tree_stages.cpp, the Jacobian); the rest
   /// is of the last evaluation that stored it (a generic stage or projection, SHAKE, a generic
   /// fallback). Read what a fused stage did not store through evaluateRowRecords.
   RowData rows;
@@ -127,6 +127,12 @@ public:
   /// The fused projection's corrections waiting for a particle's other row (3 x n if fused) [m]
   /// or [m/s].
   Points chain_pending;
+  /// The fused tree stages' LDL^T of J W J^T (tree_stages.cpp), by place in Model::treeOrder():
+  /// each link's d (3 x m if fused) [m], read by its later clique-mates and the down sweep, and
+  /// the cliques' L entries (Model::treeCliqueEntries()); D^-1 in chain_inverse_pivots and the
+  /// right-hand side, then lambda, in rhs, both by place too.
+  Points tree_jacobian;
+  std::vector<double> tree_lower;
   StageBuffers stages;        ///< the integrators' buffers
   EffectCounters counters;    ///< evaluations since this data was made
   StepStatistics statistics;  ///< of the batch being stepped

@@ -112,6 +112,54 @@ struct ChainRow
 };
 static_assert(sizeof(ChainRow) <= 56, "ChainRow's fields are ordered to pack into 56 bytes");
 
+/// Rows on one free particle beyond which the dense block of those rows (d^2 / 2 entries) costs
+/// more than the particle elimination's 3 x 3 inverse (Model::treeRows()).
+constexpr int TREE_ROWS_PER_PARTICLE = 4;
+
+/// The rows on one free particle with two or more rows, in a tree's elimination order
+/// (Model::treeCliques()): rows a < b of it share only this particle (a forest), so J W J^T's
+/// entry (b, a) is w J_b . J_a here, and eliminating a row updates only its clique-mates (no
+/// fill). Their strictly lower triangle, of J W J^T then of L, is packed row by row: entry
+/// (b, a), b > a, at offset + b (b - 1) / 2 + a.
+struct TreeClique
+{
+  int particle = 0;
+  int size = 0;    ///< d, 2 <= d <= TREE_ROWS_PER_PARTICLE
+  int offset = 0;  ///< of its triangle, in a buffer of Model::treeCliqueEntries() scalars
+  int rows[TREE_ROWS_PER_PARTICLE] = {};       ///< its rows, in elimination order
+  int blocks[TREE_ROWS_PER_PARTICLE] = {};     ///< each row's Jacobian block on the particle
+  int positions[TREE_ROWS_PER_PARTICLE] = {};  ///< each row's place in Model::treeOrder()
+  /// Links only (Model::fusedTree()): +1 where the particle is the link's first (its block d),
+  /// -1 where it is its second (-d).
+  double signs[TREE_ROWS_PER_PARTICLE] = {};
+};
+
+/// Where a row is eliminated (Model::treeEliminatedIn()): `index` in clique `clique`, the clique
+/// of its parent particle (the one it shares with rows after it), or clique -1 if it shares none.
+struct TreePlace
+{
+  int clique = -1;
+  int index = 0;
+};
+
+/// One link of a fused tree (Model::treeLinks()), at its place in the elimination order: what the
+/// up and down sweeps read, in one place.
+struct TreeLink
+{
+  int row = 0, block = 0;                 ///< its row and first Jacobian block (d; then -d)
+  int first = 0, second = 0;              ///< its particles i and j
+  double length = 0.0;                    ///< l [m]
+  double w_first = 0.0, w_second = 0.0;   ///< their inverse masses [1/kg] (0 if held)
+  int held_first = -1, held_second = -1;  ///< index in eliminated() of their record, -1 if free
+  /// The clique (Model::treeCliques()) of i and of j, -1 if the particle has one row or is held,
+  /// and this row's index in each.
+  int clique_first = -1, clique_second = -1;
+  std::int8_t index_first = 0, index_second = 0;
+  /// Down the tree (places m-1 to 0): this link is the first to touch the particle (its J^T
+  /// lambda is written, not added) and the last (its constraint force is then complete).
+  bool first_opens = false, first_closes = false, second_opens = false, second_closes = false;
+};
+
 /// A Jacobian block on a particle an eliminated record holds: its imposed acceleration enters the
 /// right-hand side through it.
 struct EliminatedBlock
@@ -234,9 +282,8 @@ public:
   {
     return incidence_;
   }
-  /// Rows on one free particle beyond which the dense block of those rows (d^2 / 2 entries) costs
-  /// more than the particle elimination's 3 x 3 inverse (treeRows()).
-  static constexpr int TREE_ROWS_PER_PARTICLE = 4;
+  /// See the namespace constant.
+  static constexpr int TREE_ROWS_PER_PARTICLE = constrained_particles::TREE_ROWS_PER_PARTICLE;
   /// True if the Tree solve eliminates J W J^T's rows (solvers/tree_rows.cpp) rather than the
   /// saddle-point matrix's particles (tree.cpp): StagePaths::Specialized and at most
   /// TREE_ROWS_PER_PARTICLE rows on any free particle. Both solve the same system (a singular
@@ -244,6 +291,43 @@ public:
   bool treeRows() const
   {
     return tree_rows_;
+  }
+  /// treeRows(): every row, each after the rows below it (rooted at a free particle of each
+  /// tree, breadth-first, reversed); rows touching no free particle last. m.
+  const std::vector<int>& treeOrder() const
+  {
+    return tree_order_;
+  }
+  /// treeRows(): per place in treeOrder(), the clique the row is eliminated in. m.
+  const std::vector<TreePlace>& treeEliminatedIn() const
+  {
+    return tree_eliminated_in_;
+  }
+  /// treeRows(): one clique per free particle with two or more rows.
+  const std::vector<TreeClique>& treeCliques() const
+  {
+    return tree_cliques_;
+  }
+  /// treeRows(): the scalars the cliques' packed triangles take.
+  int treeCliqueEntries() const
+  {
+    return tree_clique_entries_;
+  }
+  /// True if treeRows() and every row is a link: forward() then takes the fused tree stages
+  /// (tree_stages.cpp).
+  bool fusedTree() const
+  {
+    return !tree_links_.empty();
+  }
+  /// Fused trees: the links in treeOrder().
+  const std::vector<TreeLink>& treeLinks() const
+  {
+    return tree_links_;
+  }
+  /// Fused trees: the particles no link touches.
+  const std::vector<int>& treeUnlinked() const
+  {
+    return tree_unlinked_;
   }
   /// True if every row is a link or a surface row (in any order), J W J^T is tridiagonal and
   /// adjacent rows share at most one free particle: forward() then takes the fused chain stages
@@ -299,6 +383,12 @@ private:
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;
   bool tree_rows_ = false;
+  std::vector<int> tree_order_;  // treeRows(): the elimination order and its cliques
+  std::vector<TreePlace> tree_eliminated_in_;
+  std::vector<TreeClique> tree_cliques_;
+  int tree_clique_entries_ = 0;
+  std::vector<TreeLink> tree_links_;  // empty unless fusedTree()
+  std::vector<int> tree_unlinked_;
   std::vector<ChainRow> chain_rows_;  // empty unless fusedChain()
   std::vector<int> chain_unlinked_;
   int chain_surface_rows_ = 0;
