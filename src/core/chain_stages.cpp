@@ -534,56 +534,16 @@ forwardOf(const Model& model, Data& data, double time, const Points& positions,
 ProjectionReport chainProjectStep(const Model& model, Data& data, double time, Points& positions,
                                   Points& velocities, double tolerance, int max_iterations)
 {
-  // projectPositions then projectVelocities at the final rows (stabilization.cpp), with each
-  // check's sweep also factorising: the last check's factorisation projects the velocities
-  ProjectionReport report;
   data.chain_factorization_at_state = false;
-  imposeEliminated(model, data, time, &positions, nullptr);
-  imposeEliminated(model, data, time, nullptr, &velocities);
   bool factorised = false;
   double min_ratio = 1.0;
-  for (int iteration = 0;; ++iteration)
-  {
-    factorised = projectionSweep(model, data, time, positions, velocities, min_ratio);
-    countChainRows(model, data);
-    // singular: the generic fallbacks below read every row's C and diagonal, which the sweep
-    // does not store (evaluated at zero velocities, as projectPositions evaluates them)
-    if (!factorised)
-      evaluateRowRecords(model, time, positions, data.stages.zero, data.rows, nullptr);
-    report.max_position_error = data.rows.max_violation;
-    report.converged = report.max_position_error <= tolerance;
-    if (report.converged || iteration >= max_iterations ||
-        !std::isfinite(report.max_position_error))
-      break;
-    // dp = -W J^T (J W J^T)^-1 C
-    if (factorised)
-    {
-      countFusedFactorization(model, data, min_ratio);
-      correct(model, data, data.rhs, positions);
-    }
-    else
-    {
-      data.rhs = data.rows.value;
-      report.singular |= correctAlongRows(model, data, positions);
-    }
-    report.iterations = iteration + 1;
-  }
-  // dv = -W J^T (J W J^T)^-1 J v at the final rows
-  if (factorised)
-  {
-    countFusedFactorization(model, data, min_ratio);
-    correct(model, data, data.chain_velocity_rhs, velocities);
-  }
-  else
-  {
-    multiplyJacobian(model, data.rows, velocities, data.rhs);
-    report.singular |= correctAlongRows(model, data, velocities);
-  }
+  const ProjectionReport report = fusedProjectStep(
+      model, data, time, positions, velocities, tolerance, max_iterations,
+      FusedProjection{ &projectionSweep, &countChainRows, &correct }, factorised, min_ratio);
   // the factorisation at the state's final positions serves the next step's first stage
   data.chain_factorization_at_state = factorised && &positions == &data.state.positions;
   data.chain_factorization_time = time;
   data.chain_min_pivot_ratio = min_ratio;
-  data.statistics.projection.merge(report);
   return report;
 }
 

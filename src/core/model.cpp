@@ -3,6 +3,7 @@
 #include "constrained_particles/core/limits.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cstdlib>
 #include <string>
 #include <type_traits>
@@ -150,6 +151,7 @@ int planTreeElimination(const Model& model, std::vector<int>& order,
     const int d = start[p + 1] - start[p];
     if (d < 2)
       continue;
+    assert(d <= TREE_ROWS_PER_PARTICLE);  // Model::treeRows()
     TreeClique clique;
     clique.particle = p;
     clique.size = d;

@@ -116,9 +116,61 @@ ProjectionReport projectStep(const Model& model, Data& data, double time, Points
 {
   if (model.fusedChain())
     return chainProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
+  if (model.fusedTree())
+    return treeProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
   const ProjectionReport report =
       projectPositions(model, data, time, positions, tolerance, max_iterations);
   return finishProjection(model, data, time, positions, velocities, true, false, report);
+}
+
+ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, Points& positions,
+                                  Points& velocities, double tolerance, int max_iterations,
+                                  const FusedProjection& fused, bool& factorised, double& min_ratio)
+{
+  ProjectionReport report;
+  imposeEliminated(model, data, time, &positions, nullptr);
+  imposeEliminated(model, data, time, nullptr, &velocities);
+  factorised = false;
+  min_ratio = 1.0;
+  for (int iteration = 0;; ++iteration)
+  {
+    factorised = fused.sweep(model, data, time, positions, velocities, min_ratio);
+    fused.count_rows(model, data);
+    // singular: the generic fallbacks below read every row's C and diagonal, which the sweep
+    // does not store (evaluated at zero velocities, as projectPositions evaluates them)
+    if (!factorised)
+      evaluateRowRecords(model, time, positions, data.stages.zero, data.rows, nullptr);
+    report.max_position_error = data.rows.max_violation;
+    report.converged = report.max_position_error <= tolerance;
+    if (report.converged || iteration >= max_iterations ||
+        !std::isfinite(report.max_position_error))
+      break;
+    // dp = -W J^T (J W J^T)^-1 C
+    if (factorised)
+    {
+      countFusedFactorization(model, data, min_ratio);
+      fused.correct(model, data, data.rhs, positions);
+    }
+    else
+    {
+      data.rhs = data.rows.value;
+      report.singular |= correctAlongRows(model, data, positions);
+    }
+    report.iterations = iteration + 1;
+  }
+  // dv = -W J^T (J W J^T)^-1 J v at the final rows
+  if (factorised)
+  {
+    countFusedFactorization(model, data, min_ratio);
+    fused.correct(model, data, data.chain_velocity_rhs, velocities);
+  }
+  else
+  {
+    multiplyJacobian(model, data.rows, velocities, data.rhs);
+    report.singular |= correctAlongRows(model, data, velocities);
+  }
+  data.statistics.projection.merge(report);
+  return report;
 }
 
 ProjectionReport finishProjection(const Model& model, Data& data, double time,

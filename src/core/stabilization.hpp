@@ -36,7 +36,8 @@ double projectVelocities(const Model& model, Data& data, double time, const Poin
 bool correctAlongRows(const Model& model, Data& data, Points& out);
 
 /// A step's projection: projectPositions(), then finishProjection() at the final rows without
-/// measuring the velocity change; a fused chain (Model::fusedChain()) takes chainProjectStep().
+/// measuring the velocity change; a fused chain (Model::fusedChain()) takes chainProjectStep(), a
+/// fused tree (Model::fusedTree()) treeProjectStep().
 ProjectionReport projectStep(const Model& model, Data& data, double time, Points& positions,
                              Points& velocities, double tolerance, int max_iterations);
 
@@ -46,6 +47,34 @@ ProjectionReport projectStep(const Model& model, Data& data, double time, Points
 /// solves at a singular pivot.
 ProjectionReport chainProjectStep(const Model& model, Data& data, double time, Points& positions,
                                   Points& velocities, double tolerance, int max_iterations);
+
+/// What a fused projection's Newton loop (fusedProjectStep) calls: `sweep` evaluates the rows at
+/// the positions, sets data.rows.max_violation, factorises J W J^T and forward-substitutes C
+/// into data.rhs and J v into data.chain_velocity_rhs, false at a singular pivot; `count_rows`
+/// counts one evaluation of every row as rowStage would; `correct` back-substitutes x in place
+/// and subtracts W J^T x from `out`.
+struct FusedProjection
+{
+  bool (*sweep)(const Model& model, Data& data, double time, const Points& positions,
+                const Points& velocities, double& min_ratio);
+  void (*count_rows)(const Model& model, Data& data);
+  void (*correct)(const Model& model, Data& data, Eigen::VectorXd& x, Points& out);
+};
+
+/// projectStep()'s loop with `fused`'s sweeps (projectPositions then projectVelocities at the
+/// final rows, each check's sweep also factorising, the last check's factorisation projecting the
+/// velocities); a singular pivot hands the solves to the generic ones. Merges the report into
+/// data.statistics. `factorised`: whether the last factorisation (at the final positions, of
+/// smallest pivot ratio `min_ratio`) is usable.
+ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, Points& positions,
+                                  Points& velocities, double tolerance, int max_iterations,
+                                  const FusedProjection& fused, bool& factorised,
+                                  double& min_ratio);
+
+/// projectStep() for a fused tree (tree_stages.cpp), as chainProjectStep() for a chain: the same
+/// motion to rounding, the same counters and statistics as the generic projection.
+ProjectionReport treeProjectStep(const Model& model, Data& data, double time, Points& positions,
+                                 Points& velocities, double tolerance, int max_iterations);
 
 /// Ends a projection: projectVelocities() (arguments as there), its largest change and any
 /// singular solve written into `report`, which is then merged into data.statistics.projection

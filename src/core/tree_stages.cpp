@@ -7,9 +7,13 @@
 // down, the back substitution, the multipliers, J^T lambda and the accelerations. The elimination
 // is solvers/tree_rows.cpp's (right-looking there) with its sums in another order: the same
 // motion to rounding, the same counters. A singular pivot hands the stage to the generic path,
-// whose factorisation regularises it. The projection stays generic (with the tree row solve).
+// whose factorisation regularises it. The projection likewise: each Newton check's sweep also
+// factorises, and the back substitution and the correction share one.
 #include "solvers/solver.hpp"
+#include "stabilization.hpp"
 #include "stages.hpp"
+
+#include <cmath>
 
 namespace constrained_particles
 {
@@ -25,11 +29,11 @@ inline int lower(int b, int a)
 
 // Link k's row of L within clique c, where it is member q of the particle whose Jacobian block
 // is w_signed-scaled (w_p times its sign, +1 on the link's first particle): for each member a
-// before it, t_a = A(q, a) - sum_{j<a} t_j L(a, j) = L(q, a) D_a; the pivot loses L(q, a) t_a and
-// the forward substitution L(q, a) y_a.
+// before it, t_a = A(q, a) - sum_{j<a} t_j L(a, j) = L(q, a) D_a, and the pivot loses
+// L(q, a) t_a.
 inline void eliminateAgainst(const TreeClique& c, int q, double w_signed, const double* d,
-                             const double* jacobians, const double* inverse_pivots, const double* y,
-                             double* lower_entries, double& pivot, double& r)
+                             const double* jacobians, const double* inverse_pivots,
+                             double* lower_entries, double& pivot)
 {
   double* l = lower_entries + c.offset;
   double t[MAX_ROWS];
@@ -44,8 +48,66 @@ inline void eliminateAgainst(const TreeClique& c, int q, double w_signed, const 
     const double entry = e * inverse_pivots[place];
     l[lower(q, a)] = entry;
     pivot -= entry * e;
-    r -= entry * y[place];
   }
+}
+
+// The forward substitution of link k (member q of clique c): r -= L(q, a) y_a.
+inline void substituteAgainst(const TreeClique& c, int q, const double* lower_entries,
+                              const double* y, double& r)
+{
+  const double* l = lower_entries + c.offset;
+  for (int a = 0; a < q; ++a)
+    r -= l[lower(q, a)] * y[c.positions[a]];
+}
+
+// Link k's row of L and its pivot from its diagonal entry (both its particles' cliques); tracks
+// min(pivot / diagonal). Returns the pivot.
+inline double factorLink(const TreeLink& link, const TreeClique* cliques, const double* d,
+                         double diagonal, const double* jacobians, const double* inverse_pivots,
+                         double* lower_entries, double& min_ratio)
+{
+  double pivot = diagonal;
+  if (link.clique_first >= 0)
+    eliminateAgainst(cliques[link.clique_first], link.index_first, link.w_first, d, jacobians,
+                     inverse_pivots, lower_entries, pivot);
+  if (link.clique_second >= 0)
+    eliminateAgainst(cliques[link.clique_second], link.index_second, -link.w_second, d, jacobians,
+                     inverse_pivots, lower_entries, pivot);
+  if (!(diagonal > 0.0))
+    min_ratio = 0.0;
+  else if (pivot < min_ratio * diagonal)
+    min_ratio = pivot / diagonal;
+  return pivot;
+}
+
+// Link k's forward substitution into r against y (by place), over both its particles' cliques.
+inline void substituteLink(const TreeLink& link, const TreeClique* cliques,
+                           const double* lower_entries, const double* y, double& r)
+{
+  if (link.clique_first >= 0)
+    substituteAgainst(cliques[link.clique_first], link.index_first, lower_entries, y, r);
+  if (link.clique_second >= 0)
+    substituteAgainst(cliques[link.clique_second], link.index_second, lower_entries, y, r);
+}
+
+// Link k's d = p_i - p_j at `positions`, kept by place (its Jacobian blocks are d and -d: the
+// sweeps read them from there, and data.rows is not written); returns |d|^2.
+inline double evaluateTreeLink(const TreeLink& link, int k, const double* p, double* jacobians)
+{
+  const double* pi = p + 3 * link.first;
+  const double* pj = p + 3 * link.second;
+  const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
+  double* d = jacobians + 3 * k;
+  d[0] = dx;
+  d[1] = dy;
+  d[2] = dz;
+  return dx * dx + dy * dy + dz * dz;
+}
+
+// Counts one evaluation of every link, as rowStage counts them.
+void countLinks(const Model& model, Data& data)
+{
+  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += model.numRows();
 }
 
 // Up the tree; false at a singular pivot.
@@ -54,7 +116,6 @@ bool treeSweepUp(const Model& model, Data& data, const Points& positions, const 
 {
   const TreeLink* links = model.treeLinks().data();
   const TreeClique* cliques = model.treeCliques().data();
-  Vec3* jacobian = data.rows.jacobian.data();
   const double* p = positions.data();
   const double* v = velocities.data();
   const double* a0 = data.free_accelerations.data();
@@ -69,18 +130,12 @@ bool treeSweepUp(const Model& model, Data& data, const Points& positions, const 
   for (int k = 0; k < m; ++k)
   {
     const TreeLink& link = links[k];
-    const double* pi = p + 3 * link.first;
-    const double* pj = p + 3 * link.second;
-    const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
-    double* d = jacobians + 3 * k;
-    d[0] = dx;
-    d[1] = dy;
-    d[2] = dz;
-    jacobian[link.block] = Vec3(dx, dy, dz);
-    jacobian[link.block + 1] = Vec3(-dx, -dy, -dz);
-    const double squared = dx * dx + dy * dy + dz * dz;
+    const double squared = evaluateTreeLink(link, k, p, jacobians);
+    const double* d = jacobians + 3 * k;
+    const double dx = d[0], dy = d[1], dz = d[2];
     const double diagonal = link.w_first * squared + link.w_second * squared;
-    // the right-hand side -(Jdot v + J a0) - J a_held, as chain_stages.cpp forms a link's
+    // the right-hand side -(Jdot v + J a0) - J a_held (chain_stages.cpp's, summed in another
+    // order: the same to rounding)
     const double* vi = v + 3 * link.first;
     const double* vj = v + 3 * link.second;
     const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
@@ -98,17 +153,9 @@ bool treeSweepUp(const Model& model, Data& data, const Points& positions, const 
       if (link.held_second >= 0)
         r += Vec3(dx, dy, dz).dot(imposed[link.held_second].acceleration);
     }
-    double pivot = diagonal;
-    if (link.clique_first >= 0)
-      eliminateAgainst(cliques[link.clique_first], link.index_first, link.w_first, d, jacobians,
-                       inverse_pivots, y, lower_entries, pivot, r);
-    if (link.clique_second >= 0)
-      eliminateAgainst(cliques[link.clique_second], link.index_second, -link.w_second, d, jacobians,
-                       inverse_pivots, y, lower_entries, pivot, r);
-    if (!(diagonal > 0.0))
-      min_ratio = 0.0;
-    else if (pivot < min_ratio * diagonal)
-      min_ratio = pivot / diagonal;
+    const double pivot =
+        factorLink(link, cliques, d, diagonal, jacobians, inverse_pivots, lower_entries, min_ratio);
+    substituteLink(link, cliques, lower_entries, y, r);
     if (ConstraintSolver::isSingularPivot(pivot, diagonal))
       return false;
     inverse_pivots[k] = 1.0 / pivot;
@@ -124,6 +171,20 @@ inline double backSubstitute(const TreeClique& c, int q, const double* lower_ent
   const double* l = lower_entries + c.offset;
   for (int b = q + 1; b < c.size; ++b)
     value -= l[lower(b, q)] * lambda[c.positions[b]];
+  return value;
+}
+
+// Link k's back substitution: D^-1 y_k less L(b, k) x_b over the links b after it in both its
+// particles' cliques (x by place, already solved there).
+inline double backSubstituteLink(const TreeLink& link, int k, const TreeClique* cliques,
+                                 const double* lower_entries, const double* inverse_pivots,
+                                 const double* x)
+{
+  double value = x[k] * inverse_pivots[k];
+  if (link.clique_first >= 0)
+    value = backSubstitute(cliques[link.clique_first], link.index_first, lower_entries, x, value);
+  if (link.clique_second >= 0)
+    value = backSubstitute(cliques[link.clique_second], link.index_second, lower_entries, x, value);
   return value;
 }
 
@@ -144,13 +205,8 @@ void treeSweepDown(const Model& model, Data& data, Points& accelerations)
   for (int k = model.numRows() - 1; k >= 0; --k)
   {
     const TreeLink& link = links[k];
-    double value = lambda[k] * inverse_pivots[k];
-    if (link.clique_first >= 0)
-      value = backSubstitute(cliques[link.clique_first], link.index_first, lower_entries, lambda,
-                             value);
-    if (link.clique_second >= 0)
-      value = backSubstitute(cliques[link.clique_second], link.index_second, lower_entries, lambda,
-                             value);
+    const double value =
+        backSubstituteLink(link, k, cliques, lower_entries, inverse_pivots, lambda);
     lambda[k] = multipliers[link.row] = value;
     const Vec3 force = value * Eigen::Map<const Vec3>(jacobians + 3 * k);
     settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, a0, forces,
@@ -165,14 +221,99 @@ void treeSweepDown(const Model& model, Data& data, Points& accelerations)
   }
 }
 
+// Up the tree for a projection at `positions`: the Jacobian, the largest violation
+// (data.rows.max_violation), LDL^T, and the forward substitutions of C into data.rhs and of J v
+// into data.chain_velocity_rhs, by place. The links' C, diagonals and violations are not stored
+// in data.rows: the generic fallback evaluates its own. Returns false at a singular pivot (the
+// violations are still all measured; the factorisation is then unusable).
+bool treeProjectionSweep(const Model& model, Data& data, double /*time*/, const Points& positions,
+                         const Points& velocities, double& min_ratio)
+{
+  const TreeLink* links = model.treeLinks().data();
+  const TreeClique* cliques = model.treeCliques().data();
+  const double* p = positions.data();
+  const double* v = velocities.data();
+  double* jacobians = data.tree_jacobian.data();
+  double* y = data.rhs.data();
+  double* z = data.chain_velocity_rhs.data();
+  double* inverse_pivots = data.chain_inverse_pivots.data();
+  double* lower_entries = data.tree_lower.data();
+  double max_violation = 0.0;
+  bool factorised = true;
+  min_ratio = 1.0;
+  const int m = model.numRows();
+  for (int k = 0; k < m; ++k)
+  {
+    const TreeLink& link = links[k];
+    const double squared = evaluateTreeLink(link, k, p, jacobians);
+    // the violation and C as link_constraint.hpp's evaluateRows forms them
+    max_violation = worseError(max_violation, std::abs(std::sqrt(squared) - link.length));
+    if (!factorised)
+      continue;
+    const double* d = jacobians + 3 * k;
+    const double* vi = v + 3 * link.first;
+    const double* vj = v + 3 * link.second;
+    double jv = d[0] * (vi[0] - vj[0]) + d[1] * (vi[1] - vj[1]) + d[2] * (vi[2] - vj[2]);
+    double c = 0.5 * (squared - link.length * link.length);
+    const double diagonal = link.w_first * squared + link.w_second * squared;
+    const double pivot =
+        factorLink(link, cliques, d, diagonal, jacobians, inverse_pivots, lower_entries, min_ratio);
+    substituteLink(link, cliques, lower_entries, y, c);
+    substituteLink(link, cliques, lower_entries, z, jv);
+    if (ConstraintSolver::isSingularPivot(pivot, diagonal))
+    {
+      factorised = false;
+      continue;
+    }
+    inverse_pivots[k] = 1.0 / pivot;
+    y[k] = c;
+    z[k] = jv;
+  }
+  data.rows.max_violation = max_violation;
+  return factorised;
+}
+
+// Down the tree: mu = D^-1 x - L^T mu from the last place, in place in `x` (by place), and
+// out -= W J^T mu in the same sweep.
+void treeCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out)
+{
+  const TreeLink* links = model.treeLinks().data();
+  const TreeClique* cliques = model.treeCliques().data();
+  const double* jacobians = data.tree_jacobian.data();
+  const double* inverse_pivots = data.chain_inverse_pivots.data();
+  const double* lower_entries = data.tree_lower.data();
+  double* mu = x.data();
+  double* o = out.data();
+  for (int k = model.numRows() - 1; k >= 0; --k)
+  {
+    const TreeLink& link = links[k];
+    const double value = backSubstituteLink(link, k, cliques, lower_entries, inverse_pivots, mu);
+    mu[k] = value;
+    const Eigen::Map<const Vec3> d(jacobians + 3 * k);
+    // W J^T mu: w_i mu d on i, -w_j mu d on j (zero on held particles)
+    Eigen::Map<Vec3>(o + 3 * link.first) -= (link.w_first * value) * d;
+    Eigen::Map<Vec3>(o + 3 * link.second) += (link.w_second * value) * d;
+  }
+}
+
 }  // namespace
+
+ProjectionReport treeProjectStep(const Model& model, Data& data, double time, Points& positions,
+                                 Points& velocities, double tolerance, int max_iterations)
+{
+  bool factorised = false;
+  double min_ratio = 1.0;
+  return fusedProjectStep(model, data, time, positions, velocities, tolerance, max_iterations,
+                          FusedProjection{ &treeProjectionSweep, &countLinks, &treeCorrect },
+                          factorised, min_ratio);
+}
 
 SolveReport treeForward(const Model& model, Data& data, double time, const Points& positions,
                         const Points& velocities, Points& accelerations)
 {
   appliedForceStage(model, data, positions, velocities);
   // the links are counted once, as rowStage counts them, whichever path finishes the stage
-  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += model.numRows();
+  countLinks(model, data);
   double min_ratio = 1.0;
   if (!treeSweepUp(model, data, positions, velocities, min_ratio))
   {

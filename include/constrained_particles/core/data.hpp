@@ -83,7 +83,8 @@ public:
   /// Rows at the last evaluated stage; after a fused chain's forward stage or projection
   /// (chain_stages.cpp) only each link's first Jacobian block d (its second is -d), a surface
   /// row's C, J, Jdot v, diagonal and violation, and (after a projection) max_violation are of
-  /// that stage (after a fused tree's forward stage, tree_stages.cpp, the Jacobian); the rest
+  /// that stage (the fused tree stages, tree_stages.cpp, write none: their d is in tree_jacobian);
+  /// the rest
   /// is of the last evaluation that stored it (a generic stage or projection, SHAKE, a generic
   /// fallback). Read what a fused stage did not store through evaluateRowRecords.
   RowData rows;
@@ -110,7 +111,8 @@ public:
   std::vector<ImposedMotion> imposed;  ///< each eliminated record's motion at the stage's time (e)
   Eigen::VectorXd multipliers;         ///< lambda (m), then each eliminated reaction [N] (3 e)
   /// Right-hand side, then solution, of a solve (m); the fused projection solves in place in
-  /// it and chain_velocity_rhs, so after one it holds the last position solve's multipliers.
+  /// it and chain_velocity_rhs, so after one it holds the last position solve's multipliers
+  /// (the fused tree stages by place in Model::treeOrder(), not by row).
   Eigen::VectorXd rhs;
   /// The fused chain stages' LDL^T of J W J^T (chain_stages.cpp): L's sub-diagonal (m - 1) and
   /// D^-1 (m), and the projection's J v, forward- then back-substituted in place (m). The
@@ -128,9 +130,9 @@ public:
   /// or [m/s].
   Points chain_pending;
   /// The fused tree stages' LDL^T of J W J^T (tree_stages.cpp), by place in Model::treeOrder():
-  /// each link's d (3 x m if fused) [m], read by its later clique-mates and the down sweep, and
+  /// each link's d (3 x m if fused) [m], read by its later clique-mates and the down sweeps, and
   /// the cliques' L entries (Model::treeCliqueEntries()); D^-1 in chain_inverse_pivots and the
-  /// right-hand side, then lambda, in rhs, both by place too.
+  /// right-hand sides, then lambda or mu, in rhs and chain_velocity_rhs, by place too.
   Points tree_jacobian;
   std::vector<double> tree_lower;
   StageBuffers stages;        ///< the integrators' buffers
