@@ -58,9 +58,11 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
                          const Points& velocities, Points& accelerations);
 
 /// Stages 1, 2, 4 and 5 for a fused tree (Model::fusedTree(), no Baumgarte bias), in two sweeps
-/// over the links in elimination order (tree_stages.cpp): the same data as chainForward's (of the
-/// rows, both Jacobian blocks only), counters and report as the generic stages, and the same motion
-/// to rounding; a singular pivot hands the stage to them. Eliminated motion already imposed.
+/// over the links in elimination order (tree_stages.cpp): the same data as chainForward's but
+/// none of the rows (each link's d is in data.tree_jacobian), the same counters and report as the
+/// generic stages, and the same motion to rounding; a singular pivot hands the stage to them. At
+/// the state its last fused projection factorised, it solves with that factorisation, as
+/// chainForward does. Eliminated motion already imposed.
 SolveReport treeForward(const Model& model, Data& data, double time, const Points& positions,
                         const Points& velocities, Points& accelerations);
 

@@ -110,7 +110,10 @@ void countLinks(const Model& model, Data& data)
   data.counters.constraints[constraintKindIndex<LinkConstraint>()] += model.numRows();
 }
 
-// Up the tree; false at a singular pivot.
+// Up the tree; false at a singular pivot. REUSED: d, L and D in data are of these positions (the
+// last fused projection's, Data::chain_factorization_at_state): only the right-hand side and its
+// forward substitution.
+template <bool REUSED>
 bool treeSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
                  double& min_ratio)
 {
@@ -130,10 +133,9 @@ bool treeSweepUp(const Model& model, Data& data, const Points& positions, const 
   for (int k = 0; k < m; ++k)
   {
     const TreeLink& link = links[k];
-    const double squared = evaluateTreeLink(link, k, p, jacobians);
+    const double squared = REUSED ? 0.0 : evaluateTreeLink(link, k, p, jacobians);
     const double* d = jacobians + 3 * k;
     const double dx = d[0], dy = d[1], dz = d[2];
-    const double diagonal = link.w_first * squared + link.w_second * squared;
     // the right-hand side -(Jdot v + J a0) - J a_held (chain_stages.cpp's, summed in another
     // order: the same to rounding)
     const double* vi = v + 3 * link.first;
@@ -153,12 +155,16 @@ bool treeSweepUp(const Model& model, Data& data, const Points& positions, const 
       if (link.held_second >= 0)
         r += Vec3(dx, dy, dz).dot(imposed[link.held_second].acceleration);
     }
-    const double pivot =
-        factorLink(link, cliques, d, diagonal, jacobians, inverse_pivots, lower_entries, min_ratio);
+    if constexpr (!REUSED)
+    {
+      const double diagonal = link.w_first * squared + link.w_second * squared;
+      const double pivot = factorLink(link, cliques, d, diagonal, jacobians, inverse_pivots,
+                                      lower_entries, min_ratio);
+      if (ConstraintSolver::isSingularPivot(pivot, diagonal))
+        return false;
+      inverse_pivots[k] = 1.0 / pivot;
+    }
     substituteLink(link, cliques, lower_entries, y, r);
-    if (ConstraintSolver::isSingularPivot(pivot, diagonal))
-      return false;
-    inverse_pivots[k] = 1.0 / pivot;
     y[k] = r;
   }
   return true;
@@ -301,11 +307,17 @@ void treeCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out
 ProjectionReport treeProjectStep(const Model& model, Data& data, double time, Points& positions,
                                  Points& velocities, double tolerance, int max_iterations)
 {
+  data.chain_factorization_at_state = false;
   bool factorised = false;
   double min_ratio = 1.0;
-  return fusedProjectStep(model, data, time, positions, velocities, tolerance, max_iterations,
-                          FusedProjection{ &treeProjectionSweep, &countLinks, &treeCorrect },
-                          factorised, min_ratio);
+  const ProjectionReport report = fusedProjectStep(
+      model, data, time, positions, velocities, tolerance, max_iterations,
+      FusedProjection{ &treeProjectionSweep, &countLinks, &treeCorrect }, factorised, min_ratio);
+  // the factorisation at the state's final positions serves the next step's first stage
+  data.chain_factorization_at_state = factorised && &positions == &data.state.positions;
+  data.chain_factorization_time = time;
+  data.chain_min_pivot_ratio = min_ratio;
+  return report;
 }
 
 SolveReport treeForward(const Model& model, Data& data, double time, const Points& positions,
@@ -315,15 +327,30 @@ SolveReport treeForward(const Model& model, Data& data, double time, const Point
   // the links are counted once, as rowStage counts them, whichever path finishes the stage
   countLinks(model, data);
   double min_ratio = 1.0;
-  if (!treeSweepUp(model, data, positions, velocities, min_ratio))
+  // J W J^T depends on the positions only: at the positions the projection factorised at (a
+  // step's first stage after a projected step), its L and D serve this stage's solve
+  const bool reuse = data.chain_factorization_at_state &&
+                     positions.data() == data.state.positions.data() &&
+                     time == data.chain_factorization_time;
+  data.chain_factorization_at_state = false;
+  SolveReport report;
+  if (reuse)
+  {
+    treeSweepUp<true>(model, data, positions, velocities, min_ratio);
+    report.method = model.solveMethod();
+    report.min_pivot_ratio = data.chain_min_pivot_ratio;
+    data.statistics.solve.mergeReused(report);
+  }
+  else if (treeSweepUp<false>(model, data, positions, velocities, min_ratio))
+    report = countFusedFactorization(model, data, min_ratio);
+  else
   {
     // singular: the generic stages finish the rows and regularise the factorisation
     evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
-    const SolveReport report = constraintForceStage(model, data, nullptr);
+    report = constraintForceStage(model, data, nullptr);
     accelerationStage(model, data, accelerations);
     return report;
   }
-  const SolveReport report = countFusedFactorization(model, data, min_ratio);
   treeSweepDown(model, data, accelerations);
   addEliminatedReactions(model, data);
   heldAccelerations(model, data, accelerations);

@@ -118,7 +118,8 @@ public:
   /// D^-1 (m), and the projection's J v, forward- then back-substituted in place (m). The
   /// solver's own factorisation is not updated by them.
   Eigen::VectorXd chain_lower, chain_inverse_pivots, chain_velocity_rhs;
-  /// chain_lower, chain_inverse_pivots and the Jacobian in `rows` are of `state.positions` at
+  /// chain_lower, chain_inverse_pivots and the Jacobian in `rows` (a fused tree's: tree_lower,
+  /// chain_inverse_pivots and tree_jacobian) are of `state.positions` at
   /// `chain_factorization_time`, taken by the last fused projection: the next stage at the state
   /// and that time (a step's first) solves with them instead of factorising again. Cleared by
   /// every fused stage (which uses or overwrites them), every other writer of the rows
