@@ -125,13 +125,14 @@ ProjectionReport projectStep(const Model& model, Data& data, double time, Points
 
 ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, Points& positions,
                                   Points& velocities, double tolerance, int max_iterations,
-                                  const FusedProjection& fused, bool& factorised, double& min_ratio)
+                                  const FusedProjection& fused)
 {
   ProjectionReport report;
+  data.chain_factorization_at_state = false;
   imposeEliminated(model, data, time, &positions, nullptr);
   imposeEliminated(model, data, time, nullptr, &velocities);
-  factorised = false;
-  min_ratio = 1.0;
+  bool factorised = false;
+  double min_ratio = 1.0;
   for (int iteration = 0;; ++iteration)
   {
     factorised = fused.sweep(model, data, time, positions, velocities, min_ratio);
@@ -169,6 +170,10 @@ ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, P
     multiplyJacobian(model, data.rows, velocities, data.rhs);
     report.singular |= correctAlongRows(model, data, velocities);
   }
+  // the factorisation at the state's final positions serves the next step's first stage
+  data.chain_factorization_at_state = factorised && &positions == &data.state.positions;
+  data.chain_factorization_time = time;
+  data.chain_min_pivot_ratio = min_ratio;
   data.statistics.projection.merge(report);
   return report;
 }

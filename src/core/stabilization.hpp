@@ -64,12 +64,23 @@ struct FusedProjection
 /// projectStep()'s loop with `fused`'s sweeps (projectPositions then projectVelocities at the
 /// final rows, each check's sweep also factorising, the last check's factorisation projecting the
 /// velocities); a singular pivot hands the solves to the generic ones. Merges the report into
-/// data.statistics. `factorised`: whether the last factorisation (at the final positions, of
-/// smallest pivot ratio `min_ratio`) is usable.
+/// data.statistics. The last factorisation, if usable and at data.state.positions, is kept for
+/// the next stage there (Data::chain_factorization_at_state, takeFactorizationAtState).
 ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, Points& positions,
                                   Points& velocities, double tolerance, int max_iterations,
-                                  const FusedProjection& fused, bool& factorised,
-                                  double& min_ratio);
+                                  const FusedProjection& fused);
+
+/// For a fused forward stage at (time, positions): whether the last fused projection's
+/// factorisation is of them (then its L and D serve the stage's solve: J W J^T depends on the
+/// positions only), clearing the flag either way (the stage uses or overwrites it).
+inline bool takeFactorizationAtState(Data& data, double time, const Points& positions)
+{
+  const bool at_state = data.chain_factorization_at_state &&
+                        positions.data() == data.state.positions.data() &&
+                        time == data.chain_factorization_time;
+  data.chain_factorization_at_state = false;
+  return at_state;
+}
 
 /// projectStep() for a fused tree (tree_stages.cpp), as chainProjectStep() for a chain: the same
 /// motion to rounding, the same counters and statistics as the generic projection.

@@ -307,17 +307,8 @@ void treeCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out
 ProjectionReport treeProjectStep(const Model& model, Data& data, double time, Points& positions,
                                  Points& velocities, double tolerance, int max_iterations)
 {
-  data.chain_factorization_at_state = false;
-  bool factorised = false;
-  double min_ratio = 1.0;
-  const ProjectionReport report = fusedProjectStep(
-      model, data, time, positions, velocities, tolerance, max_iterations,
-      FusedProjection{ &treeProjectionSweep, &countLinks, &treeCorrect }, factorised, min_ratio);
-  // the factorisation at the state's final positions serves the next step's first stage
-  data.chain_factorization_at_state = factorised && &positions == &data.state.positions;
-  data.chain_factorization_time = time;
-  data.chain_min_pivot_ratio = min_ratio;
-  return report;
+  return fusedProjectStep(model, data, time, positions, velocities, tolerance, max_iterations,
+                          FusedProjection{ &treeProjectionSweep, &countLinks, &treeCorrect });
 }
 
 SolveReport treeForward(const Model& model, Data& data, double time, const Points& positions,
@@ -327,12 +318,7 @@ SolveReport treeForward(const Model& model, Data& data, double time, const Point
   // the links are counted once, as rowStage counts them, whichever path finishes the stage
   countLinks(model, data);
   double min_ratio = 1.0;
-  // J W J^T depends on the positions only: at the positions the projection factorised at (a
-  // step's first stage after a projected step), its L and D serve this stage's solve
-  const bool reuse = data.chain_factorization_at_state &&
-                     positions.data() == data.state.positions.data() &&
-                     time == data.chain_factorization_time;
-  data.chain_factorization_at_state = false;
+  const bool reuse = takeFactorizationAtState(data, time, positions);
   SolveReport report;
   if (reuse)
   {
