@@ -163,6 +163,10 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     // would jitter every step's length), and the last ends where one step of dt would
     const double end = j == substeps ? start.time + settings_.dt : start.time + j * h;
     sub.dt = h;
+    // an integrator holding the constraints itself moves x.positions outside the fused stages:
+    // no factorisation of them is kept for its stages (Data::chain_factorization_at_state)
+    if (method.holds_constraints)
+      data.chain_factorization_at_state = false;
     method.step(model, data, sub);
     if (!method.holds_constraints && settings_.stabilization == Stabilization::Projection)
     {

@@ -777,6 +777,87 @@ TEST(StagePaths, TheFusedProjectionHandsSingularSolvesToTheGenericOne)
   }
 }
 
+// The same for a tree: a taut line between two pins through particle 1, particle 3 hanging from
+// it (a fused tree, Model::fusedTree()), against the generic projection (the block elimination:
+// the same regularisation, rounding amplified by about 1 / delta, hence 1e-9 m). Exactly taut
+// only: pulled 2e-4 m apart, Newton walks the line towards singular, and the two eliminations'
+// pivot ratios (of different matrices, their sums in different orders) call different checks
+// singular near the threshold (there the fused path's last check factorised unregularised), so
+// the two paths may project the velocities differently (as RandomTreesMoveTheSameBothWays' taut
+// tree: both call some singular)
+TEST(StagePaths, TheFusedTreeProjectionHandsSingularSolvesToTheGenericOne)
+{
+  for (const double stretch : { 0.0 })
+  {
+    Scene scene;
+    scene.masses = { 1.0, 1.0, 1.0, 1.0 };
+    scene.forces = { GravityForce{} };
+    scene.constraints = { LinkConstraint{ 0, 1, 0.1 }, LinkConstraint{ 1, 2, 0.1 },
+                          LinkConstraint{ 3, 1, 0.1 }, PinConstraint{ 0, Vec3(0, 0, 0) },
+                          PinConstraint{ 2, Vec3(0.2 + stretch, 0, 0) } };
+    const Model fused_model = Model::compile(scene);
+    const Model generic_model = Model::compile(scene, SolveMethod::Automatic, StagePaths::Generic);
+    ASSERT_TRUE(fused_model.fusedTree());
+    ASSERT_FALSE(generic_model.treeRows());
+    Data fused(fused_model), generic(generic_model);
+    for (Data* data : { &fused, &generic })
+    {
+      data->state.positions.col(1) = Vec3(0.1 + 0.5 * stretch, 0, 0);
+      data->state.positions.col(2) = Vec3(0.2 + stretch, 0, 0);
+      data->state.positions.col(3) = Vec3(0.1 + 0.5 * stretch, 0, -0.1);
+      data->state.velocities.col(1) = Vec3(0.3, 0, -0.5);
+      data->state.velocities.col(3) = Vec3(0.0, 0.2, 0.0);
+    }
+    const ProjectionReport a = projectStep(fused_model, fused, 0.0, fused.state.positions,
+                                           fused.state.velocities, 1e-10, 5);
+    const ProjectionReport b = projectStep(generic_model, generic, 0.0, generic.state.positions,
+                                           generic.state.velocities, 1e-10, 5);
+    const std::string what = "stretch " + std::to_string(stretch);
+    EXPECT_TRUE(a.singular) << what << ": the hand-over was not exercised";
+    EXPECT_EQ(a.converged, stretch == 0.0) << what;
+    EXPECT_EQ(a.singular, b.singular) << what;
+    EXPECT_EQ(a.converged, b.converged) << what;
+    EXPECT_EQ(a.iterations, b.iterations) << what;
+    EXPECT_NEAR(a.max_position_error, b.max_position_error, 1e-9) << what;
+    EXPECT_EQ(fused.counters.constraints, generic.counters.constraints) << what;
+    EXPECT_EQ(fused.counters.factorizations, generic.counters.factorizations) << what;
+    EXPECT_EQ(fused.statistics.solve.factorizations, generic.statistics.solve.factorizations);
+    EXPECT_EQ(fused.statistics.solve.singular_count, generic.statistics.solve.singular_count);
+    EXPECT_LE((fused.state.positions - generic.state.positions).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LE((fused.state.velocities - generic.state.velocities).cwiseAbs().maxCoeff(), 1e-9);
+    // a singular projection keeps no factorisation for the next stage
+    EXPECT_FALSE(fused.chain_factorization_at_state) << what;
+  }
+}
+
+// A fused tree's first stage solving with its projection's factorisation solves with what a new
+// factorisation at the same positions gives, bit for bit: `mobile` stepped with the reuse moves
+// exactly as when constraintForces() between steps (evaluated on copies of the state) defeats it.
+TEST(StagePaths, AFusedTreesReusedFactorisationIsAFreshOne)
+{
+  const SceneDescription description = loadSceneFile(DIRECTORY + "/mobile.yaml");
+  const BuiltScene built = buildScene(description);
+  const StepSettings settings = description.solver.applyTo(StepSettings{});
+  Simulator reusing(built.scene, built.initial_state, settings);
+  Simulator fresh(built.scene, built.initial_state, settings);
+  ASSERT_TRUE(reusing.model().fusedTree());
+  Points forces;
+  Eigen::VectorXd multipliers;
+  long reused = 0, fresh_reused = 0;
+  for (int k = 0; k < 300; ++k)
+  {
+    reused += reusing.step().solve.reused_factorizations;
+    fresh_reused += fresh.step().solve.reused_factorizations;
+    fresh.constraintForces(forces, multipliers);
+  }
+  EXPECT_EQ(reused, 299);
+  EXPECT_EQ(fresh_reused, 0);
+  EXPECT_EQ(reusing.state().positions, fresh.state().positions);
+  EXPECT_EQ(reusing.state().velocities, fresh.state().velocities);
+  EXPECT_GT((reusing.state().positions - built.initial_state.positions).cwiseAbs().maxCoeff(),
+            1e-2);
+}
+
 // The step checks' one sweep (Simulator::attemptStep) against the sums written out by hand.
 TEST(StepCheckSums, OneSweepGivesTheKineticEnergyScaleAndFiniteness)
 {

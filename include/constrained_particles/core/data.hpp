@@ -83,8 +83,8 @@ public:
   /// Rows at the last evaluated stage; after a fused chain's forward stage or projection
   /// (chain_stages.cpp) only each link's first Jacobian block d (its second is -d), a surface
   /// row's C, J, Jdot v, diagonal and violation, and (after a projection) max_violation are of
-  /// that stage (the fused tree stages, tree_stages.cpp, write none: their d is in tree_jacobian);
-  /// the rest
+  /// that stage (the fused tree stages, tree_stages.cpp, keep their d in tree_jacobian: their
+  /// forward stage writes none of the rows, their projection max_violation only); the rest
   /// is of the last evaluation that stored it (a generic stage or projection, SHAKE, a generic
   /// fallback). Read what a fused stage did not store through evaluateRowRecords.
   RowData rows;
@@ -110,8 +110,8 @@ public:
   Points accelerations;                ///< a = a0 + W J^T lambda [m/s^2] (3 x n)
   std::vector<ImposedMotion> imposed;  ///< each eliminated record's motion at the stage's time (e)
   Eigen::VectorXd multipliers;         ///< lambda (m), then each eliminated reaction [N] (3 e)
-  /// Right-hand side, then solution, of a solve (m); the fused projection solves in place in
-  /// it and chain_velocity_rhs, so after one it holds the last position solve's multipliers
+  /// Right-hand side, then solution, of a solve (m); the fused projections solve in place in
+  /// it and chain_velocity_rhs, so after one it holds the last check's forward-substituted C
   /// (the fused tree stages by place in Model::treeOrder(), not by row).
   Eigen::VectorXd rhs;
   /// The fused chain stages' LDL^T of J W J^T (chain_stages.cpp): L's sub-diagonal (m - 1) and

@@ -96,7 +96,8 @@ struct SolveStatistics
   double regularization = 0.0;   ///< the largest delta added
   long fallbacks = 0;            ///< how many the tree solve handed to the sparse one
   /// Constraint-force solves that took the last projection's factorisation at the same
-  /// positions instead of a new one (a fused chain's first stage, chain_stages.cpp); not in
+  /// positions instead of a new one (a fused chain's or tree's first stage, chain_stages.cpp,
+  /// tree_stages.cpp); not in
   /// `factorizations`
   long reused_factorizations = 0;
 
