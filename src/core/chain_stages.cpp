@@ -495,33 +495,14 @@ SolveReport
 forwardOf(const Model& model, Data& data, double time, const Points& positions,
           const Points& velocities, Points& accelerations)
 {
-  appliedForceStage(model, data, positions, velocities);
-  double min_ratio = 1.0;
-  // the rows are counted once, as rowStage counts them, whichever path finishes the stage
-  countChainRows(model, data);
-  const bool reuse = takeFactorizationAtState(data, time, positions);
-  SolveReport report;
-  if (reuse)
-  {
-    chainSweepUp<true, L>(model, data, time, positions, velocities, min_ratio);
-    report.method = model.solveMethod();
-    report.min_pivot_ratio = data.chain_min_pivot_ratio;
-    data.statistics.solve.mergeReused(report);
-  }
-  else if (chainSweepUp<false, L>(model, data, time, positions, velocities, min_ratio))
-    report = countFusedFactorization(model, data, min_ratio);
-  else
-  {
-    // singular: the generic stages finish the rows and regularise the factorisation
-    evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
-    report = constraintForceStage(model, data, nullptr);
-    accelerationStage(model, data, accelerations);
-    return report;
-  }
-  chainSweepDown<L>(model, data, accelerations);
-  addEliminatedReactions(model, data);
-  heldAccelerations(model, data, accelerations);
-  return report;
+  return fusedForward(
+      model, data, time, positions, velocities, accelerations, [&] { countChainRows(model, data); },
+      [&](auto reused, double& min_ratio)
+      {
+        return chainSweepUp<decltype(reused)::value, L>(model, data, time, positions, velocities,
+                                                        min_ratio);
+      },
+      [&] { chainSweepDown<L>(model, data, accelerations); });
 }
 
 }  // namespace

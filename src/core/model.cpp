@@ -68,6 +68,27 @@ bool fitsTreeRows(const Model& model)
   return true;
 }
 
+// True if every row-kind record is of one of the kinds `Allowed` (eliminated kinds make no rows).
+template <typename... Allowed>
+bool rowsOnlyOfKinds(const Model& model)
+{
+  bool only = true;
+  std::apply(
+      [&](const auto&... tables)
+      {
+        (
+            [&](const auto& table)
+            {
+              using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
+              if constexpr (!Kind::ELIMINATED && !(std::is_same_v<Kind, Allowed> || ...))
+                only = only && table.empty();
+            }(tables),
+            ...);
+      },
+      model.kindTables());
+  return only;
+}
+
 // Where each particle's constraint force starts and ends in a fused down sweep (rows, or places,
 // m-1 to 0): the lowest and the highest index of a row touching it (m and -1 if none).
 template <typename Row>
@@ -183,20 +204,7 @@ std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlink
   const int m = model.numRows();
   if (!model.treeRows() || m < 1)
     return {};
-  bool only_links = true;
-  std::apply(
-      [&](const auto&... tables)
-      {
-        (
-            [&](const auto& table)
-            {
-              using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
-              if constexpr (!Kind::ELIMINATED && !std::is_same_v<Kind, LinkConstraint>)
-                only_links = only_links && table.empty();
-            }(tables),
-            ...);
-      },
-      model.kindTables());
+  const bool only_links = rowsOnlyOfKinds<LinkConstraint>(model);
   const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
   if (!only_links || static_cast<int>(links.size()) != m)
     return {};
@@ -270,21 +278,7 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
   const int m = model.numRows();
   if (model.solveMethod() != SolveMethod::Tridiagonal || m < 1)
     return {};
-  bool only_links = true;
-  std::apply(
-      [&](const auto&... tables)
-      {
-        (
-            [&](const auto& table)
-            {
-              using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
-              if constexpr (!Kind::ELIMINATED && !std::is_same_v<Kind, LinkConstraint> &&
-                            !std::is_same_v<Kind, SurfaceConstraint>)
-                only_links = only_links && table.empty();
-            }(tables),
-            ...);
-      },
-      model.kindTables());
+  const bool only_links = rowsOnlyOfKinds<LinkConstraint, SurfaceConstraint>(model);
   const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
   const auto& surfaces = std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables());
   const int s = static_cast<int>(surfaces.size());

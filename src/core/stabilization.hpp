@@ -70,18 +70,6 @@ ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, P
                                   Points& velocities, double tolerance, int max_iterations,
                                   const FusedProjection& fused);
 
-/// For a fused forward stage at (time, positions): whether the last fused projection's
-/// factorisation is of them (then its L and D serve the stage's solve: J W J^T depends on the
-/// positions only), clearing the flag either way (the stage uses or overwrites it).
-inline bool takeFactorizationAtState(Data& data, double time, const Points& positions)
-{
-  const bool at_state = data.chain_factorization_at_state &&
-                        positions.data() == data.state.positions.data() &&
-                        time == data.chain_factorization_time;
-  data.chain_factorization_at_state = false;
-  return at_state;
-}
-
 /// projectStep() for a fused tree (tree_stages.cpp), as chainProjectStep() for a chain: the same
 /// motion to rounding, the same counters and statistics as the generic projection.
 ProjectionReport treeProjectStep(const Model& model, Data& data, double time, Points& positions,

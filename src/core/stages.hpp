@@ -93,6 +93,57 @@ void accelerationStage(const Model& model, Data& data, Points& accelerations);
 /// accelerationStage's last part: each eliminated particle's acceleration is its imposed one.
 void heldAccelerations(const Model& model, const Data& data, Points& accelerations);
 
+/// For a fused forward stage at (time, positions): whether the last fused projection's
+/// factorisation is of them (then its L and D serve the stage's solve: J W J^T depends on the
+/// positions only), clearing the flag either way (the stage uses or overwrites it).
+inline bool takeFactorizationAtState(Data& data, double time, const Points& positions)
+{
+  const bool at_state = data.chain_factorization_at_state &&
+                        positions.data() == data.state.positions.data() &&
+                        time == data.chain_factorization_time;
+  data.chain_factorization_at_state = false;
+  return at_state;
+}
+
+/// A fused forward stage's frame (chain_stages.cpp, tree_stages.cpp), the stages' rows, solve and
+/// accelerations in sweeps: the applied forces, the rows counted once (`count_rows()`, as rowStage
+/// counts them, whichever path finishes the stage), `sweep_up(reused, min_ratio)` (false at a
+/// singular pivot; `reused`: the last fused projection's factorisation is of these positions, so
+/// only the right-hand side is new, counted as a reused factorisation), `sweep_down()` (the
+/// multipliers, constraint forces and accelerations), then the eliminated reactions and
+/// accelerations. A singular pivot hands the stage to the generic stages, which regularise it.
+template <typename CountRows, typename SweepUp, typename SweepDown>
+inline SolveReport fusedForward(const Model& model, Data& data, double time,
+                                const Points& positions, const Points& velocities,
+                                Points& accelerations, CountRows&& count_rows, SweepUp&& sweep_up,
+                                SweepDown&& sweep_down)
+{
+  appliedForceStage(model, data, positions, velocities);
+  count_rows();
+  double min_ratio = 1.0;
+  SolveReport report;
+  if (takeFactorizationAtState(data, time, positions))
+  {
+    sweep_up(std::true_type{}, min_ratio);
+    report.method = model.solveMethod();
+    report.min_pivot_ratio = data.chain_min_pivot_ratio;
+    data.statistics.solve.mergeReused(report);
+  }
+  else if (sweep_up(std::false_type{}, min_ratio))
+    report = countFusedFactorization(model, data, min_ratio);
+  else
+  {
+    evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
+    report = constraintForceStage(model, data, nullptr);
+    accelerationStage(model, data, accelerations);
+    return report;
+  }
+  sweep_down();
+  addEliminatedReactions(model, data);
+  heldAccelerations(model, data, accelerations);
+  return report;
+}
+
 /// Every stage at (t, p, v): positions and velocities of eliminated particles are first set to
 /// their imposed motion at t (the stage buffers are the integrator's), then rows, forces, row
 /// velocities and bias (Baumgarte only), constraint forces and accelerations.

@@ -314,33 +314,12 @@ ProjectionReport treeProjectStep(const Model& model, Data& data, double time, Po
 SolveReport treeForward(const Model& model, Data& data, double time, const Points& positions,
                         const Points& velocities, Points& accelerations)
 {
-  appliedForceStage(model, data, positions, velocities);
-  // the links are counted once, as rowStage counts them, whichever path finishes the stage
-  countLinks(model, data);
-  double min_ratio = 1.0;
-  const bool reuse = takeFactorizationAtState(data, time, positions);
-  SolveReport report;
-  if (reuse)
-  {
-    treeSweepUp<true>(model, data, positions, velocities, min_ratio);
-    report.method = model.solveMethod();
-    report.min_pivot_ratio = data.chain_min_pivot_ratio;
-    data.statistics.solve.mergeReused(report);
-  }
-  else if (treeSweepUp<false>(model, data, positions, velocities, min_ratio))
-    report = countFusedFactorization(model, data, min_ratio);
-  else
-  {
-    // singular: the generic stages finish the rows and regularise the factorisation
-    evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
-    report = constraintForceStage(model, data, nullptr);
-    accelerationStage(model, data, accelerations);
-    return report;
-  }
-  treeSweepDown(model, data, accelerations);
-  addEliminatedReactions(model, data);
-  heldAccelerations(model, data, accelerations);
-  return report;
+  return fusedForward(
+      model, data, time, positions, velocities, accelerations, [&] { countLinks(model, data); },
+      [&](auto reused, double& min_ratio) {
+        return treeSweepUp<decltype(reused)::value>(model, data, positions, velocities, min_ratio);
+      },
+      [&] { treeSweepDown(model, data, accelerations); });
 }
 
 }  // namespace constrained_particles

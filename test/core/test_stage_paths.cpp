@@ -733,6 +733,43 @@ TEST(StagePaths, ARetakenStepDoesNotReuseTheRejectedAttemptsFactorisation)
   EXPECT_GT(reused, 0);
 }
 
+// Projects `start` once with the fused projection and once with the generic one (positions to
+// 1e-10 m, at most 5 iterations) and compares the reports, counters and projected states (the
+// largest position error to `error_close` [m], positions and velocities to `state_close`);
+// returns the fused report, and in `kept` whether it kept its factorisation for the next stage.
+ProjectionReport expectSameProjection(const Scene& scene, const State& start, double error_close,
+                                      double state_close, const std::string& what, bool* kept)
+{
+  const Model fused_model = Model::compile(scene);
+  const Model generic_model = Model::compile(scene, SolveMethod::Automatic, StagePaths::Generic);
+  EXPECT_TRUE(fused_model.fusedChain() || fused_model.fusedTree()) << what;
+  EXPECT_FALSE(generic_model.fusedChain() || generic_model.treeRows()) << what;
+  Data fused(fused_model), generic(generic_model);
+  for (Data* data : { &fused, &generic })
+  {
+    data->state.positions = start.positions;
+    data->state.velocities = start.velocities;
+  }
+  const ProjectionReport a =
+      projectStep(fused_model, fused, 0.0, fused.state.positions, fused.state.velocities, 1e-10, 5);
+  const ProjectionReport b = projectStep(generic_model, generic, 0.0, generic.state.positions,
+                                         generic.state.velocities, 1e-10, 5);
+  EXPECT_EQ(a.singular, b.singular) << what;
+  EXPECT_EQ(a.converged, b.converged) << what;
+  EXPECT_EQ(a.iterations, b.iterations) << what;
+  EXPECT_LE(std::abs(a.max_position_error - b.max_position_error), error_close) << what;
+  EXPECT_EQ(fused.counters.constraints, generic.counters.constraints) << what;
+  EXPECT_EQ(fused.counters.factorizations, generic.counters.factorizations) << what;
+  EXPECT_EQ(fused.statistics.solve.factorizations, generic.statistics.solve.factorizations) << what;
+  EXPECT_EQ(fused.statistics.solve.singular_count, generic.statistics.solve.singular_count) << what;
+  EXPECT_LE((fused.state.positions - generic.state.positions).cwiseAbs().maxCoeff(), state_close)
+      << what;
+  EXPECT_LE((fused.state.velocities - generic.state.velocities).cwiseAbs().maxCoeff(), state_close)
+      << what;
+  *kept = fused.chain_factorization_at_state;
+  return a;
+}
+
 // The fused projection's own hand-overs: at an exactly collinear taut chain the velocity solve is
 // singular (the positions converge at once); stretched and collinear, every position solve is,
 // and the projection runs out of iterations. Both ways give the same reports, counters, motion.
@@ -746,34 +783,18 @@ TEST(StagePaths, TheFusedProjectionHandsSingularSolvesToTheGenericOne)
     scene.constraints = { LinkConstraint{ 0, 1, 0.1 }, LinkConstraint{ 1, 2, 0.1 },
                           PinConstraint{ 0, Vec3(0, 0, 0) },
                           PinConstraint{ 2, Vec3(0.2 + stretch, 0, 0) } };
-    const Model fused_model = Model::compile(scene);
-    const Model generic_model = Model::compile(scene, SolveMethod::Automatic, StagePaths::Generic);
-    ASSERT_TRUE(fused_model.fusedChain());
-    ASSERT_FALSE(generic_model.fusedChain());
-    Data fused(fused_model), generic(generic_model);
-    for (Data* data : { &fused, &generic })
-    {
-      data->state.positions.col(1) = Vec3(0.1 + 0.5 * stretch, 0, 0);
-      data->state.positions.col(2) = Vec3(0.2 + stretch, 0, 0);
-      data->state.velocities.col(1) = Vec3(0.3, 0, -0.5);
-    }
-    const ProjectionReport a = projectStep(fused_model, fused, 0.0, fused.state.positions,
-                                           fused.state.velocities, 1e-10, 5);
-    const ProjectionReport b = projectStep(generic_model, generic, 0.0, generic.state.positions,
-                                           generic.state.velocities, 1e-10, 5);
+    State start;
+    start.positions = Points::Zero(3, 3);
+    start.velocities = Points::Zero(3, 3);
+    start.positions.col(1) = Vec3(0.1 + 0.5 * stretch, 0, 0);
+    start.positions.col(2) = Vec3(0.2 + stretch, 0, 0);
+    start.velocities.col(1) = Vec3(0.3, 0, -0.5);
     const std::string what = "stretch " + std::to_string(stretch);
+    ASSERT_TRUE(Model::compile(scene).fusedChain());
+    bool kept = false;
+    const ProjectionReport a = expectSameProjection(scene, start, 0.0, 1e-15, what, &kept);
     EXPECT_TRUE(a.singular) << what << ": the hand-over was not exercised";
     EXPECT_EQ(a.converged, stretch == 0.0) << what;
-    EXPECT_EQ(a.singular, b.singular) << what;
-    EXPECT_EQ(a.converged, b.converged) << what;
-    EXPECT_EQ(a.iterations, b.iterations) << what;
-    EXPECT_EQ(a.max_position_error, b.max_position_error) << what;
-    EXPECT_EQ(fused.counters.constraints, generic.counters.constraints) << what;
-    EXPECT_EQ(fused.counters.factorizations, generic.counters.factorizations) << what;
-    EXPECT_EQ(fused.statistics.solve.factorizations, generic.statistics.solve.factorizations);
-    EXPECT_EQ(fused.statistics.solve.singular_count, generic.statistics.solve.singular_count);
-    EXPECT_LE((fused.state.positions - generic.state.positions).cwiseAbs().maxCoeff(), 1e-15);
-    EXPECT_LE((fused.state.velocities - generic.state.velocities).cwiseAbs().maxCoeff(), 1e-15);
   }
 }
 
@@ -787,47 +808,27 @@ TEST(StagePaths, TheFusedProjectionHandsSingularSolvesToTheGenericOne)
 // tree: both call some singular)
 TEST(StagePaths, TheFusedTreeProjectionHandsSingularSolvesToTheGenericOne)
 {
-  for (const double stretch : { 0.0 })
-  {
-    Scene scene;
-    scene.masses = { 1.0, 1.0, 1.0, 1.0 };
-    scene.forces = { GravityForce{} };
-    scene.constraints = { LinkConstraint{ 0, 1, 0.1 }, LinkConstraint{ 1, 2, 0.1 },
-                          LinkConstraint{ 3, 1, 0.1 }, PinConstraint{ 0, Vec3(0, 0, 0) },
-                          PinConstraint{ 2, Vec3(0.2 + stretch, 0, 0) } };
-    const Model fused_model = Model::compile(scene);
-    const Model generic_model = Model::compile(scene, SolveMethod::Automatic, StagePaths::Generic);
-    ASSERT_TRUE(fused_model.fusedTree());
-    ASSERT_FALSE(generic_model.treeRows());
-    Data fused(fused_model), generic(generic_model);
-    for (Data* data : { &fused, &generic })
-    {
-      data->state.positions.col(1) = Vec3(0.1 + 0.5 * stretch, 0, 0);
-      data->state.positions.col(2) = Vec3(0.2 + stretch, 0, 0);
-      data->state.positions.col(3) = Vec3(0.1 + 0.5 * stretch, 0, -0.1);
-      data->state.velocities.col(1) = Vec3(0.3, 0, -0.5);
-      data->state.velocities.col(3) = Vec3(0.0, 0.2, 0.0);
-    }
-    const ProjectionReport a = projectStep(fused_model, fused, 0.0, fused.state.positions,
-                                           fused.state.velocities, 1e-10, 5);
-    const ProjectionReport b = projectStep(generic_model, generic, 0.0, generic.state.positions,
-                                           generic.state.velocities, 1e-10, 5);
-    const std::string what = "stretch " + std::to_string(stretch);
-    EXPECT_TRUE(a.singular) << what << ": the hand-over was not exercised";
-    EXPECT_EQ(a.converged, stretch == 0.0) << what;
-    EXPECT_EQ(a.singular, b.singular) << what;
-    EXPECT_EQ(a.converged, b.converged) << what;
-    EXPECT_EQ(a.iterations, b.iterations) << what;
-    EXPECT_NEAR(a.max_position_error, b.max_position_error, 1e-9) << what;
-    EXPECT_EQ(fused.counters.constraints, generic.counters.constraints) << what;
-    EXPECT_EQ(fused.counters.factorizations, generic.counters.factorizations) << what;
-    EXPECT_EQ(fused.statistics.solve.factorizations, generic.statistics.solve.factorizations);
-    EXPECT_EQ(fused.statistics.solve.singular_count, generic.statistics.solve.singular_count);
-    EXPECT_LE((fused.state.positions - generic.state.positions).cwiseAbs().maxCoeff(), 1e-9);
-    EXPECT_LE((fused.state.velocities - generic.state.velocities).cwiseAbs().maxCoeff(), 1e-9);
-    // a singular projection keeps no factorisation for the next stage
-    EXPECT_FALSE(fused.chain_factorization_at_state) << what;
-  }
+  Scene scene;
+  scene.masses = { 1.0, 1.0, 1.0, 1.0 };
+  scene.forces = { GravityForce{} };
+  scene.constraints = { LinkConstraint{ 0, 1, 0.1 }, LinkConstraint{ 1, 2, 0.1 },
+                        LinkConstraint{ 3, 1, 0.1 }, PinConstraint{ 0, Vec3(0, 0, 0) },
+                        PinConstraint{ 2, Vec3(0.2, 0, 0) } };
+  State start;
+  start.positions = Points::Zero(3, 4);
+  start.velocities = Points::Zero(3, 4);
+  start.positions.col(1) = Vec3(0.1, 0, 0);
+  start.positions.col(2) = Vec3(0.2, 0, 0);
+  start.positions.col(3) = Vec3(0.1, 0, -0.1);
+  start.velocities.col(1) = Vec3(0.3, 0, -0.5);
+  start.velocities.col(3) = Vec3(0.0, 0.2, 0.0);
+  ASSERT_TRUE(Model::compile(scene).fusedTree());
+  bool kept = true;
+  const ProjectionReport a = expectSameProjection(scene, start, 1e-9, 1e-9, "taut tree", &kept);
+  EXPECT_TRUE(a.singular) << "the hand-over was not exercised";
+  EXPECT_TRUE(a.converged);
+  // a singular projection keeps no factorisation for the next stage
+  EXPECT_FALSE(kept);
 }
 
 // A fused tree's first stage solving with its projection's factorisation solves with what a new
