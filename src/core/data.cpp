@@ -41,9 +41,9 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   chain_pending.setZero(3, model.fusedChain() ? n : 0);
   tree_jacobian.setZero(3, model.fusedTree() ? model.numRows() : 0);
   tree_lower.assign(model.fusedTree() ? model.treeCliqueEntries() : 0, 0.0);
-  for (Points* buffer : { &stages.a1, &stages.a2, &stages.a3, &stages.a4, &stages.v2, &stages.v3,
-                          &stages.v4, &stages.p_stage, &stages.v_stage, &stages.p_start,
-                          &stages.correction, &stages.change, &stages.p_unprojected, &stages.zero })
+  for (Points* buffer :
+       { &stages.a1, &stages.a2, &stages.sum_p, &stages.sum_v, &stages.p_stage, &stages.v_stage,
+         &stages.p_start, &stages.correction, &stages.change, &stages.p_unprojected, &stages.zero })
     buffer->setZero(3, n);
   statistics.solve.method = model.solveMethod();
   control.start = state;

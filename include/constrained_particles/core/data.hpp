@@ -37,15 +37,17 @@ struct RowData
 /// Stage buffers of the integrators, by name, each 3 x n: what a stage computes is named for it.
 struct StageBuffers
 {
-  Points a1, a2, a3, a4;  ///< accelerations of stages 1 to 4 [m/s^2]
-  Points v2, v3, v4;      ///< velocities of stages 2 to 4 [m/s]
-  Points p_stage;         ///< positions of the stage being evaluated [m]
-  Points v_stage;         ///< velocities of the stage being evaluated [m/s]
-  Points p_start;         ///< positions at the start of the step [m] (SHAKE's reference)
-  Points correction;      ///< displacement SHAKE applied in this step [m]
-  Points change;          ///< velocity change of a projection [m/s]
-  Points p_unprojected;   ///< positions before SHAKE's fallback to full projection [m]
-  Points zero;            ///< zeros: the velocities of position-only evaluations
+  Points a1;       ///< accelerations of stage 1 [m/s^2] (RK4: of stages 2 to 4; stage 1's in sum_v)
+  Points a2;       ///< accelerations of stage 2 [m/s^2]
+  Points sum_p;    ///< RK4's running sum of the stages' velocities [m/s]
+  Points sum_v;    ///< RK4's running sum of the stages' accelerations [m/s^2]
+  Points p_stage;  ///< positions of the stage being evaluated [m]
+  Points v_stage;  ///< velocities of the stage being evaluated [m/s]
+  Points p_start;  ///< positions at the start of the step [m] (SHAKE's reference)
+  Points correction;     ///< displacement SHAKE applied in this step [m]
+  Points change;         ///< velocity change of a projection [m/s]
+  Points p_unprojected;  ///< positions before SHAKE's fallback to full projection [m]
+  Points zero;           ///< zeros: the velocities of position-only evaluations
 };
 
 /// What the step's checks and sub-steps carry from one step to the next (simulator.hpp).
