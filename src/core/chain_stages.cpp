@@ -26,12 +26,12 @@ namespace
 // field's pointer after every store of a double, which might (for all it knows) have moved it.
 struct LinkRows
 {
-  explicit LinkRows(RowData& rows)
-    : jacobian(rows.jacobian.data())
-    , value(rows.value.data())
-    , jdot_v(rows.jdot_v.data())
-    , diagonal(rows.diagonal.data())
-    , violation(rows.violation.data())
+  explicit LinkRows(Data& data)
+    : jacobian(data.chain_jacobian.data())
+    , value(data.rows.value.data())
+    , jdot_v(data.rows.jdot_v.data())
+    , diagonal(data.rows.diagonal.data())
+    , violation(data.rows.violation.data())
   {
   }
   Vec3* jacobian;
@@ -54,18 +54,20 @@ inline double dot3(double ax, double ay, double az, const double* b)
 }
 
 // Link k's Jacobian and diagonal entry of J W J^T at `positions` (link_constraint.hpp's
-// evaluateRows, evaluateRowRecords' diagonal); only its first block d is stored: the second is
-// -d exactly, and not storing it saves 2.4 MB of writes a sweep at 10^5 links (the sweeps read
-// -d where the generic stages read the second block). The diagonal is w_i |d|^2 + w_j |d|^2:
+// evaluateRows, evaluateRowRecords' diagonal); only its first block d is stored, row after row in
+// Data::chain_jacobian: the second is -d exactly, and neither storing it nor leaving its slot
+// between the rows' first blocks (as data.rows.jacobian would) saves 2.4 MB a sweep at 10^5 links
+// (the sweeps read -d where the generic stages read the second block). The diagonal is w_i |d|^2 +
+// w_j |d|^2:
 // |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order.
-inline LinkLengths evaluateLink(const ChainRow& link, int block, const double* positions,
+inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* positions,
                                 const LinkRows& rows)
 {
   const double* pi = positions + 3 * link.first;
   const double* pj = positions + 3 * link.second;
   const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
   const double squared = dx * dx + dy * dy + dz * dz;
-  double* first = rows.jacobian[block].data();
+  double* first = rows.jacobian[k].data();
   first[0] = dx;
   first[1] = dy;
   first[2] = dz;
@@ -73,31 +75,32 @@ inline LinkLengths evaluateLink(const ChainRow& link, int block, const double* p
   return { { dx, dy, dz }, squared, diagonal };
 }
 
-// Surface row k (Model::chainSurfaceRecords(): `record` in the surface kind table, its block
-// `block`): C, J, Jdot v and the violation by the surface kind's own evaluateRows, and the
-// diagonal entry of J W J^T summed as evaluateKind sums it, into `rows`; its J (the vector the
-// sweeps carry on to the row below) and diagonal returned.
+// Surface row k (Model::chainSurfaceRecords(): `record` in the surface kind table): C, Jdot v and
+// the violation by the surface kind's own evaluateRows into `rows`, its one block J into
+// `jacobian` (row k's of Data::chain_jacobian), and the diagonal entry of J W J^T summed as
+// evaluateKind sums it; its J (the vector the sweeps carry on to the row below) and diagonal
+// returned.
 inline LinkLengths evaluateSurfaceRow(const Model& model, const ChainRow& row, int record, int k,
-                                      int block, double time, const Points& positions,
-                                      const Points& velocities, RowData& rows)
+                                      double time, const Points& positions,
+                                      const Points& velocities, RowData& rows, Vec3* jacobian)
 {
   const auto& entry =
       std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables())[record];
   const EffectContext context{ model.scene().surfaces, time };
   evaluateRows(entry.record, context, positions, velocities,
                RowBlock{ rows.value.data() + k, rows.jdot_v.data() + k, rows.violation.data() + k,
-                         rows.jacobian.data() + block });
-  const Vec3& j = rows.jacobian[block];
+                         jacobian });
+  const Vec3& j = *jacobian;
   double diagonal = 0.0;
   diagonal += row.w_first * j.squaredNorm();
   rows.diagonal[k] = diagonal;
   return { { j[0], j[1], j[2] }, 0.0, diagonal };
 }
 
-// The row layouts the sweeps are compiled for (Model::chainSurfaceRows()): links only, row k's
-// blocks 2k and 2k + 1; one surface row, row 0 (a chain under a bead: seed problem 3), then the
-// links, row k's first block 2k - 1; surface rows anywhere (several chains on surfaces), looked
-// up per row. The first two are constants in the sweeps' loops, with no lookup per row.
+// The row layouts the sweeps are compiled for (Model::chainSurfaceRows()): links only; one
+// surface row, row 0 (a chain under a bead: seed problem 3), then the links; surface rows
+// anywhere (several chains on surfaces), looked up per row. The first two are constants in the
+// sweeps' loops, with no lookup per row.
 enum Layout
 {
   LINKS_ONLY,
@@ -113,23 +116,13 @@ Layout layoutOf(const Model& model)
   return s == 1 && model.chainSurfaceRecords()[0] == 0 ? SURFACE_ROW_0 : ANY_SURFACE_ROWS;
 }
 
-// Where a sweep finds row k's first block and whether it is a surface row, for layout L.
+// Whether row k is a surface row, for layout L.
 template <Layout L>
 struct RowLayout
 {
   explicit RowLayout(const Model& model)
-    : start(model.rowStart().data())
-    , surface(L == ANY_SURFACE_ROWS ? model.chainSurfaceRecords().data() : nullptr)
+    : surface(L == ANY_SURFACE_ROWS ? model.chainSurfaceRecords().data() : nullptr)
   {
-  }
-  int block(int k) const
-  {
-    if constexpr (L == LINKS_ONLY)
-      return 2 * k;
-    else if constexpr (L == SURFACE_ROW_0)
-      return k == 0 ? 0 : 2 * k - 1;
-    else
-      return start[k];
   }
   /// The row's index in the surface kind table, or -1 for a link.
   int surfaceRecord(int k) const
@@ -141,7 +134,6 @@ struct RowLayout
     else
       return surface[k];
   }
-  const int* start;
   const int* surface;
 };
 
@@ -180,17 +172,16 @@ void countChainRows(const Model& model, Data& data)
 }
 
 // Up the chain; false at a singular pivot (data.rows then holds the rows before it only). Only
-// each link's first Jacobian block is stored: C, Jdot v, the diagonals and the violations (a
-// square root per link) are read by the projections and Baumgarte only, after evaluating rows of
-// their own.
-// REUSED: the Jacobian and LDL^T in data are of these positions (Data::
-// chain_factorization_at_state): only the right-hand side and its forward substitution.
+// each link's first Jacobian block is stored (Data::chain_jacobian): C, Jdot v, the diagonals and
+// the violations (a square root per link) are read by the projections and Baumgarte only, after
+// evaluating rows of their own. REUSED: the Jacobian and LDL^T in data are of these positions
+// (Data:: chain_factorization_at_state): only the right-hand side and its forward substitution.
 template <bool REUSED, Layout L>
 bool chainSweepUp(const Model& model, Data& data, double time, const Points& positions,
                   const Points& velocities, double& min_ratio)
 {
   const ChainRow* links = model.chainRows().data();
-  const LinkRows rows(data.rows);
+  const LinkRows rows(data);
   const RowLayout<L> layout(model);
   const double* p = positions.data();
   const double* v = velocities.data();
@@ -206,7 +197,7 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
   for (int k = 0; k < m; ++k)
   {
     const ChainRow& link = links[k];
-    const int i = link.first, j = link.second, block = layout.block(k);
+    const int i = link.first, j = link.second;
     LinkLengths lengths;
     double r;
     if (const int record = layout.surfaceRecord(k); L != LINKS_ONLY && record >= 0)
@@ -214,8 +205,8 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
       // a surface row: evaluated anew even when reused (its Jdot v is of these velocities), the
       // right-hand side -(Jdot v + J a0) as constraintForceStage sums it (its particle is
       // never held: findChainRows)
-      lengths =
-          evaluateSurfaceRow(model, link, record, k, block, time, positions, velocities, data.rows);
+      lengths = evaluateSurfaceRow(model, link, record, k, time, positions, velocities, data.rows,
+                                   rows.jacobian + k);
       const double j_a0 = 0.0 + dot3(lengths.d[0], lengths.d[1], lengths.d[2], a0 + 3 * i);
       double sum = data.rows.jdot_v[k] + 0.0;  // + 0.0: the generic sum's absent bias term
       sum += j_a0;
@@ -224,9 +215,9 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
     else
     {
       if constexpr (REUSED)
-        std::copy(rows.jacobian[block].data(), rows.jacobian[block].data() + 3, lengths.d);
+        std::copy(rows.jacobian[k].data(), rows.jacobian[k].data() + 3, lengths.d);
       else
-        lengths = evaluateLink(link, block, p, rows);
+        lengths = evaluateLink(link, k, p, rows);
       const double* vi = v + 3 * i;
       const double* vj = v + 3 * j;
       const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
@@ -283,10 +274,10 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 {
   const ChainRow* links = model.chainRows().data();
   const RowLayout<L> layout(model);
-  const Vec3* jacobian = data.rows.jacobian.data();
+  const Vec3* jacobian = data.chain_jacobian.data();
   const double* lower = data.chain_lower.data();
   const double* inverse_pivots = data.chain_inverse_pivots.data();
-  const double* a0 = data.free_accelerations.data();
+  const FreeAccelerations a0(model, data);
   double* rhs = data.rhs.data();
   double* multipliers = data.multipliers.data();
   double* forces = data.constraint_forces.data();
@@ -300,7 +291,7 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
       lambda -= lower[k] * lambda_below;
     lambda_below = rhs[k] = multipliers[k] = lambda;
     const ChainRow& link = links[k];
-    const Vec3 force = lambda * jacobian[layout.block(k)];
+    const Vec3 force = lambda * jacobian[k];
     settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, a0, forces,
                    a);
     // a surface row has one block; a link's second is -d: lambda (-d) is -(lambda d) exactly
@@ -326,7 +317,7 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
                           const Points& velocities, double& min_ratio)
 {
   const ChainRow* links = model.chainRows().data();
-  const LinkRows rows(data.rows);
+  const LinkRows rows(data);
   const RowLayout<L> layout(model);
   const double* p = positions.data();
   const double* v = velocities.data();
@@ -342,21 +333,21 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
   for (int k = 0; k < m; ++k)
   {
     const ChainRow& link = links[k];
-    const int i = link.first, j = link.second, block = layout.block(k);
+    const int i = link.first, j = link.second;
     LinkLengths lengths;
     double jv = 0.0;
     if (const int record = layout.surfaceRecord(k); L != LINKS_ONLY && record >= 0)
     {
       // a surface row at zero velocities, as projectPositions evaluates rows; J v as
       // multiplyJacobian sums it
-      lengths = evaluateSurfaceRow(model, link, record, k, block, time, positions, data.stages.zero,
-                                   data.rows);
+      lengths = evaluateSurfaceRow(model, link, record, k, time, positions, data.stages.zero,
+                                   data.rows, rows.jacobian + k);
       max_violation = worseError(max_violation, data.rows.violation[k]);
       jv += dot3(lengths.d[0], lengths.d[1], lengths.d[2], v + 3 * i);
     }
     else
     {
-      lengths = evaluateLink(link, block, p, rows);
+      lengths = evaluateLink(link, k, p, rows);
       const double violation = std::abs(std::sqrt(lengths.squared) - link.length);
       max_violation = worseError(max_violation, violation);
       if (!factorised)
@@ -426,7 +417,7 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
 {
   const ChainRow* links = model.chainRows().data();
   const RowLayout<L> layout(model);
-  const Vec3* jacobian = data.rows.jacobian.data();
+  const Vec3* jacobian = data.chain_jacobian.data();
   const double* lower = data.chain_lower.data();
   const double* inverse_pivots = data.chain_inverse_pivots.data();
   double* mu = x.data();
@@ -442,7 +433,7 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
     mu_below = mu[k] = value;
     const double s = -1.0 * value;  // addInverseMassJacobianTranspose's scale * lambda
     const ChainRow& link = links[k];
-    const Vec3& d = jacobian[layout.block(k)];
+    const Vec3& d = jacobian[k];
     correctParticle(link.first, link.first_opens, link.first_closes, (link.w_first * s) * d,
                     pending, o);
     // a surface row has one block; a link's second, -d, not stored: (w s)(-d) is -((w s) d)

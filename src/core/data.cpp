@@ -39,6 +39,7 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   chain_inverse_pivots.setZero(model.numRows());
   chain_velocity_rhs.setZero(model.numRows());
   chain_pending.setZero(3, model.fusedChain() ? n : 0);
+  chain_jacobian.assign(model.fusedChain() ? model.numRows() : 0, Vec3::Zero());
   tree_jacobian.setZero(3, model.fusedTree() ? model.numRows() : 0);
   tree_lower.assign(model.fusedTree() ? model.treeCliqueEntries() : 0, 0.0);
   for (Points* buffer :

@@ -203,7 +203,7 @@ void treeSweepDown(const Model& model, Data& data, Points& accelerations)
   const double* jacobians = data.tree_jacobian.data();
   const double* inverse_pivots = data.chain_inverse_pivots.data();
   const double* lower_entries = data.tree_lower.data();
-  const double* a0 = data.free_accelerations.data();
+  const FreeAccelerations a0(model, data);
   double* lambda = data.rhs.data();
   double* multipliers = data.multipliers.data();
   double* forces = data.constraint_forces.data();

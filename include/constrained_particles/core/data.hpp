@@ -120,7 +120,11 @@ public:
   /// D^-1 (m), and the projection's J v, forward- then back-substituted in place (m). The
   /// solver's own factorisation is not updated by them.
   Eigen::VectorXd chain_lower, chain_inverse_pivots, chain_velocity_rhs;
-  /// chain_lower, chain_inverse_pivots and the Jacobian in `rows` (a fused tree's: tree_lower,
+  /// The fused chain stages' Jacobian (m if fused) [m]: each row's first block (a link's d, its
+  /// second being -d; a surface row's one), row after row, where data.rows.jacobian keeps the
+  /// generic stages' blocks.
+  std::vector<Vec3> chain_jacobian;
+  /// chain_lower, chain_inverse_pivots and chain_jacobian (a fused tree's: tree_lower,
   /// chain_inverse_pivots and tree_jacobian) are of `state.positions` at
   /// `chain_factorization_time`, taken by the last fused projection: the next stage at the state
   /// and that time (a step's first) solves with them instead of factorising again. Cleared by
