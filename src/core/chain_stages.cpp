@@ -55,11 +55,10 @@ inline double dot3(double ax, double ay, double az, const double* b)
 
 // Link k's Jacobian and diagonal entry of J W J^T at `positions` (link_constraint.hpp's
 // evaluateRows, evaluateRowRecords' diagonal); only its first block d is stored, row after row in
-// Data::chain_jacobian: the second is -d exactly, and neither storing it nor leaving its slot
-// between the rows' first blocks (as data.rows.jacobian would) saves 2.4 MB a sweep at 10^5 links
-// (the sweeps read -d where the generic stages read the second block). The diagonal is w_i |d|^2 +
-// w_j |d|^2:
-// |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order.
+// Data::chain_jacobian: the second is -d exactly (the sweeps read -d where the generic stages read
+// the second block); not storing it, nor leaving its slot between the rows' first blocks as
+// data.rows.jacobian would, saves 2.4 MB a sweep at 10^5 links. The diagonal is
+// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order.
 inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* positions,
                                 const LinkRows& rows)
 {
@@ -171,11 +170,12 @@ void countChainRows(const Model& model, Data& data)
   data.counters.constraints[constraintKindIndex<SurfaceConstraint>()] += s;
 }
 
-// Up the chain; false at a singular pivot (data.rows then holds the rows before it only). Only
-// each link's first Jacobian block is stored (Data::chain_jacobian): C, Jdot v, the diagonals and
-// the violations (a square root per link) are read by the projections and Baumgarte only, after
-// evaluating rows of their own. REUSED: the Jacobian and LDL^T in data are of these positions
-// (Data:: chain_factorization_at_state): only the right-hand side and its forward substitution.
+// Up the chain; false at a singular pivot (the Jacobian and factorisation then hold the rows
+// before it only). Only each link's first Jacobian block is stored (Data::chain_jacobian): C,
+// Jdot v, the diagonals and the violations (a square root per link) are read by the projections
+// and Baumgarte only, after evaluating rows of their own. REUSED: the Jacobian and LDL^T in data
+// are of these positions (Data::chain_factorization_at_state): only the right-hand side and its
+// forward substitution.
 template <bool REUSED, Layout L>
 bool chainSweepUp(const Model& model, Data& data, double time, const Points& positions,
                   const Points& velocities, double& min_ratio)

@@ -50,8 +50,8 @@ void addEliminatedReactions(const Model& model, Data& data);
 /// sweeps over the rows (the down sweep also sets each particle's acceleration)
 /// (chain_stages.cpp): the same data (of the links' rows only the Jacobian, each row's first
 /// block in data.chain_jacobian: C, Jdot v, the diagonals and violations are read by the
-/// projections and Baumgarte only, after evaluating rows of their own; a surface row's whole but
-/// its block), counters and report as the generic stages; a singular
+/// projections and Baumgarte only, after evaluating rows of their own; a surface row's C, Jdot v,
+/// diagonal and violation in data.rows), counters and report as the generic stages; a singular
 /// pivot hands the stage to them. At data.state.positions and the time its last fused projection
 /// factorised at (Data::chain_factorization_at_state) it solves with that factorisation, counted as
 /// reused; every call clears that flag. Eliminated motion already imposed.
@@ -71,10 +71,12 @@ SolveReport treeForward(const Model& model, Data& data, double time, const Point
 /// smallest pivot / diagonal entry `min_ratio`), as factorizeRows() does the solver's.
 SolveReport countFusedFactorization(const Model& model, Data& data, double min_ratio);
 
-/// Where a fused down sweep reads a particle's a0 [m/s^2]: under gravity alone
+/// Where a fused down sweep reads a free particle's a0 [m/s^2]: under gravity alone
 /// (Data::applied_forces_are_gravity) the one vector g, which every free particle's entry of
-/// data.free_accelerations holds exactly (a held one's acceleration is set after the sweep), so
-/// at 10^5 particles the sweep does not stream 2.4 MB of copies of it; else each particle's entry.
+/// data.free_accelerations holds exactly (appliedForceStage), so at 10^5 particles the sweep
+/// does not stream 2.4 MB of copies of it; else each particle's entry. A held particle's reads
+/// g, not its entry's 0: right only where its acceleration is set afterwards (heldAccelerations),
+/// so not for right-hand sides, which read data.free_accelerations.
 struct FreeAccelerations
 {
   FreeAccelerations(const Model& model, const Data& data)

@@ -34,13 +34,13 @@ struct RowData
   void resize(const Model& model);
 };
 
-/// Stage buffers of the integrators, by name, each 3 x n: what a stage computes is named for it.
+/// Stage buffers of the integrators, by name, each 3 x n.
 struct StageBuffers
 {
   Points a1;       ///< accelerations of stage 1 [m/s^2] (RK4: of stages 2 to 4; stage 1's in sum_v)
   Points a2;       ///< accelerations of stage 2 [m/s^2]
-  Points sum_p;    ///< RK4's running sum of the stages' velocities [m/s]
-  Points sum_v;    ///< RK4's running sum of the stages' accelerations [m/s^2]
+  Points sum_p;    ///< RK4's running weighted sum v1 + 2 v2 + 2 v3 of its stages' velocities [m/s]
+  Points sum_v;    ///< RK4's running weighted sum a1 + 2 a2 + 2 a3 of its accelerations [m/s^2]
   Points p_stage;  ///< positions of the stage being evaluated [m]
   Points v_stage;  ///< velocities of the stage being evaluated [m/s]
   Points p_start;  ///< positions at the start of the step [m] (SHAKE's reference)
@@ -83,10 +83,10 @@ public:
 
   State state;  ///< positions, velocities (3 x n), time, steps
   /// Rows at the last evaluated stage; after a fused chain's forward stage or projection
-  /// (chain_stages.cpp) only each link's first Jacobian block d (its second is -d), a surface
-  /// row's C, J, Jdot v, diagonal and violation, and (after a projection) max_violation are of
-  /// that stage (the fused tree stages, tree_stages.cpp, keep their d in tree_jacobian: their
-  /// forward stage writes none of the rows, their projection max_violation only); the rest
+  /// (chain_stages.cpp) only a surface row's C, Jdot v, diagonal and violation, and (after a
+  /// projection) max_violation are of that stage (the fused stages keep their Jacobian in
+  /// chain_jacobian or tree_jacobian; a fused tree's forward stage writes none of the rows, its
+  /// projection max_violation only); the rest
   /// is of the last evaluation that stored it (a generic stage or projection, SHAKE, a generic
   /// fallback). Read what a fused stage did not store through evaluateRowRecords.
   RowData rows;
@@ -120,7 +120,7 @@ public:
   /// D^-1 (m), and the projection's J v, forward- then back-substituted in place (m). The
   /// solver's own factorisation is not updated by them.
   Eigen::VectorXd chain_lower, chain_inverse_pivots, chain_velocity_rhs;
-  /// The fused chain stages' Jacobian (m if fused) [m]: each row's first block (a link's d, its
+  /// The fused chain stages' Jacobian (m if fused) [C]/m: each row's first block (a link's d, its
   /// second being -d; a surface row's one), row after row, where data.rows.jacobian keeps the
   /// generic stages' blocks.
   std::vector<Vec3> chain_jacobian;
@@ -128,8 +128,9 @@ public:
   /// chain_inverse_pivots and tree_jacobian) are of `state.positions` at
   /// `chain_factorization_time`, taken by the last fused projection: the next stage at the state
   /// and that time (a step's first) solves with them instead of factorising again. Cleared by
-  /// every fused stage (which uses or overwrites them), every other writer of the rows
-  /// (rowStage), and every write of the state between steps.
+  /// every fused stage (which uses or overwrites them), every generic stage (rowStage: a
+  /// conservative clear, as the stages that follow it may move the positions), and every write
+  /// of the state between steps.
   bool chain_factorization_at_state = false;
   double chain_factorization_time = 0.0;  ///< its time [s] (eliminated motion imposed then)
   double chain_min_pivot_ratio = 1.0;     ///< its smallest pivot / diagonal entry

@@ -12,9 +12,9 @@ namespace
 // the state, one stage's (p, v, a) and the two sums: 168 bytes a particle where v2, v3, v4 and a1
 // to a4 took 240 (7.2 MB less at 10^5 particles). The sums are the textbook form's
 // p += h/6 (v1 + 2 v2 + 2 v3 + v4), term for term and left to right, so the motion is the same
-// bit for bit. Each sweep is a function of __restrict parameters (no buffer is read through
-// another pointer), which GCC honours on parameters and uses to vectorise; identical to Eigen's
-// sums only without FMA contraction (no -march flag in this build).
+// bit for bit (2 x is exact, so even FMA contraction could not part them). Each sweep is a
+// function of __restrict parameters (no buffer is read through another pointer), which GCC
+// honours on parameters and uses to vectorise.
 
 // After stage 1 (at the state; its accelerations a1 written into sum_v): p_stage = p + c v,
 // v_stage = v + c a1.
