@@ -21,9 +21,10 @@ namespace constrained_particles
 {
 namespace
 {
-/// Runs `argv` and waits up to `timeout` [s]; a process still running then is stopped.
-/// @return '' or what went wrong
-std::string runProcess(const std::vector<std::string>& args, double timeout)
+/// Runs `argv` and waits up to `timeout` [s]; a process still running then, or once `cancel`
+/// is set, is stopped. @return '' or what went wrong
+std::string runProcess(const std::vector<std::string>& args, double timeout,
+                       const std::atomic<bool>& cancel)
 {
   std::vector<char*> argv;
   for (const std::string& a : args)
@@ -36,11 +37,12 @@ std::string runProcess(const std::vector<std::string>& args, double timeout)
   int status = 0;
   while (waitpid(pid, &status, WNOHANG) == 0)
   {
-    if (std::chrono::steady_clock::now() > deadline)
+    if (cancel || std::chrono::steady_clock::now() > deadline)
     {
       kill(pid, SIGKILL);  // ours, by its pid
       waitpid(pid, &status, 0);
-      return args[1] + " took over " + formatValue(timeout) + " s and was stopped";
+      return cancel ? args[1] + " stopped: the goal was cancelled"
+                    : args[1] + " took over " + formatValue(timeout) + " s and was stopped";
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
@@ -105,18 +107,29 @@ CompareMethodsServer::CompareMethodsServer(const ros::NodeHandle& private_nh,
         [this](GoalHandle g) { cancelCallback(g); }, false)
 {
   server_.start();
+  // after the server: a throwing constructor leaves no joinable thread (goals queued meanwhile
+  // are taken by the first wait)
+  worker_ = std::thread(&CompareMethodsServer::serve, this);
 }
 
 CompareMethodsServer::~CompareMethodsServer()
 {
-  cancel_ = true;
-  std::thread worker;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    worker.swap(worker_);
+    stopping_ = true;
+    if (running_cancel_)
+      *running_cancel_ = true;
+    if (queued_)
+    {
+      CompareMethodsResult result;
+      result.recommended = -1;
+      result.message = "the node is shutting down";
+      queued_->goal.setCanceled(result, result.message);
+      queued_.reset();
+    }
   }
-  if (worker.joinable())
-    worker.join();
+  wake_.notify_all();
+  worker_.join();
 }
 
 CompareMethodsServer::Job CompareMethodsServer::jobFor(const CompareMethodsGoal& goal) const
@@ -172,6 +185,7 @@ CompareMethodsServer::Job CompareMethodsServer::jobFor(const CompareMethodsGoal&
 void CompareMethodsServer::goalCallback(GoalHandle goal)
 {
   CompareMethodsResult result;
+  result.recommended = -1;
   Job job;
   try
   {
@@ -180,48 +194,101 @@ void CompareMethodsServer::goalCallback(GoalHandle goal)
   catch (const InvalidInput& e)
   {
     result.message = e.what();
-    result.recommended = -1;
     ROS_WARN("~compare_methods: goal rejected: %s", e.what());
     goal.setRejected(result, result.message);
     return;
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  if (busy_)
+  if (stopping_)
   {
-    result.message = "a study is running: cancel it or wait for its result";
-    result.recommended = -1;
+    result.message = "the node is shutting down";
     goal.setRejected(result, result.message);
     return;
   }
-  if (worker_.joinable())
-    worker_.join();  // the last study's thread: done, or sending its result
-  busy_ = true;
-  cancel_ = false;
-  current_ = goal;
-  goal.setAccepted("study accepted");
-  worker_ = std::thread(&CompareMethodsServer::work, this, goal, std::move(job));
+  // the newest goal wins, as with actionlib's SimpleActionServer: a queued one is recalled, a
+  // running one stops inside its run and ends PREEMPTED
+  if (queued_)
+  {
+    result.message = "preempted by a newer goal before it started";
+    queued_->goal.setCanceled(result, result.message);
+  }
+  if (running_cancel_)
+  {
+    running_preempted_ = true;  // first: work() reads it once it sees the flag
+    *running_cancel_ = true;
+  }
+  queued_ = Study{ goal, std::move(job), std::make_shared<std::atomic<bool>>(false) };
+  wake_.notify_all();
 }
 
 void CompareMethodsServer::cancelCallback(GoalHandle goal)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (current_ && *current_ == goal)
-    cancel_ = true;
+  if (queued_ && queued_->goal == goal)
+  {
+    CompareMethodsResult result;
+    result.recommended = -1;
+    result.message = "cancelled before it started";
+    queued_->goal.setCanceled(result, result.message);  // RECALLED
+    queued_.reset();
+  }
+  else if (running_ && *running_ == goal)
+    *running_cancel_ = true;
 }
 
-void CompareMethodsServer::work(GoalHandle goal, Job job)
+namespace
+{
+/// Whether actionlib has a cancel request on the goal (its status, which no later callback can
+/// reset: PREEMPTING once accepted, RECALLING before).
+template <typename GoalHandle>
+bool cancelRequested(GoalHandle& goal)
+{
+  const std::uint8_t status = goal.getGoalStatus().status;
+  return status == actionlib_msgs::GoalStatus::PREEMPTING ||
+         status == actionlib_msgs::GoalStatus::RECALLING;
+}
+}  // namespace
+
+void CompareMethodsServer::serve()
 {
   // the study yields the cores to live stepping: it is the one that may take longer
   lowerThreadPriority();
-  // free for the next goal before the result goes out: a client that sends one as soon as it has
-  // this result is not refused as busy (goalCallback then joins this thread, which only has the
-  // result to send: actionlib calls goalCallback without its own lock held)
-  auto finish = [this]
+  for (;;)
   {
+    std::optional<Study> study;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [this] { return stopping_ || queued_; });
+      if (stopping_)
+        return;
+      study.swap(queued_);
+      CompareMethodsResult result;
+      result.recommended = -1;
+      if (cancelRequested(study->goal))  // a cancel came while it was pending: RECALLED
+      {
+        result.message = "cancelled before it started";
+        study->goal.setCanceled(result, result.message);
+        continue;
+      }
+      running_ = study->goal;
+      running_cancel_ = study->cancel;
+      study->goal.setAccepted("study accepted");
+      // a cancel between the check above and the acceptance: PREEMPTING now
+      if (cancelRequested(study->goal))
+        *study->cancel = true;
+    }
+    work(*study);
     std::lock_guard<std::mutex> lock(mutex_);
-    busy_ = false;
-    current_.reset();
-  };
+    running_.reset();
+    running_cancel_.reset();
+    running_preempted_ = false;
+  }
+}
+
+void CompareMethodsServer::work(Study& s)
+{
+  GoalHandle& goal = s.goal;
+  const Job& job = s.job;
   CompareMethodsResult result;
   result.recommended = -1;
   result.scenario = job.scenario;
@@ -238,7 +305,7 @@ void CompareMethodsServer::work(GoalHandle goal, Job job)
           feedback.current = current;
           goal.publishFeedback(feedback);
         },
-        &cancel_);
+        s.cancel.get());
     for (const StudyRun& run : study.runs)
     {
       MethodRun r;
@@ -258,40 +325,46 @@ void CompareMethodsServer::work(GoalHandle goal, Job job)
     result.recommended = study.recommended;
     result.horizon = study.horizon;
     result.error_target = study.error_target;
-    if (study.cancelled)
-    {
-      result.message = "cancelled after " + std::to_string(study.runs.size()) + " runs";
-      finish();
-      goal.setCanceled(result, result.message);
-    }
-    else
+    // no mutex_ here: it may run under actionlib's lock, which goalCallback takes under mutex_
+    auto endCancelled = [&]
     {
       result.message =
-          study.recommended >= 0
-              ? "cheapest run within " + formatValue(study.error_target) +
-                    " m: " + studyMethodLabel(study.runs[study.recommended].method) + " (" +
-                    formatValue(study.runs[study.recommended].cpu_time_per_sim_second) +
-                    " s CPU per sim s)"
-              : "no run met " + formatValue(study.error_target) + " m (reference error " +
-                    formatValue(study.reference_error) + " m)";
-      if (!job.output_directory.empty())
-        if (const std::string problem = writeOutputs(job, study, result); !problem.empty())
-          result.message += "; " + problem;
-      ROS_INFO("~compare_methods on '%s': %s", job.scenario.c_str(), result.message.c_str());
-      finish();
-      goal.setSucceeded(result, result.message);
-    }
+          (running_preempted_ ? "preempted by a newer goal after " : "cancelled after ") +
+          std::to_string(study.runs.size()) + " runs";
+      goal.setCanceled(result, result.message);
+    };
+    // a cancel that came after the last run still ends it PREEMPTED (its runs are kept)
+    if (study.cancelled || *s.cancel || cancelRequested(goal))
+      return endCancelled();
+    result.message = study.recommended >= 0
+                         ? "cheapest run within " + formatValue(study.error_target) +
+                               " m: " + studyMethodLabel(study.runs[study.recommended].method) +
+                               " (" +
+                               formatValue(study.runs[study.recommended].cpu_time_per_sim_second) +
+                               " s CPU per sim s)"
+                         : "no run met " + formatValue(study.error_target) +
+                               " m (reference error " + formatValue(study.reference_error) + " m)";
+    if (!job.output_directory.empty())
+      if (const std::string problem = writeOutputs(job, study, *s.cancel, result); !problem.empty())
+        result.message += "; " + problem;
+    // the last check and the success under actionlib's own lock, which its cancel handling
+    // holds while it marks a goal PREEMPTING: a cancel is seen here, or comes after the result
+    boost::recursive_mutex::scoped_lock actionlib_lock(server_.lock());
+    if (*s.cancel || cancelRequested(goal))
+      return endCancelled();
+    ROS_INFO("~compare_methods on '%s': %s", job.scenario.c_str(), result.message.c_str());
+    goal.setSucceeded(result, result.message);
   }
   catch (const std::exception& e)
   {
     result.message = std::string("study failed: ") + e.what();
     ROS_WARN("~compare_methods: %s", result.message.c_str());
-    finish();
     goal.setAborted(result, result.message);
   }
 }
 
 std::string CompareMethodsServer::writeOutputs(const Job& job, const StudyResult& study,
+                                               const std::atomic<bool>& cancel,
                                                CompareMethodsResult& result)
 {
   const std::string base = job.output_directory + "/" + job.scenario + "_compare_methods";
@@ -306,7 +379,7 @@ std::string CompareMethodsServer::writeOutputs(const Job& job, const StudyResult
   const std::string raw = base + ".rgba";
   const std::string problem = runProcess({ "/usr/bin/python3", plot_script_, result.csv_path,
                                            base + ".png", "--raw", raw, "--title", job.scenario },
-                                         PLOT_TIMEOUT);
+                                         PLOT_TIMEOUT, cancel);
   if (!problem.empty())
     return "diagram not drawn: " + problem;
   result.diagram_path = base + ".png";

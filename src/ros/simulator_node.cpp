@@ -13,6 +13,7 @@
 #include <rosgraph_msgs/Clock.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/master.h>
+#include <ros/names.h>
 #include <ros/package.h>
 #include <ros/network.h>
 #include <xmlrpcpp/XmlRpcClient.h>
@@ -127,19 +128,27 @@ std::string join(const std::vector<std::string>& items)
 /// repeats it for CLOCK_CHECK_PERIOD after advertising (SimulatorNode::refusal()).
 constexpr std::chrono::seconds CLOCK_CHECK_PERIOD{ 60 };  // wall; longer than a scene's load
 
+/// Why nothing is published under /use_sim_time before a /clock, and the two remedies.
+constexpr const char* CLOCK_WAIT_MESSAGE =
+    "/use_sim_time is true and no /clock has arrived: tf, ~state and markers wait for time to "
+    "move (their stamps would all be 0); set ~publish_clock: true to let this node publish "
+    "/clock, or start the clock's owner (Gazebo, rosbag play --clock)";
+
 void requireClockFree(bool advertised)
 {
-  std::vector<std::string> others = otherPublishers("/clock");
+  // the name after the node's remappings (__ns:=robot1 /clock:=/robot1/clock), as advertised
+  const std::string clock = ros::names::resolve("/clock");
+  std::vector<std::string> others = otherPublishers(clock);
   if (advertised)
     others.erase(std::remove_if(others.begin(), others.end(),
                                 [](const std::string& other)
                                 { return !(other < ros::this_node::getName()); }),
                  others.end());
   if (!others.empty())
-    throw InvalidInput("~publish_clock", "= true, but /clock is already published by " +
-                                             join(others) +
-                                             ": only one node may publish /clock; start this "
-                                             "one with _publish_clock:=false");
+    throw InvalidInput("~publish_clock", "= true, but " + clock + " is already published by " +
+                                             join(others) + ": only one node may publish " + clock +
+                                             "; start this one with _publish_clock:=false, or "
+                                             "remap its clock (/clock:=<ns>/clock)");
 }
 
 }  // namespace
@@ -169,6 +178,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   const std::shared_ptr<const Snapshot> first = runner_->snapshot();
   parameters_.step = first->parameters.step;
 
+  sim_time_stamps_ = parameters_.publish_clock || ros::Time::isSimTime();
   if (parameters_.publish_clock)
   {
     // latched: a node with use_sim_time started while we are paused still learns the time
@@ -187,17 +197,17 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
       ros::SubscriberStatusCallback(
           [this](const ros::SingleSubscriberPublisher& subscriber)
           {
-            // with ~publish_clock nothing is re-sent while time stands still: a listener joining
+            // under sim time nothing is re-sent while time stands still: a listener joining
             // then gets the last frames once, to itself only, and only if nothing was broadcast
             // lately (a broadcast since its link came up would repeat a stamp)
             std::lock_guard<std::mutex> lock(publish_mutex_);
-            if (parameters_.publish_clock && last_stamp_ >= 0.0 &&
+            if (sim_time_stamps_ && last_stamp_ &&
                 std::chrono::steady_clock::now() - last_tf_broadcast_ >
                     std::chrono::milliseconds(500))
               subscriber.publish(tf_message_);
           }));
-  // latched with ~publish_clock: while sim time stands still nothing new is sent
-  state_publisher_ = nh_.advertise<SimState>("state", 10, parameters_.publish_clock);
+  // latched under sim time: while it stands still nothing new is sent
+  state_publisher_ = nh_.advertise<SimState>("state", 10, sim_time_stamps_);
   force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 10);
   scene_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("scene", 1, true);
   particles_publisher_ = nh_.advertise<sensor_msgs::PointCloud2>("particles", 2);
@@ -293,19 +303,43 @@ bool SimulatorNode::shutdown(std::chrono::milliseconds timeout)
   return runner_->stop(timeout);
 }
 
+std::optional<ros::Time> SimulatorNode::stampFor(const Snapshot& snap, const ros::Time& now)
+{
+  const ros::Time stamp = parameters_.publish_clock ? ros::Time(snap.stamp) : now;
+  if (!parameters_.publish_clock && stamp.isZero())
+  {
+    // /use_sim_time and no /clock: every stamp would be 0, repeated (TF_REPEATED_DATA)
+    if (!waiting_for_clock_.exchange(true))
+      ROS_WARN("simulator: %s", CLOCK_WAIT_MESSAGE);
+    return std::nullopt;
+  }
+  if (waiting_for_clock_.exchange(false))
+    ROS_INFO("simulator: %s has started (t = %.3f s): publishing",
+             ros::names::resolve("/clock").c_str(), stamp.toSec());
+  if (last_stamp_ && stamp < *last_stamp_)
+    ROS_WARN(
+        "simulator: time went back from %.3f s to %.3f s (a clock restarted?): stamps "
+        "follow it from here",
+        last_stamp_->toSec(), stamp.toSec());
+  else if (last_stamp_ && stamp == *last_stamp_)
+    return std::nullopt;
+  return stamp;
+}
+
 void SimulatorNode::publish()
 {
   std::lock_guard<std::mutex> lock(publish_mutex_);
-  // wall stamp before the snapshot: a message stamped after a request returned shows its effect
-  const ros::Time wall_now = ros::Time::now();
+  // now before the snapshot: a message stamped after a request returned shows its effect
+  const ros::Time now = ros::Time::now();
   // the statistics of every step up to this snapshot since the last ~state message
   StepStatistics statistics;
   const std::shared_ptr<const Snapshot> snap =
       runner_->snapshot(SimulationRunner::Reader::State, statistics);
   // interactive markers first: shown, hidden or let go even while sim time stands still
   grab_markers_->update(*snap);
-  // with sim time as stamps, only what is new: tf2 rejects a repeated stamp (TF_REPEATED_DATA)
-  if (parameters_.publish_clock && !(snap->stamp > last_stamp_))
+  // one rule for every clock source: only a stamp past the last one sent
+  const std::optional<ros::Time> stamp = stampFor(*snap, now);
+  if (!stamp)
     return;
   // nothing non-finite leaves the node
   if (!isFinite(snap->state) || !snap->diagnostics.finite() ||
@@ -316,14 +350,14 @@ void SimulatorNode::publish()
     return;
   }
   std_msgs::Header header;
-  header.stamp = parameters_.publish_clock ? ros::Time(snap->stamp) : wall_now;
+  header.stamp = *stamp;
   header.frame_id = parameters_.fixed_frame;
+  last_stamp_ = header.stamp;
   if (parameters_.publish_clock)
   {
     rosgraph_msgs::Clock clock;
     clock.clock = header.stamp;
     clock_publisher_.publish(clock);
-    last_stamp_ = snap->stamp;
   }
   const int n = static_cast<int>(snap->state.positions.cols());
 
@@ -333,10 +367,10 @@ void SimulatorNode::publish()
                        static_cast<int>(snap->constraint_forces.cols()));
     return;
   }
-  publishSceneOnce(*snap);
+  publishSceneOnce(*snap, header.stamp);
   prepareFrames(*snap);
   const int frames = static_cast<int>(tf_message_.transforms.size());
-  if (frames > 0 && (tf_publisher_.getNumSubscribers() > 0 || parameters_.publish_clock))
+  if (frames > 0 && (tf_publisher_.getNumSubscribers() > 0 || sim_time_stamps_))
   {
     for (int i = 0; i < frames; ++i)
     {
@@ -352,7 +386,7 @@ void SimulatorNode::publish()
   if (particles_publisher_.getNumSubscribers() > 0)
     publishParticles(*snap, header);
 
-  if (state_publisher_.getNumSubscribers() > 0 || parameters_.publish_clock)
+  if (state_publisher_.getNumSubscribers() > 0 || sim_time_stamps_)
   {
     SimState msg;
     msg.header = header;
@@ -458,13 +492,13 @@ void SimulatorNode::publish()
   publishAccuracy(*snap, header);
 }
 
-void SimulatorNode::publishSceneOnce(const Snapshot& snap)
+void SimulatorNode::publishSceneOnce(const Snapshot& snap, const ros::Time& stamp)
 {
   if (published_scene_serial_ >= snap.scene_serial)
     return;
   published_scene_serial_ = snap.scene_serial;
   std_msgs::Header header;
-  header.stamp = parameters_.publish_clock ? ros::Time(snap.stamp) : ros::Time::now();
+  header.stamp = stamp;
   header.frame_id = parameters_.fixed_frame;
   const RegionSpec& region = snap.region;
   surface_publisher_.publish(
@@ -578,7 +612,10 @@ void SimulatorNode::publishNewScene()
 {
   // before the caller is answered: a subscriber joining after the reply gets this scene's
   std::lock_guard<std::mutex> lock(publish_mutex_);
-  publishSceneOnce(*runner_->snapshot());
+  const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
+  const ros::Time stamp = parameters_.publish_clock ? ros::Time(snap->stamp) : ros::Time::now();
+  if (parameters_.publish_clock || !stamp.isZero())  // else publish() sends it once time moves
+    publishSceneOnce(*snap, stamp);
 }
 
 bool SimulatorNode::resetCallback(Reset::Request& request, Reset::Response& response)
@@ -796,8 +833,9 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   };
   const bool singular = statistics.solve.singular_count > 0;
   const bool unconverged = !statistics.projection.converged;
+  const bool waiting_for_clock = waiting_for_clock_;
   status.level = snap->faulted ? diagnostic_msgs::DiagnosticStatus::ERROR
-                 : (snap->behind || singular || unconverged)
+                 : (snap->behind || singular || unconverged || waiting_for_clock)
                      ? diagnostic_msgs::DiagnosticStatus::WARN
                      : diagnostic_msgs::DiagnosticStatus::OK;
   std::string message = snap->faulted  ? snap->fault_reason
@@ -813,6 +851,8 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
     if (unconverged)
       message += "; a projection did not converge within its iteration limit";
   }
+  if (waiting_for_clock)
+    message += std::string("; ") + CLOCK_WAIT_MESSAGE;
   status.message = message;
   if (snap->faulted && snap->fault_reason != logged_fault_)
     ROS_ERROR("simulator: %s", snap->fault_reason.c_str());

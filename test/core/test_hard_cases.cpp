@@ -140,7 +140,7 @@ TEST(HardCases, StraightChainUnderAxialLoadHasSmallResidual)
 
 // 3. Pulled taut between two pins: J W J^T is singular (one redundant constraint) at every step.
 // Detected, solved regularised, reported, finite. (Under a transverse load such as gravity the
-// taut chain would need infinite tension: physically impossible; it diverges, see README.)
+// taut chain would need infinite tension; the regularised solve holds it straight: see README.)
 TEST(HardCases, TautChainBetweenTwoPinsIsSingularButFinite)
 {
   const int n = 20;

@@ -107,8 +107,6 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
         """Sends `goal`, cancels it once feedback satisfies `under_way` (plus 0.5 s), and returns
         (feedback at the cancel, feedback, result, seconds from the cancel to the result)."""
         feedback = []
-        # sent as soon as the last study's result is in: the server frees itself before it sends
-        # a result, so this goal is not refused as "a study is running"
         self.client.send_goal(goal, feedback_cb=feedback.append)
         self.wait_until(lambda: feedback and under_way(feedback[-1]), "the study under way",
                         timeout=240.0)
@@ -144,6 +142,50 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
         self.assertEqual(len(result.runs), 0, result.message)
         self.assertEqual(feedback[-1].done, 2)
         self.assertLess(seconds, 10.0)
+
+    def test_a_cancel_at_any_moment_ends_the_goal(self):
+        # 30 goals, each cancelled 0 to 300 ms after it was sent: while the cancel may still
+        # overtake the goal, while the goal is pending (its job being built), just accepted and
+        # running; none may run to its end once its cancel was accepted
+        slow = Method(integrator="explicit_euler", stabilization="none", dt=1e-6)
+        ends = []
+        for k in range(30):
+            delay = 0.3 * k / 29
+            self.client.send_goal(CompareMethodsGoal(horizon=3600.0, methods=[slow]))
+            time.sleep(delay)
+            self.client.cancel_goal()
+            self.wait_until(lambda: self.client.wait_for_result(rospy.Duration(0.05)),
+                            f"the result of goal {k} cancelled after {delay:.3f} s", timeout=60.0)
+            ends.append((round(delay, 3), self.client.get_state(),
+                         self.client.get_goal_status_text()))
+        wrong = [e for e in ends if e[1] not in (GoalStatus.PREEMPTED, GoalStatus.RECALLED)]
+        self.assertEqual(wrong, [], ends)
+        # the server is free: a last goal is accepted and runs to its end
+        quick = Method(integrator="rk4", stabilization="projection", dt=1e-3)
+        state, result, feedback = self.run_goal(CompareMethodsGoal(horizon=0.2, methods=[quick]),
+                                                timeout=120.0)
+        self.assertEqual(state, GoalStatus.SUCCEEDED, self.client.get_goal_status_text())
+        self.assertEqual(len(result.runs), 1, result.message)
+        self.assertTrue(feedback)
+
+    def test_a_new_goal_preempts_the_running_study(self):
+        # as actionlib's SimpleActionServer: the newest goal wins, the running study stops
+        slow = Method(integrator="explicit_euler", stabilization="none", dt=1e-6)
+        first = actionlib.SimpleActionClient(NODE + "/compare_methods", CompareMethodsAction)
+        self.assertTrue(first.wait_for_server(rospy.Duration(60.0)))
+        feedback = []
+        first.send_goal(CompareMethodsGoal(horizon=3600.0, methods=[slow]),
+                        feedback_cb=feedback.append)
+        self.wait_until(lambda: feedback, "the first study under way", timeout=120.0)
+        quick = Method(integrator="rk4", stabilization="projection", dt=1e-3)
+        state, result, _ = self.run_goal(CompareMethodsGoal(horizon=0.2, methods=[quick]),
+                                         timeout=120.0)
+        self.assertEqual(state, GoalStatus.SUCCEEDED, self.client.get_goal_status_text())
+        self.assertEqual(len(result.runs), 1, result.message)
+        self.wait_until(lambda: first.wait_for_result(rospy.Duration(0.05)),
+                        "the first study's result", timeout=30.0)
+        self.assertEqual(first.get_state(), GoalStatus.PREEMPTED, first.get_goal_status_text())
+        self.assertIn("preempted by a newer goal", first.get_goal_status_text())
 
     def test_bad_goals_are_rejected_naming_the_field(self):
         before = self.wait_until(self.states.latest, "~state")

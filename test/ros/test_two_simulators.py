@@ -128,6 +128,37 @@ class TwoSimulatorsTest(WallClockWaits, unittest.TestCase):
             if other is not None:
                 interrupt(other)
 
+    def test_a_remapped_clock_is_checked_under_its_own_name(self):
+        # /clock remapped into the node's namespace while another node publishes the real /clock:
+        # only the remapped name must be free
+        clock = rospy.Publisher("/clock", Clock, queue_size=1)
+        self.wait_until(lambda: "/clock" in dict(rospy.get_published_topics()), "/clock advertised")
+        ticks = []
+        subscriber = rospy.Subscriber("/robot1/clock", Clock, ticks.append)
+        node = subprocess.Popen(
+            ["rosrun", "constrained_particles", "simulator_node", "__name:=simulator",
+             "__ns:=robot1", "/clock:=/robot1/clock", "_scenario:=bead", "_publish_clock:=true"],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+        try:
+            publishers = lambda topic: sorted(
+                n for t, nodes in rosgraph.Master("/two_simulators_test").getSystemState()[0]
+                if t == topic for n in nodes)
+            self.wait_until(lambda: node.poll() is not None or
+                            publishers("/robot1/clock") == ["/robot1/simulator"],
+                            "the node publishing /robot1/clock", 120.0)
+            self.assertIsNone(node.poll(), node.stdout.read() if node.poll() is not None else "")
+            # its clock runs on the remapped name (sim time moving), and the real one is not its
+            self.wait_until(lambda: len({t.clock.to_sec() for t in ticks}) >= 3,
+                            "three distinct ticks on /robot1/clock")
+            self.assertNotIn("/robot1/simulator", publishers("/clock"))
+            # past the first checks after advertising (one a second): still running
+            time.sleep(3.0)
+            self.assertIsNone(node.poll(), node.stdout.read() if node.poll() is not None else "")
+        finally:
+            subscriber.unregister()
+            clock.unregister()
+            interrupt(node)
+
     def test_a_dead_clock_publisher_does_not_block_a_start(self):
         # a publisher the master still lists but that no longer answers (as after SIGKILL)
         master = rosgraph.Master("/ghost")

@@ -1,9 +1,11 @@
 /// @file compare_methods_server.hpp
 /// @brief ~compare_methods: the method study (core/method_study.hpp) as an actionlib action on
 /// the node's scene. Goals are checked when they arrive (a bad one is rejected naming the field,
-/// nothing else changes); an accepted one runs on a worker thread of its own, at a low priority,
+/// nothing else changes); an accepted one runs on the server's worker thread, at a low priority,
 /// on copies of the runner's latest snapshot, so stepping, publishing and services go on. One
-/// study at a time; a cancel stops it within milliseconds (inside a run).
+/// study at a time, as actionlib's SimpleActionServer: a new goal preempts the running study
+/// (which ends PREEMPTED within the run under way) and starts once it has stopped; a cancel at
+/// any point of a goal's life ends it RECALLED (not yet started) or PREEMPTED, never SUCCEEDED.
 #pragma once
 
 #include "constrained_particles/CompareMethodsAction.h"
@@ -14,6 +16,8 @@
 #include <ros/ros.h>
 
 #include <atomic>
+#include <condition_variable>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -37,7 +41,17 @@ public:
   CompareMethodsServer& operator=(const CompareMethodsServer&) = delete;
 
 private:
-  using Server = actionlib::ActionServer<CompareMethodsAction>;
+  /// actionlib's server with its lock in reach: work() ends a goal SUCCEEDED only under the
+  /// lock actionlib holds while it marks a goal cancelled (ActionServerBase::lock_, protected)
+  class Server : public actionlib::ActionServer<CompareMethodsAction>
+  {
+  public:
+    using actionlib::ActionServer<CompareMethodsAction>::ActionServer;
+    boost::recursive_mutex& lock()
+    {
+      return lock_;
+    }
+  };
   using GoalHandle = Server::GoalHandle;
 
   /// What an accepted goal runs on: copies, taken when it was accepted.
@@ -50,24 +64,42 @@ private:
     std::string output_directory;
   };
 
+  /// A goal and the flag its study polls (its own: a later goal cannot clear it).
+  struct Study
+  {
+    GoalHandle goal;
+    Job job;
+    std::shared_ptr<std::atomic<bool>> cancel;
+  };
+
+  /// Checks the goal and queues it, preempting the running study and recalling a queued one.
   void goalCallback(GoalHandle goal);
+  /// Recalls the goal if queued, stops its study if running (actionlib has already marked it).
   void cancelCallback(GoalHandle goal);
   /// Checks a goal against the current snapshot and builds its job.
   /// @throws InvalidInput naming the field
   Job jobFor(const CompareMethodsGoal& goal) const;
-  void work(GoalHandle goal, Job job);
-  /// Writes the CSV and draws the diagram; fills the result's paths, publishes the image.
-  /// @return '' or what went wrong (the study itself still succeeded)
-  std::string writeOutputs(const Job& job, const StudyResult& study, CompareMethodsResult& result);
+  /// The worker: takes queued goals one at a time until the server is destroyed.
+  void serve();
+  /// Runs one accepted study and ends its goal: PREEMPTED if cancelled or preempted, whether
+  /// by the flag or by actionlib's own status (a cancel that came while it was pending).
+  void work(Study& study);
+  /// Writes the CSV and draws the diagram (stopped once `cancel` is set); fills the result's
+  /// paths, publishes the image. @return '' or what went wrong (the study itself still succeeded)
+  std::string writeOutputs(const Job& job, const StudyResult& study,
+                           const std::atomic<bool>& cancel, CompareMethodsResult& result);
 
   ros::NodeHandle nh_;
   SimulationRunner& runner_;
   std::string plot_script_;
   ros::Publisher diagram_publisher_;
-  std::mutex mutex_;  // guards busy_, current_ and worker_
-  bool busy_ = false;
-  std::optional<GoalHandle> current_;
-  std::atomic<bool> cancel_{ false };
+  std::mutex mutex_;  // guards queued_, running_*, stopping_; taken before actionlib's lock
+  std::condition_variable wake_;
+  std::optional<Study> queued_;  // the next goal, still PENDING
+  std::optional<GoalHandle> running_;
+  std::shared_ptr<std::atomic<bool>> running_cancel_;
+  std::atomic<bool> running_preempted_{ false };  // its stop came from a newer goal
+  bool stopping_ = false;
   std::thread worker_;
   Server server_;  // last: its callbacks use everything above
 };

@@ -25,9 +25,11 @@
 #include <std_srvs/Empty.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <atomic>
 #include <chrono>
 #include <memory>
 #include <mutex>
+#include <optional>
 
 namespace constrained_particles
 {
@@ -54,21 +56,31 @@ public:
   /// clock check), or empty; then it has asked ROS to shut down and should exit with status 1.
   std::string refusal() const;
 
-  /// Publishes tf, ~state, /clock and the subscribed marker topics from the latest snapshot.
-  /// With ~publish_clock only a snapshot newer than the last published one goes out, so no stamp
-  /// is ever sent twice; otherwise every call publishes, stamped with wall time.
+  /// Publishes tf, ~state, /clock and the subscribed marker topics from the latest snapshot,
+  /// only if its stamp (stampFor) has advanced past the last one sent, so no stamp is ever sent
+  /// twice, whichever clock the stamps come from.
   void publish();
 
 private:
+  /// The stamp of what publish() sends for `snap`: its sim time (Snapshot::stamp) with
+  /// ~publish_clock, else ros::Time::now() taken before the snapshot (`now`: wall time, or a
+  /// foreign /clock under /use_sim_time). Empty when nothing may go out: the stamp has not
+  /// advanced past the last one sent (tf2 drops a repeat: TF_REPEATED_DATA), or it is 0 because
+  /// /use_sim_time is set and no /clock has arrived (then says so once, and in /diagnostics).
+  /// A stamp earlier than the last one sent (a foreign clock restarted, as rosbag play --loop
+  /// does) starts a new timeline, with a warning. Caller holds publish_mutex_.
+  std::optional<ros::Time> stampFor(const Snapshot& snap, const ros::Time& now);
   /// ~publish_clock, for CLOCK_CHECK_PERIOD after advertising: gives way (refusal(), shutdown)
   /// to another live /clock publisher whose name sorts first.
   void checkClockCallback(const ros::WallTimerEvent& event);
   /// Publishes the snapshot's accuracy report on ~accuracy once (latched).
   void publishAccuracy(const Snapshot& snap, const std_msgs::Header& header);
   /// Once per scene, whoever listens (latched, so a late subscriber gets the current scene's):
-  /// ~surface (the mesh over the region) and ~view (the region). Caller holds publish_mutex_.
-  void publishSceneOnce(const Snapshot& snap);
-  /// publishSceneOnce for the latest snapshot, from a service that changed the scene.
+  /// ~surface (the mesh over the region) and ~view (the region), stamped `stamp`. Caller holds
+  /// publish_mutex_.
+  void publishSceneOnce(const Snapshot& snap, const ros::Time& stamp);
+  /// publishSceneOnce for the latest snapshot, from a service that changed the scene (left to
+  /// publish() while no stamp may go out: see stampFor).
   void publishNewScene();
   /// /tf's message for the snapshot's scene: names made once per scene and frame count, with a
   /// one-line warning when ~tf_frames = -1 caps the frames.
@@ -109,7 +121,12 @@ private:
   std::unique_ptr<GrabMarkers> grab_markers_;              // likewise
 
   std::mutex publish_mutex_;  // publish() only: timer callbacks may overlap on the spinner
-  double last_stamp_ = -1.0;  // ~publish_clock: the last stamp sent [s]
+  std::optional<ros::Time> last_stamp_;  // the stamp of the last /tf and ~state sent
+  // stamps are sim time (~publish_clock or /use_sim_time): they may stand still, so /tf and
+  // ~state go out (latched) whoever listens, and a late /tf subscriber gets the last frames
+  bool sim_time_stamps_ = false;
+  // /use_sim_time and no /clock yet: nothing stamped goes out (WARN in /diagnostics)
+  std::atomic<bool> waiting_for_clock_{ false };
   std::chrono::steady_clock::time_point last_tf_broadcast_;  // wall time of the last /tf
   std::uint64_t frames_scene_serial_ = 0, published_scene_serial_ = 0, warned_scene_serial_ = 0;
   tf2_msgs::TFMessage tf_message_;  // frame names filled once per scene and frame count

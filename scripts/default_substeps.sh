@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# The peer chain (n particles, 0.1 m links, 0.1 kg, first pinned, released along +x, dt = 1 ms,
+# 10 s) and a chain of 20 pulled taut between two pins under gravity, run by the headless demo at
+# the node's default settings (max_substeps 1024), where README's peer table runs each integrator
+# unsplit. Prints each run's last line: energy drift over 10 s and the largest link error.
+# Usage: scripts/default_substeps.sh [case ...]   cases: peer_<n>_<integrator>, taut_chain_gravity
+# (default: all but the n = 1000 chains, which take far longer)
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+bash "$ROOT/scripts/build.sh" >/dev/null
+DEMO="$ROOT/build/ws/devel/lib/constrained_particles/constrained_particles_demo"
+DIR="$(mktemp -d)"
+trap 'rm -rf "$DIR"' EXIT
+
+peer_chain() {  # n integrator
+  cat >"$DIR/peer_$1_$2.yaml" <<SCENE
+name: peer_$1_$2
+description: "the peer chain: $1 particles, 0.1 m links, 0.1 kg, pinned, released along +x"
+chains:
+  - {particles: $1, link_length: 0.1, particle_mass: 0.1, start: [0, 0, 0], direction: [1, 0, 0], pin_first: true}
+forces:
+  - {type: gravity}
+solver: {integrator: $2, dt: 0.001}
+SCENE
+}
+taut_chain() {  # 20 particles in a straight line, pinned at both ends, 0.1 m links, rk4
+  {
+    echo 'name: taut_chain_gravity'
+    echo 'description: "a chain of 20 pulled taut between two pins, under gravity"'
+    echo 'particles:'
+    for i in $(seq 0 19); do echo "  - {mass: 0.1, position: [$(awk "BEGIN{print $i*0.1}"), 0, 0]}"; done
+    echo 'constraints:'
+    echo '  - {type: pin, particle: 0}'
+    echo '  - {type: pin, particle: 19}'
+    for i in $(seq 0 18); do echo "  - {type: link, first: $i, second: $((i + 1)), length: 0.1}"; done
+    echo 'forces:'
+    echo '  - {type: gravity}'
+    echo 'solver: {integrator: rk4, dt: 0.001}'
+  } >"$DIR/taut_chain_gravity.yaml"
+}
+
+CASES=("$@")
+((${#CASES[@]})) || CASES=(peer_10_semi_implicit_euler peer_100_semi_implicit_euler
+  peer_100_velocity_verlet taut_chain_gravity)
+for case in "${CASES[@]}"; do
+  if [[ "$case" =~ ^peer_([0-9]+)_(.+)$ ]]; then
+    peer_chain "${BASH_REMATCH[1]}" "${BASH_REMATCH[2]}"
+  elif [[ "$case" == taut_chain_gravity ]]; then
+    taut_chain
+  else
+    echo "unknown case '$case': peer_<n>_<integrator> or taut_chain_gravity" >&2
+    exit 2
+  fi
+  echo "$case: $("$DEMO" 10 "$DIR/$case.yaml" | tail -2 | head -1)"
+done
