@@ -4,7 +4,8 @@ rqt).
 
   plot_state.py FIELD [FIELD ...] [--node /simulator] [--window 20] [--output FILE --seconds S]
 
-FIELD is a number field of constrained_particles/SimState: total_energy, max_position_error,
+FIELD is a number field of constrained_particles/SimState: total_energy, energy_residual, energy_work_in,
+energy_dissipated, max_position_error,
 real_time_factor, accuracy_position_error, substeps, ... (`rosmsg show constrained_particles/SimState`).
 Each gets its own axes. With a display, a window follows the last --window seconds of sim time;
 with --output, it records --seconds of wall time and writes the plot to FILE (PNG, headless).

@@ -4,6 +4,7 @@
 #include "stages.hpp"
 
 #include "constrained_particles/core/constraints.hpp"
+#include "constrained_particles/core/diagnostics.hpp"
 #include "constrained_particles/core/forces.hpp"
 #include "constrained_particles/core/stability.hpp"
 
@@ -43,6 +44,37 @@ bool hasStiffness(const Model& model, const std::vector<Force>& perturbations)
 const double* appliedForceSum(const Data& data)
 {
   return data.applied_forces_are_gravity ? &data.gravity_force_sum : nullptr;
+}
+
+// The powers of the non-conservative forces at `x` [W] (the model's and the perturbations'):
+// `in` of external forces and drags, `dissipated` (>= 0) of damping and drag
+void ledgerPowers(const Model& model, const Data& data, const State& x, double& in,
+                  double& dissipated)
+{
+  in = dissipated = 0.0;
+  const std::vector<double>& masses = model.scene().masses;
+  for (const std::vector<Force>* forces : { &model.scene().forces, &data.perturbations })
+    for (const Force& force : *forces)
+    {
+      const double p = power(force, masses, x.positions, x.velocities);
+      if (forceDissipates(force))
+        dissipated -= p;
+      else
+        in += p;
+    }
+}
+
+// energyScale() at the current state with the forces acting now, the model's and the
+// perturbations' (between steps data.applied_forces may be older)
+double ledgerScale(const Model& model, const Data& data)
+{
+  const State& x = data.state;
+  Points forces = Points::Zero(3, model.numParticles());
+  const std::vector<Force>* lists[] = { &model.scene().forces, &data.perturbations };
+  for (const std::vector<Force>* list : lists)
+    for (const Force& force : *list)
+      accumulateForce(force, model.scene().masses, x.positions, x.velocities, forces);
+  return energyScale(model, x, forces);
 }
 
 // Forgets what the checks learnt of the previous state (reset, teleport, new scene).
@@ -212,6 +244,42 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
   return StepCheck::None;
 }
 
+void Simulator::openLedger()
+{
+  const Model& model = *model_;
+  Data& data = *data_;
+  const State& x = data.state;
+  EnergyLedger& ledger = data.ledger;
+  ledger = EnergyLedger{};
+  ledger.t0 = x.time;
+  ledger.kinetic = kineticEnergy(model, x);
+  ledger.potential = potentialEnergy(model, x);
+  ledger.initial_energy = ledger.kinetic + ledger.potential;
+  ledger.scale = ledgerScale(model, data);
+  for (const Constraint& constraint : model.scene().constraints)
+    if (std::holds_alternative<MovingAnchorConstraint>(constraint))
+      ledger.balanced = false;
+  ledgerPowers(model, data, x, ledger.power_in, ledger.power_dissipated);
+}
+
+void Simulator::bookStep(double dt, bool end_energies)
+{
+  const Model& model = *model_;
+  Data& data = *data_;
+  const State& x = data.state;
+  EnergyLedger& ledger = data.ledger;
+  ledger.kinetic = end_energies ? data.control.end_kinetic : kineticEnergy(model, x);
+  ledger.potential = end_energies ? data.control.end_potential : potentialEnergy(model, x);
+  double in = 0.0, dissipated = 0.0;
+  ledgerPowers(model, data, x, in, dissipated);
+  // trapezoidal rule over the step: the forces acting during it are those at both ends
+  ledger.work_in += 0.5 * dt * (ledger.power_in + in);
+  ledger.work_in_moved += 0.5 * dt * (std::abs(ledger.power_in) + std::abs(in));
+  ledger.dissipated += 0.5 * dt * (ledger.power_dissipated + dissipated);
+  ledger.power_in = in;
+  ledger.power_dissipated = dissipated;
+}
+
 void Simulator::readSceneKind()
 {
   // a force from outside does work on the system: its energy is not kept while one acts
@@ -341,6 +409,17 @@ StepStatistics Simulator::step(int count)
       }
     }
     total.merge(attempt);
+    const bool end_energies = conservative_ && failed == StepCheck::None;
+    const EnergyLedger before = data.ledger;  // put back with the step
+    bookStep(settings_.dt, end_energies);
+    const EnergyLedger& ledger = data.ledger;
+    if (failed == StepCheck::None && settings_.energy_budget > 0.0 && ledger.balanced &&
+        !(ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR)))
+    {
+      // over the run, not the step: no split of this step undoes what earlier ones gained
+      failed = StepCheck::EnergyBudget;
+      control.budget_failure_residual = ledger.residual();
+    }
     if (failed != StepCheck::None)
     {
       if (total.failed_check == StepCheck::None)
@@ -348,6 +427,7 @@ StepStatistics Simulator::step(int count)
       if (max_substeps > 1)
       {
         x = control.start;  // put back: the state stays the last accepted one
+        data.ledger = before;
         data.chain_factorization_at_state = false;
         control.multipliers_current = false;
         break;
@@ -359,7 +439,7 @@ StepStatistics Simulator::step(int count)
     total.substeps += substeps;
     total.max_substeps = std::max(total.max_substeps, substeps);
     control.singular = attempt.solve.singular || attempt.projection.singular;
-    control.end_energies_current = conservative_ && failed == StepCheck::None;
+    control.end_energies_current = end_energies;
     // velocity Verlet and fast projection solve for no multipliers
     control.multipliers_current = method == integrator_ && !integrator_->holds_constraints;
     if (method != integrator_)
@@ -388,6 +468,7 @@ void Simulator::reset()
   data_->state.steps = 0;
   data_->statistics = StepStatistics{};
   forgetControl(*data_);
+  openLedger();
 }
 
 ProjectionReport Simulator::setState(const State& state)
@@ -413,6 +494,7 @@ ProjectionReport Simulator::setState(const State& state)
     throw InvalidInput("positions", "projection produced a non-finite state; state unchanged");
   data_->state = projected;
   forgetControl(*data_);
+  openLedger();  // a teleport: the energy it brought or took is no step's
   return report;
 }
 
@@ -421,6 +503,7 @@ void Simulator::restoreState(const State& state)
   model_->validateState(state);
   data_->state = state;
   forgetControl(*data_);
+  openLedger();
 }
 
 void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
@@ -459,6 +542,7 @@ void Simulator::setForces(const std::vector<Force>& forces)
   model_ = std::move(model);
   data_ = std::move(data);
   readSceneKind();
+  openLedger();  // new forces: a new potential and new powers
 }
 
 void Simulator::setPerturbations(const std::vector<Force>& perturbations)
@@ -471,6 +555,11 @@ void Simulator::setPerturbations(const std::vector<Force>& perturbations)
   data_->control.multipliers_current = false;
   data_->control.end_energies_current = false;
   readSceneKind();
+  // the next step's work is booked from the new forces' power at its start, and the account is
+  // measured against what they could move too (a drag on a chain at rest: |f| times its extent)
+  EnergyLedger& ledger = data_->ledger;
+  ledgerPowers(*model_, *data_, data_->state, ledger.power_in, ledger.power_dissipated);
+  ledger.scale = std::max(ledger.scale, ledgerScale(*model_, *data_));
 }
 
 Diagnostics Simulator::diagnostics() const

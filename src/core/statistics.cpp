@@ -74,7 +74,8 @@ const char* stepCheckName(StepCheck check)
 {
   static const char* const NAMES[NUM_STEP_CHECKS] = { "none",           "non_finite",
                                                       "projection",     "energy_rise",
-                                                      "singular_solve", "adaptive_guard" };
+                                                      "singular_solve", "adaptive_guard",
+                                                      "energy_budget" };
   const int index = static_cast<int>(check);
   return index >= 0 && index < NUM_STEP_CHECKS ? NAMES[index] : "(invalid)";
 }

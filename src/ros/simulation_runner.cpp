@@ -730,6 +730,18 @@ std::string SimulationRunner::faultIn(const State& state, const StepStatistics& 
              ": the total energy of this conservative scene rose by more than " +
              formatValue(Simulator::ENERGY_RISE_TOLERANCE) + " of its scale in one sub-step; " +
              "shorten ~dt, raise ~max_substeps or change ~integrator";
+    case StepCheck::EnergyBudget:
+    {
+      const EnergyLedger& ledger = simulator_->energyLedger();
+      const double scale = ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR);
+      return "step check energy_budget failed" + when + ": energy budget exceeded, residual " +
+             formatValue(simulator_->data().control.budget_failure_residual) + " J > " +
+             formatValue(step.energy_budget * scale) + " J (~energy_budget " +
+             formatValue(step.energy_budget) + " of scale " + formatValue(scale) +
+             " J, since t = " + formatValue(ledger.t0) + " s): " + step.integrator +
+             " gained energy over the run; use rk4 or velocity_verlet, shorten ~dt, or set "
+             "~energy_budget 0 to run unchecked";
+    }
     default:
       break;
   }
@@ -866,6 +878,7 @@ void SimulationRunner::makeSnapshot()
   s->constraint_forces = forces_;
   s->multipliers = multipliers_;
   s->diagnostics = simulator_->diagnostics();
+  s->ledger = simulator_->energyLedger();
   s->stamp = clock_base_ + s->state.time;
   s->step_time = step_time_;
   s->real_time_factor = achieved_rtf_;

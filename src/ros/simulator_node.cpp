@@ -40,6 +40,7 @@ SimulatorConfig configFrom(const NodeParameters& p, const SceneDescription& scen
   c.baumgarte_damping_ratio = p.step.baumgarte_damping_ratio;
   c.adaptive_tolerance = p.step.adaptive_tolerance;
   c.max_substeps = p.step.max_substeps;
+  c.energy_budget = p.step.energy_budget;
   c.accuracy_window = p.accuracy_window;
   c.tf_frames = p.tf_frames;
   c.interactive = p.interactive;
@@ -343,7 +344,8 @@ void SimulatorNode::publish()
     return;
   // nothing non-finite leaves the node
   if (!isFinite(snap->state) || !snap->diagnostics.finite() ||
-      !snap->constraint_forces.allFinite() || !snap->multipliers.allFinite())
+      !snap->constraint_forces.allFinite() || !snap->multipliers.allFinite() ||
+      !std::isfinite(snap->ledger.residual() + snap->ledger.scale + snap->ledger.t0))
   {
     ROS_ERROR_THROTTLE(5.0, "simulator: non-finite values at t = %.6f s; not published",
                        snap->state.time);
@@ -403,6 +405,13 @@ void SimulatorNode::publish()
     msg.kinetic_energy = snap->diagnostics.kinetic_energy;
     msg.potential_energy = snap->diagnostics.potential_energy;
     msg.total_energy = snap->diagnostics.totalEnergy();
+    const EnergyLedger& ledger = snap->ledger;
+    msg.energy_t0 = ledger.t0;
+    msg.energy_scale = ledger.scale;
+    msg.energy_work_in = ledger.work_in;
+    msg.energy_dissipated = ledger.dissipated;
+    msg.energy_residual = ledger.residual();
+    msg.energy_balanced = ledger.balanced;
     msg.step_time = snap->step_time;
     msg.real_time_factor = snap->real_time_factor;
     msg.behind = snap->behind;
@@ -776,6 +785,8 @@ bool SimulatorNode::reconfigureCallback(const SimulatorConfig& shown,
           candidate.step.adaptive_tolerance = r.adaptive_tolerance;
         if (changed(r.max_substeps, shown.max_substeps))
           candidate.step.max_substeps = r.max_substeps;
+        if (changed(r.energy_budget, shown.energy_budget))
+          candidate.step.energy_budget = r.energy_budget;
         if (changed(r.real_time_factor, shown.real_time_factor))
           candidate.real_time_factor = r.real_time_factor;
         if (changed(r.publish_rate, shown.publish_rate))
@@ -867,6 +878,14 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   add("max_velocity_error [m/s]", formatValue(snap->diagnostics.max_velocity_error));
   add("fault limit: max_constraint_error [m]", formatValue(p.max_constraint_error));
   add("total_energy [J]", formatValue(snap->diagnostics.totalEnergy()));
+  add("energy ledger since t [s]", formatValue(snap->ledger.t0));
+  add("energy work in [J]", formatValue(snap->ledger.work_in));
+  add("energy dissipated [J]", formatValue(snap->ledger.dissipated));
+  add("energy residual [J]", formatValue(snap->ledger.residual()) +
+                                 (snap->ledger.balanced ? ""
+                                                        : " (a driven anchor's work is not "
+                                                          "booked: it is in the residual)"));
+  add("energy scale [J]", formatValue(snap->ledger.scale));
   add("step_time [s]", formatValue(snap->step_time));
   add("real_time_factor achieved", formatValue(snap->real_time_factor));
   add("real_time_factor wanted", formatValue(p.real_time_factor));
@@ -884,6 +903,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   add("internal steps", std::to_string(statistics.internal_steps));
   add("rejected internal steps", std::to_string(statistics.rejected_internal_steps));
   add("max_substeps", std::to_string(p.step.max_substeps));
+  add("energy_budget", formatValue(p.step.energy_budget));
   add("sub-steps", std::to_string(statistics.substeps));
   add("most sub-steps per step", std::to_string(statistics.max_substeps));
   add("steps taken by fast_projection (stiff fallback)", std::to_string(statistics.stiff_steps));

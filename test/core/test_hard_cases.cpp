@@ -297,7 +297,8 @@ TEST(HardCases, LargeStepsWithoutSubstepsBehaveAsDocumented)
     { "bead",
       { { "explicit_euler", { "none", "baumgarte", "projection" } },
         { "semi_implicit_euler", { "none", "baumgarte", "projection" } },
-        { "midpoint", { "none", "baumgarte" } },
+        // + projection: gains energy over the run (energy_budget), bounded as it is
+        { "midpoint", { "none", "baumgarte", "projection" } },
         { "rk4", { "baumgarte" } },
         { "velocity_verlet", {} },
         { "dopri5", {} },
@@ -317,26 +318,28 @@ TEST(HardCases, LargeStepsWithoutSubstepsBehaveAsDocumented)
 TEST(HardCases, LargeStepsWithSubstepsBehaveAsDocumented)
 {
   // dopri5's step size collapses on the chain (its guard is final: sub-steps would repeat its
-  // own internal steps); rk4 without stabilisation drifts off the links at any split
+  // own internal steps); rk4 without stabilisation drifts off the links at any split; explicit
+  // Euler, midpoint and semi-implicit Euler + Baumgarte gain energy over the 10 s past 1 % of
+  // the scene's scale (energy_budget: sub-steps keep each step stable, not the run's account)
   const DivergingTable diverging = {
     { "chain",
-      { { "explicit_euler", {} },
-        { "semi_implicit_euler", {} },
-        { "midpoint", {} },
+      { { "explicit_euler", { "baumgarte", "projection" } },
+        { "semi_implicit_euler", { "baumgarte" } },
+        { "midpoint", { "baumgarte", "projection" } },
         { "rk4", { "none" } },
         { "velocity_verlet", {} },
         { "dopri5", { "none", "baumgarte", "projection" } },
         { "fast_projection", {} } } },
     { "bead",
-      { { "explicit_euler", {} },
+      { { "explicit_euler", { "none", "baumgarte", "projection" } },
         { "semi_implicit_euler", {} },
-        { "midpoint", {} },
+        { "midpoint", { "none", "baumgarte", "projection" } },
         { "rk4", {} },
         { "velocity_verlet", {} },
         { "dopri5", {} },
         { "fast_projection", {} } } },
     { "surface_chain",
-      { { "explicit_euler", {} },
+      { { "explicit_euler", { "none", "baumgarte", "projection" } },
         { "semi_implicit_euler", {} },
         { "midpoint", {} },
         { "rk4", {} },

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -69,6 +70,44 @@ struct StepControl
   /// by anything that writes the state or the applied forces between steps.
   bool end_energies_current = false;
   double end_kinetic = 0.0, end_potential = 0.0, end_scale = 0.0;
+  /// The energy ledger's residual of the last step that failed energy_budget [J] (the fault
+  /// message's figure: the step itself is put back, and the ledger with it).
+  double budget_failure_residual = 0.0;
+};
+
+/// The run's energy account since t0, the last reset, setState, restoreState or change of the
+/// scene's forces (Simulator::energyLedger()), kept on every accepted step of every scene:
+/// residual() = E(t) - E(t0) - work_in + dissipated, zero for the exact motion. The work of the
+/// non-conservative forces is booked by the trapezoidal rule over each step (second order in
+/// dt); the projections' velocity corrections and fast projection's losses are not booked, so
+/// they show in the residual, as losses. docs/physics.md, "The energy ledger".
+struct EnergyLedger
+{
+  double t0 = 0.0;                ///< when it was opened [s]
+  double initial_energy = 0.0;    ///< E(t0) = T + U [J]
+  double scale = 0.0;             ///< energyScale() at t0 [J]: what the residual is measured in
+  double kinetic = 0.0;           ///< T at the current state [J]
+  double potential = 0.0;         ///< U of the conservative forces at the current state [J]
+  double work_in = 0.0;           ///< integral of f . v of external forces and drags [J]
+  double dissipated = 0.0;        ///< -integral of f . v of damping and drag [J], >= 0
+  double work_in_moved = 0.0;     ///< integral of |f . v| of the work-in forces [J], >= 0
+  double power_in = 0.0;          ///< f . v of the work-in forces at the current state [W]
+  double power_dissipated = 0.0;  ///< -f . v of damping and drag at the current state [W]
+  /// false in a scene with a driven anchor (moving_anchor): the anchor's work through its
+  /// reaction is not booked yet, so the residual holds it
+  bool balanced = true;
+
+  /// E(t) - E(t0) - work_in + dissipated [J]
+  double residual() const
+  {
+    return kinetic + potential - initial_energy - work_in + dissipated;
+  }
+  /// What the residual is measured against [J]: the scale at t0 plus the energy that flowed in
+  /// and out since (a pulled particle from rest has no scale of its own), at least `floor`.
+  double budgetScale(double floor) const
+  {
+    return std::max(scale + work_in_moved + dissipated, floor);
+  }
 };
 
 /// Everything that changes. Made for one model (Data(model)); valid while that model lives.
@@ -147,6 +186,7 @@ public:
   EffectCounters counters;    ///< evaluations since this data was made
   StepStatistics statistics;  ///< of the batch being stepped
   StepControl control;        ///< the step checks' and sub-steps' memory
+  EnergyLedger ledger;        ///< the energy account since the last reset (Simulator)
 
   /// The factorisation of J W J^T (src/core/solvers).
   ConstraintSolver& solver()

@@ -2,8 +2,8 @@
 /// @brief The registry of applied-force kinds, and dispatch over them.
 ///
 /// Each kind lives in its own file under effects/: a record (KIND, fields()) with the stateless
-/// functions accumulateForce, potentialEnergy and validate, and addStiffness for the kinds whose
-/// force depends on position (springs: the stability estimate reads it). Adding a kind means
+/// functions accumulateForce, potentialEnergy, power and validate, and addStiffness for the kinds
+/// whose force depends on position (springs: the stability estimate reads it). Adding a kind means
 /// writing that file and adding the record to `Force` below; the stepper, validation and scene
 /// files follow.
 #pragma once
@@ -42,6 +42,20 @@ inline double potentialEnergy(const Force& force, const std::vector<double>& mas
                               const Points& positions)
 {
   return std::visit([&](const auto& f) { return potentialEnergy(f, masses, positions); }, force);
+}
+
+/// The power the force delivers at a state, f . v [W]: 0 for a conservative force (its work
+/// is the change of its potential energy). The energy ledger's (EnergyLedger) integrand.
+inline double power(const Force& force, const std::vector<double>& masses, const Points& positions,
+                    const Points& velocities)
+{
+  return std::visit([&](const auto& f) { return power(f, masses, positions, velocities); }, force);
+}
+
+/// Whether the ledger books the force's power as dissipated (damping, drag) or as work in.
+inline bool forceDissipates(const Force& force)
+{
+  return std::visit([](const auto& f) { return std::decay_t<decltype(f)>::DISSIPATIVE; }, force);
 }
 
 namespace detail

@@ -119,6 +119,9 @@ constexpr Range ADAPTIVE_TOLERANCE{ 1e-14, false, 1.0, "1", false };
 /// Most sub-steps a step may be split into (powers of two up to it; 1 = never split) [1]:
 /// 65,536 keeps one step's work bounded (a rejected step costs up to twice this many sub-steps).
 constexpr Range MAX_SUBSTEPS{ 1.0, false, 65536.0, "1", true };
+/// The energy ledger's residual a run may reach, as a fraction of the scene's energy scale at
+/// t0 (EnergyLedger::scale) [1]; 0 = no check.
+constexpr Range ENERGY_BUDGET{ 0.0, false, 1.0, "1", false };
 
 // --- the node ---
 /// Simulated seconds per wall second [1].

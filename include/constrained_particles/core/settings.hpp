@@ -42,6 +42,9 @@ struct StepSettings
   /// Most sub-steps of dt/2^k a step is split into when its checks fail or the stability
   /// estimate asks for them (simulator.hpp); 1 = never split [1]
   int max_substeps = 1024;
+  /// Largest energy residual a run may gain (EnergyLedger::residual() above this fraction of
+  /// EnergyLedger::scale fails the step check energy_budget); 0 = not checked [1]
+  double energy_budget = 1e-2;
 
   /// Every field: name (as in parameters and scene files), member, kind and range.
   static constexpr auto fields()
@@ -64,7 +67,9 @@ struct StepSettings
         field("adaptive_tolerance", &StepSettings::adaptive_tolerance, FieldKind::Number,
               &limits::ADAPTIVE_TOLERANCE, "dopri5 error per internal step"),
         field("max_substeps", &StepSettings::max_substeps, FieldKind::Number, &limits::MAX_SUBSTEPS,
-              "most sub-steps a step is split into, 1 = never"));
+              "most sub-steps a step is split into, 1 = never"),
+        field("energy_budget", &StepSettings::energy_budget, FieldKind::Number,
+              &limits::ENERGY_BUDGET, "largest energy residual over a run, of the scene's scale"));
   }
 };
 

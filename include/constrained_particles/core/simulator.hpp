@@ -112,6 +112,12 @@ public:
   /// Errors and energies of the current state.
   Diagnostics diagnostics() const;
 
+  /// The energy account since the last reset, setState, restoreState or setForces (data.hpp).
+  const EnergyLedger& energyLedger() const
+  {
+    return data_->ledger;
+  }
+
   /// Constraint forces [N] and multipliers at the current state, as the next step would apply
   /// them (computed on demand).
   void constraintForces(Points& forces, Eigen::VectorXd& multipliers);
@@ -123,6 +129,8 @@ public:
   static constexpr const char* STIFF_FALLBACK = "fast_projection";
   /// Most sub-steps the stability estimate computes when it decides on the fallback.
   static constexpr int MAX_STABILITY_SUBSTEPS = 1 << 30;
+  /// The energy budget's smallest scale [J]: a scene at rest with no force has none of its own.
+  static constexpr double ENERGY_SCALE_FLOOR = 1e-6;
   /// Accepted steps at a rejection's sub-step count before it is halved again.
   static constexpr int RELAX_AFTER_STEPS = 16;
 
@@ -131,6 +139,12 @@ private:
   /// its sub-steps merged into `attempt`. @return the first check a sub-step failed, or None
   /// Sets conservative_ and has_stiffness_ from the model's scene (after any scene change).
   void readSceneKind();
+
+  /// Opens the energy ledger at the current state (t0).
+  void openLedger();
+  /// Books one accepted step of `dt` [s] ending at the current state, whose end energies are
+  /// control.end_* where `end_energies` (else measured here).
+  void bookStep(double dt, bool end_energies);
 
   /// Every stage at the current state (forces, multipliers, accelerations), on copies of it.
   void forwardAtState();

@@ -155,9 +155,11 @@ enum class StepCheck
   EnergyRise,     ///< a conservative scene's energy rose by more than ENERGY_RISE_TOLERANCE
   SingularSolve,  ///< J W J^T became singular where the previous step's was not
   AdaptiveGuard,  ///< dopri5 hit its internal step guard
+  EnergyBudget,   ///< the energy ledger's residual passed energy_budget of its scale
 };
-constexpr int NUM_STEP_CHECKS = 6;
-/// "none", "non_finite", "projection", "energy_rise", "singular_solve", "adaptive_guard".
+constexpr int NUM_STEP_CHECKS = 7;
+/// "none", "non_finite", "projection", "energy_rise", "singular_solve", "adaptive_guard",
+/// "energy_budget".
 const char* stepCheckName(StepCheck check);
 
 /// Statistics of a batch of steps (Simulator::step(count)): the worst and the totals over all of

@@ -77,6 +77,7 @@ struct Snapshot
   Points constraint_forces;
   Eigen::VectorXd multipliers;
   Diagnostics diagnostics;  ///< errors and energies of `state`
+  EnergyLedger ledger;      ///< the energy account since the last reset, teleport or force change
   /// Monotone clock [s]: sim time plus the time of every earlier reset, plus TIME_JUMP per reset,
   /// scene change, teleport or fault, so a stamp taken from it is never repeated or earlier than
   /// one before.

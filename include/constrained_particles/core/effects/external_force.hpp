@@ -15,7 +15,8 @@ struct ExternalForce
   Vec3 force{ 0.0, 0.0, 0.0 };  ///< F [N]
 
   static constexpr const char* KIND = "external";
-  static constexpr bool CONSERVATIVE = false;        ///< not counted in the potential energy
+  static constexpr bool CONSERVATIVE = false;  ///< not counted in the potential energy
+  static constexpr bool DISSIPATIVE = false;   ///< the energy ledger books its power as work in
   static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
@@ -32,6 +33,13 @@ inline void accumulateForce(const ExternalForce& force, const std::vector<double
                             Points& forces)
 {
   forces.col(force.particle) += force.force;
+}
+
+/// The power it delivers, F . v_i [W] (the energy ledger's work in).
+inline double power(const ExternalForce& force, const std::vector<double>& /*masses*/,
+                    const Points& /*positions*/, const Points& velocities)
+{
+  return force.force.dot(velocities.col(force.particle));
 }
 
 /// Not counted in the energy diagnostics (it is work done on the system from outside): 0 [J].

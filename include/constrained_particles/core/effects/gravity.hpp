@@ -14,7 +14,8 @@ struct GravityForce
   Vec3 acceleration{ 0.0, 0.0, -9.81 };  ///< g [m/s^2]
 
   static constexpr const char* KIND = "gravity";
-  static constexpr bool CONSERVATIVE = true;        ///< f = -grad U, U its potentialEnergy()
+  static constexpr bool CONSERVATIVE = true;  ///< f = -grad U, U its potentialEnergy()
+  static constexpr bool DISSIPATIVE = false;  ///< the energy ledger books its power as work in
   static constexpr bool GALILEAN_INVARIANT = true;  ///< alike on every particle (Model::isolated())
   static constexpr auto fields()
   {
@@ -34,6 +35,12 @@ inline void accumulateForce(const GravityForce& force, const std::vector<double>
   double* f = forces.data();
   for (int i = 0; i < n; ++i)
     Eigen::Map<Vec3>(f + 3 * i) += masses[i] * g;
+}
+
+/// Conservative: its work is the change of potentialEnergy(), so no power is booked: 0 [W].
+inline double power(const GravityForce&, const std::vector<double>&, const Points&, const Points&)
+{
+  return 0.0;
 }
 
 /// Sets f_i = m_i g [N]: accumulateForce onto zeros, in one pass instead of two (a stage whose

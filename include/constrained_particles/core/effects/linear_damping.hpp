@@ -14,7 +14,8 @@ struct LinearDampingForce
   double coefficient = 0.0;  ///< c [N s/m], >= 0
 
   static constexpr const char* KIND = "linear_damping";
-  static constexpr bool CONSERVATIVE = false;        ///< not counted in the potential energy
+  static constexpr bool CONSERVATIVE = false;  ///< not counted in the potential energy
+  static constexpr bool DISSIPATIVE = true;    ///< the energy ledger books its power as dissipated
   static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
@@ -28,6 +29,13 @@ inline void accumulateForce(const LinearDampingForce& force, const std::vector<d
                             const Points& /*positions*/, const Points& velocities, Points& forces)
 {
   forces -= force.coefficient * velocities;
+}
+
+/// The power it delivers, -c sum |v_i|^2 [W] (<= 0: the energy ledger's dissipation).
+inline double power(const LinearDampingForce& force, const std::vector<double>& /*masses*/,
+                    const Points& /*positions*/, const Points& velocities)
+{
+  return -force.coefficient * velocities.squaredNorm();
 }
 
 /// Not conservative: 0 [J].

@@ -4,6 +4,7 @@
 
 #include "constrained_particles/core/effect_fields.hpp"
 
+#include <cmath>
 #include <vector>
 
 namespace constrained_particles
@@ -14,7 +15,8 @@ struct QuadraticDragForce
   double coefficient = 0.0;  ///< c [N s^2/m^2] = [kg/m], >= 0
 
   static constexpr const char* KIND = "quadratic_drag";
-  static constexpr bool CONSERVATIVE = false;        ///< not counted in the potential energy
+  static constexpr bool CONSERVATIVE = false;  ///< not counted in the potential energy
+  static constexpr bool DISSIPATIVE = true;    ///< the energy ledger books its power as dissipated
   static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
@@ -29,6 +31,16 @@ inline void accumulateForce(const QuadraticDragForce& force, const std::vector<d
 {
   for (int i = 0; i < forces.cols(); ++i)
     forces.col(i) -= force.coefficient * velocities.col(i).norm() * velocities.col(i);
+}
+
+/// The power it delivers, -c sum |v_i|^3 [W] (<= 0: the energy ledger's dissipation).
+inline double power(const QuadraticDragForce& force, const std::vector<double>& /*masses*/,
+                    const Points& /*positions*/, const Points& velocities)
+{
+  double sum = 0.0;
+  for (int i = 0; i < velocities.cols(); ++i)
+    sum += std::pow(velocities.col(i).norm(), 3);
+  return -force.coefficient * sum;
 }
 
 /// Not conservative: 0 [J].

@@ -21,6 +21,7 @@ struct SpringForce
 
   static constexpr const char* KIND = "spring";
   static constexpr bool CONSERVATIVE = true;  ///< f = -grad U, U its potentialEnergy()
+  static constexpr bool DISSIPATIVE = false;  ///< the energy ledger books its power as work in
   static constexpr bool GALILEAN_INVARIANT =
       true;  ///< between its particles only (Model::isolated())
   static constexpr auto fields()
@@ -45,6 +46,12 @@ inline void accumulateForce(const SpringForce& force, const std::vector<double>&
   const Vec3 f = (-force.stiffness * (length - force.rest_length) / length) * d;
   forces.col(force.first) += f;
   forces.col(force.second) -= f;
+}
+
+/// Conservative: its work is the change of potentialEnergy(), so no power is booked: 0 [W].
+inline double power(const SpringForce&, const std::vector<double>&, const Points&, const Points&)
+{
+  return 0.0;
 }
 
 /// k (|p_i - p_j| - L)^2 / 2 [J].

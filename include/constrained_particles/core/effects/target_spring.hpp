@@ -19,7 +19,8 @@ struct TargetSpringForce
   double damping = 0.0;          ///< c [N s/m], >= 0
 
   static constexpr const char* KIND = "target_spring";
-  static constexpr bool CONSERVATIVE = false;        ///< the damping takes energy out
+  static constexpr bool CONSERVATIVE = false;  ///< the damping takes energy out
+  static constexpr bool DISSIPATIVE = false;   ///< the energy ledger books its power as work in
   static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr auto fields()
   {
@@ -40,6 +41,16 @@ inline void accumulateForce(const TargetSpringForce& force, const std::vector<do
 {
   forces.col(force.particle) -= force.stiffness * (positions.col(force.particle) - force.target) +
                                 force.damping * velocities.col(force.particle);
+}
+
+/// The power it delivers, (-k (p_i - a) - c v_i) . v_i [W]: a drag's pull and its damping,
+/// booked together as work from outside (the energy ledger's work in).
+inline double power(const TargetSpringForce& force, const std::vector<double>& /*masses*/,
+                    const Points& positions, const Points& velocities)
+{
+  const Vec3 v = velocities.col(force.particle);
+  return -(force.stiffness * (positions.col(force.particle) - force.target) + force.damping * v)
+              .dot(v);
 }
 
 /// Not conservative: 0 [J] (the work it does comes from outside).

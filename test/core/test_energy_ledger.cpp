@@ -1,0 +1,165 @@
+// The energy ledger (issue 32, EnergyLedger in data.hpp): every accepted step books the work of
+// the non-conservative forces, so E(t) - E(t0) - work_in + dissipated stays near zero in any
+// scene, not only in conservative ones. Against closed forms (a damped particle, a pushed one),
+// a conservative chain (the residual is its energy change), shipped scenes with drag and
+// damping, a push and a drag switched on between steps, and the reopening at a teleport.
+#include "constrained_particles/core/simulator.hpp"
+
+#include "test_helpers.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace constrained_particles;
+using namespace constrained_particles::testing;
+
+namespace
+{
+StepSettings settingsOf(const std::string& integrator, double dt)
+{
+  StepSettings s;
+  s.integrator = integrator;
+  s.dt = dt;
+  return s;
+}
+
+Simulator freeParticle(const std::vector<Force>& forces, const Vec3& velocity,
+                       const StepSettings& settings)
+{
+  Scene scene;
+  scene.masses = { 2.0 };
+  scene.forces = forces;
+  Points p = Points::Zero(3, 1), v(3, 1);
+  v.col(0) = velocity;
+  return Simulator(scene, stateOf(p, v), settings);
+}
+
+}  // namespace
+
+// m = 2 kg, c = 0.5 N s/m, v0 = 3 m/s: T = T0 exp(-2 c t / m), all of the loss dissipated.
+TEST(EnergyLedger, ADampedParticleDissipatesItsKineticEnergy)
+{
+  for (const std::string integrator : { "rk4", "semi_implicit_euler", "velocity_verlet" })
+  {
+    Simulator simulator =
+        freeParticle({ LinearDampingForce{ 0.5 } }, Vec3(3, 0, 0), settingsOf(integrator, 1e-3));
+    const double t0_kinetic = 0.5 * 2.0 * 9.0;
+    simulator.step(2000);
+    const EnergyLedger& ledger = simulator.energyLedger();
+    const double exact = t0_kinetic * std::exp(-2.0 * 0.5 * 2.0 / 2.0);
+    EXPECT_NEAR(ledger.dissipated, t0_kinetic - exact, 1e-2 * t0_kinetic) << integrator;
+    EXPECT_EQ(ledger.work_in, 0.0);
+    EXPECT_NEAR(ledger.kinetic, simulator.diagnostics().kinetic_energy, 1e-12);
+    // the ledger balances to the method's own error: first order methods to O(dt)
+    const double tolerance = integrator == "rk4" ? 1e-6 : 1e-2;
+    EXPECT_LE(std::abs(ledger.residual()), tolerance * t0_kinetic) << integrator;
+  }
+}
+
+// F = 4 N on 2 kg from rest: the work in is all kinetic energy, F^2 t^2 / (2 m) exactly.
+TEST(EnergyLedger, APushedParticleGainsTheWorkDoneOnIt)
+{
+  Simulator simulator =
+      freeParticle({ ExternalForce{ 0, Vec3(0, 4, 0) } }, Vec3::Zero(), settingsOf("rk4", 1e-3));
+  simulator.step(1500);
+  const EnergyLedger& ledger = simulator.energyLedger();
+  const double t = 1.5, exact = 16.0 * t * t / (2.0 * 2.0);
+  EXPECT_NEAR(ledger.work_in, exact, 1e-9 * exact);
+  EXPECT_NEAR(ledger.kinetic, exact, 1e-9 * exact);
+  EXPECT_LE(std::abs(ledger.residual()), 1e-9 * exact);
+  EXPECT_EQ(ledger.dissipated, 0.0);
+}
+
+// Only gravity and links: nothing is booked, the residual is the energy change itself.
+TEST(EnergyLedger, AConservativeChainsResidualIsItsEnergyChange)
+{
+  const BuiltScene built = shippedScene("chain");
+  Simulator simulator(built.scene, built.initial_state, settingsOf("rk4", 1e-3));
+  const double e0 = simulator.diagnostics().totalEnergy();
+  simulator.step(5000);
+  const EnergyLedger& ledger = simulator.energyLedger();
+  EXPECT_EQ(ledger.work_in, 0.0);
+  EXPECT_EQ(ledger.dissipated, 0.0);
+  EXPECT_DOUBLE_EQ(ledger.initial_energy, e0);
+  EXPECT_NEAR(ledger.residual(), simulator.diagnostics().totalEnergy() - e0, 1e-9);
+  EXPECT_GT(ledger.scale, 50.0);  // 5 kg x 9.81 m/s^2 x the 2 m chain's extent, and more
+  EXPECT_LE(std::abs(ledger.residual()), 1e-6 * ledger.scale);
+  EXPECT_TRUE(ledger.balanced);
+}
+
+// Drag and damping in shipped scenes: the ledger books what they take, and balances.
+TEST(EnergyLedger, ScenesWithDragBalanceOverTenSeconds)
+{
+  {
+    const BuiltScene built = shippedScene("bead_with_drag");
+    Simulator simulator(built.scene, built.initial_state, settingsOf("rk4", 1e-3));
+    simulator.step(10000);
+    const EnergyLedger& ledger = simulator.energyLedger();
+    EXPECT_GT(ledger.dissipated, 1e-2 * ledger.scale);  // the drag takes a real share
+    EXPECT_LE(std::abs(ledger.residual()), 1e-3 * ledger.dissipated);
+  }
+  {
+    // the default chain with linear damping, and a push switched on after 2 s
+    const BuiltScene built = shippedScene("chain");
+    Scene scene = built.scene;
+    scene.forces.push_back(LinearDampingForce{ 0.2 });
+    Simulator simulator(scene, built.initial_state, settingsOf("rk4", 1e-3));
+    simulator.step(2000);
+    simulator.setPerturbations({ ExternalForce{ 4, Vec3(0, 5, 0) } });
+    simulator.step(8000);
+    const EnergyLedger& ledger = simulator.energyLedger();
+    EXPECT_GT(ledger.dissipated, 1e-2 * ledger.scale);
+    EXPECT_GT(std::abs(ledger.work_in), 1e-2 * ledger.scale);
+    EXPECT_LE(std::abs(ledger.residual()), 1e-4 * ledger.scale);
+    // without booking the push's work the account would not balance
+    EXPECT_GT(std::abs(ledger.residual() + ledger.work_in), 1e2 * std::abs(ledger.residual()));
+  }
+}
+
+// A teleport is t0 again: nothing booked, the residual zero at the new state.
+TEST(EnergyLedger, ATeleportOpensTheLedgerAgain)
+{
+  const BuiltScene built = shippedScene("chain");
+  Scene scene = built.scene;
+  scene.forces.push_back(LinearDampingForce{ 0.2 });
+  Simulator simulator(scene, built.initial_state, settingsOf("rk4", 1e-3));
+  simulator.step(1000);
+  EXPECT_GT(simulator.energyLedger().dissipated, 0.0);
+  State moved = simulator.state();
+  moved.velocities.col(3) += Vec3(0, 1, 0);
+  simulator.setState(moved);
+  const EnergyLedger& ledger = simulator.energyLedger();
+  EXPECT_EQ(ledger.t0, simulator.state().time);
+  EXPECT_EQ(ledger.dissipated, 0.0);
+  EXPECT_NEAR(ledger.residual(), 0.0, 1e-12);
+  EXPECT_DOUBLE_EQ(ledger.initial_energy, simulator.diagnostics().totalEnergy());
+}
+
+// A driven anchor's work through its reaction is not booked yet: said by `balanced`.
+TEST(EnergyLedger, ADrivenAnchorLeavesTheLedgerUnbalanced)
+{
+  const BuiltScene built = shippedScene("shaken_chain");
+  Simulator simulator(built.scene, built.initial_state, settingsOf("rk4", 1e-3));
+  EXPECT_FALSE(simulator.energyLedger().balanced);
+}
+
+// A drag on a chain at rest without gravity (as the node's grab in views.test): the scene had no
+// scale of its own, so the account is measured against what the new force can move, |f| times
+// the chain's extent; the budget passes it, and the pull's work is all booked.
+TEST(EnergyLedger, ADragOnAChainAtRestPassesTheBudget)
+{
+  const BuiltScene built = shippedScene("chain");
+  Scene scene = built.scene;
+  scene.forces.clear();
+  Simulator simulator(scene, built.initial_state, settingsOf("rk4", 1e-3));
+  EXPECT_EQ(simulator.energyLedger().scale, 0.0);
+  const double m = 1.0, w = 10.0;  // the node's grab: k = m w^2, c = 2 m w
+  simulator.setPerturbations({ TargetSpringForce{ 4, Vec3(1, 0, 1), m * w * w, 2 * m * w } });
+  EXPECT_GT(simulator.energyLedger().scale, 100.0);
+  for (int k = 0; k < 30; ++k)
+    ASSERT_EQ(simulator.step(100).failed_check, StepCheck::None) << "at step " << 100 * k;
+  const EnergyLedger& ledger = simulator.energyLedger();
+  EXPECT_GT(ledger.work_in_moved, 10.0);
+  EXPECT_LE(std::abs(ledger.residual()), 1e-4 * ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR));
+}
