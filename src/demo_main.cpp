@@ -82,8 +82,16 @@ int main(int argc, char** argv)
     const long total_steps = std::lround(duration / settings.dt);  // the duration, to one dt
     while (static_cast<long>(simulator.state().steps) < total_steps)
     {
-      simulator.step(static_cast<int>(std::min<long>(
+      const StepStatistics taken = simulator.step(static_cast<int>(std::min<long>(
           steps_per_report, total_steps - static_cast<long>(simulator.state().steps))));
+      // a failed check puts the step back (max_substeps > 1): the run cannot go on from here
+      if (taken.failed_check != StepCheck::None && settings.max_substeps > 1)
+      {
+        std::printf("stopped: step check %s failed at t = %.6f s\n",
+                    stepCheckName(taken.failed_check), simulator.state().time);
+        all_finite = false;
+        break;
+      }
       const Diagnostics d = simulator.diagnostics();
       all_finite = all_finite && d.finite();
       std::printf("t = %6.3f s  energy = %12.6f J (drift %+.3e J)  max error = %.3e m, %.3e m/s\n",

@@ -255,6 +255,7 @@ void Simulator::openLedger()
   ledger.kinetic = kineticEnergy(model, x);
   ledger.potential = potentialEnergy(model, x);
   ledger.initial_energy = ledger.kinetic + ledger.potential;
+  ledger.initial_kinetic = ledger.kinetic;
   ledger.scale = ledgerScale(model, data);
   for (const Constraint& constraint : model.scene().constraints)
     if (std::holds_alternative<MovingAnchorConstraint>(constraint))
@@ -270,6 +271,9 @@ void Simulator::bookStep(double dt, bool end_energies)
   EnergyLedger& ledger = data.ledger;
   ledger.kinetic = end_energies ? data.control.end_kinetic : kineticEnergy(model, x);
   ledger.potential = end_energies ? data.control.end_potential : potentialEnergy(model, x);
+  const double initial_potential = ledger.initial_energy - ledger.initial_kinetic;
+  ledger.exchanged = std::max(ledger.exchanged, std::abs(ledger.kinetic - ledger.initial_kinetic) +
+                                                    std::abs(ledger.potential - initial_potential));
   double in = 0.0, dissipated = 0.0;
   ledgerPowers(model, data, x, in, dissipated);
   // trapezoidal rule over the step: the forces acting during it are those at both ends
@@ -419,6 +423,7 @@ StepStatistics Simulator::step(int count)
       // over the run, not the step: no split of this step undoes what earlier ones gained
       failed = StepCheck::EnergyBudget;
       control.budget_failure_residual = ledger.residual();
+      control.budget_failure_scale = ledger.budgetScale(ENERGY_SCALE_FLOOR);
     }
     if (failed != StepCheck::None)
     {

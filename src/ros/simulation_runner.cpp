@@ -733,7 +733,7 @@ std::string SimulationRunner::faultIn(const State& state, const StepStatistics& 
     case StepCheck::EnergyBudget:
     {
       const EnergyLedger& ledger = simulator_->energyLedger();
-      const double scale = ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR);
+      const double scale = simulator_->data().control.budget_failure_scale;
       return "step check energy_budget failed" + when + ": energy budget exceeded, residual " +
              formatValue(simulator_->data().control.budget_failure_residual) + " J > " +
              formatValue(step.energy_budget * scale) + " J (~energy_budget " +

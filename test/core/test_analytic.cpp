@@ -179,7 +179,7 @@ double maxEnergyError(const std::string& scenario, const std::string& integrator
   double worst = 0;
   while (simulator.state().time < duration)
   {
-    // a failed check (energy_budget) puts the step back: the error then stands where it stopped
+    // a failed check puts the step back: the error then stands where it stopped
     const bool failed = simulator.step(10).failed_check != StepCheck::None;
     worst = std::max(worst, std::abs(simulator.diagnostics().totalEnergy() - e0));
     if (failed)

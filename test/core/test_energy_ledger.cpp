@@ -163,3 +163,48 @@ TEST(EnergyLedger, ADragOnAChainAtRestPassesTheBudget)
   EXPECT_GT(ledger.work_in_moved, 10.0);
   EXPECT_LE(std::abs(ledger.residual()), 1e-4 * ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR));
 }
+
+// The budget answers to the run: explicit Euler on the default chain gains energy until the
+// check energy_budget fails; the failed step is put back with the ledger, whose residual stays
+// within the budget; with ~energy_budget 0 the same run goes on unchecked.
+TEST(EnergyLedger, TheBudgetStopsARunThatGainsEnergy)
+{
+  const BuiltScene built = shippedScene("chain");
+  Simulator simulator(built.scene, built.initial_state, settingsOf("explicit_euler", 1e-3));
+  StepCheck failed = StepCheck::None;
+  double time_before = 0.0;
+  for (int k = 0; k < 10000 && failed == StepCheck::None; ++k)
+  {
+    time_before = simulator.state().time;
+    failed = simulator.step().failed_check;
+  }
+  ASSERT_EQ(failed, StepCheck::EnergyBudget);
+  EXPECT_EQ(simulator.state().time, time_before);  // put back
+  const EnergyLedger& ledger = simulator.energyLedger();
+  const double limit = 1e-2 * ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR);
+  EXPECT_LE(ledger.residual(), limit);
+  EXPECT_GT(simulator.data().control.budget_failure_residual,
+            1e-2 * simulator.data().control.budget_failure_scale);
+  EXPECT_LT(time_before, 5.0);
+
+  StepSettings unchecked = settingsOf("explicit_euler", 1e-3);
+  unchecked.energy_budget = 0.0;
+  Simulator free_run(built.scene, built.initial_state, unchecked);
+  EXPECT_EQ(free_run.step(10000).failed_check, StepCheck::None);
+  EXPECT_GT(free_run.energyLedger().residual(), limit);  // it did gain past the budget
+}
+
+// A bead released from rest in a bowl has no scale at t0 (no speed, no extent): the budget
+// measures its residual against the energy the motion exchanges, and a good method passes.
+TEST(EnergyLedger, ABeadReleasedFromRestPassesTheBudget)
+{
+  const Scene scene = beadScene(makeSurface("bowl", { 1.5, 1.5 }));
+  Points p(3, 1), v = Points::Zero(3, 1);
+  p.col(0) = Vec3(0.4, 0.1, 0.0);
+  for (const std::string integrator : { "rk4", "semi_implicit_euler", "velocity_verlet" })
+  {
+    Simulator simulator(scene, stateOf(p, v), settingsOf(integrator, 1e-3));
+    EXPECT_EQ(simulator.step(10000).failed_check, StepCheck::None) << integrator;
+    EXPECT_GT(simulator.energyLedger().exchanged, 0.1) << integrator;
+  }
+}

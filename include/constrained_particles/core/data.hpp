@@ -70,9 +70,10 @@ struct StepControl
   /// by anything that writes the state or the applied forces between steps.
   bool end_energies_current = false;
   double end_kinetic = 0.0, end_potential = 0.0, end_scale = 0.0;
-  /// The energy ledger's residual of the last step that failed energy_budget [J] (the fault
-  /// message's figure: the step itself is put back, and the ledger with it).
-  double budget_failure_residual = 0.0;
+  /// The energy ledger's residual and budget scale (EnergyLedger::budgetScale) of the last step
+  /// that failed energy_budget [J] (the fault message's figures: the step itself is put back,
+  /// and the ledger with it).
+  double budget_failure_residual = 0.0, budget_failure_scale = 0.0;
 };
 
 /// The run's energy account since t0, the last reset, setState, restoreState or change of the
@@ -83,14 +84,18 @@ struct StepControl
 /// they show in the residual, as losses. docs/physics.md, "The energy ledger".
 struct EnergyLedger
 {
-  double t0 = 0.0;                ///< when it was opened [s]
-  double initial_energy = 0.0;    ///< E(t0) = T + U [J]
-  double scale = 0.0;             ///< energyScale() at t0 [J]: what the residual is measured in
-  double kinetic = 0.0;           ///< T at the current state [J]
-  double potential = 0.0;         ///< U of the conservative forces at the current state [J]
-  double work_in = 0.0;           ///< integral of f . v of external forces and drags [J]
-  double dissipated = 0.0;        ///< -integral of f . v of damping and drag [J], >= 0
-  double work_in_moved = 0.0;     ///< integral of |f . v| of the work-in forces [J], >= 0
+  double t0 = 0.0;               ///< when it was opened [s]
+  double initial_energy = 0.0;   ///< E(t0) = T + U [J]
+  double initial_kinetic = 0.0;  ///< T(t0) [J]
+  double scale = 0.0;            ///< energyScale() at t0 [J]: what the residual is measured in
+  double kinetic = 0.0;          ///< T at the current state [J]
+  double potential = 0.0;        ///< U of the conservative forces at the current state [J]
+  double work_in = 0.0;          ///< integral of f . v of external forces and drags [J]
+  double dissipated = 0.0;       ///< -integral of f . v of damping and drag [J], >= 0
+  double work_in_moved = 0.0;    ///< integral of |f . v| of the work-in forces [J], >= 0
+  /// the most the motion has exchanged since t0, max |T - T(t0)| + |U - U(t0)| [J]: a bead
+  /// released from rest has no scale of its own at t0
+  double exchanged = 0.0;
   double power_in = 0.0;          ///< f . v of the work-in forces at the current state [W]
   double power_dissipated = 0.0;  ///< -f . v of damping and drag at the current state [W]
   /// false in a scene with a driven anchor (moving_anchor): the anchor's work through its
@@ -102,11 +107,11 @@ struct EnergyLedger
   {
     return kinetic + potential - initial_energy - work_in + dissipated;
   }
-  /// What the residual is measured against [J]: the scale at t0 plus the energy that flowed in
-  /// and out since (a pulled particle from rest has no scale of its own), at least `floor`.
+  /// What the residual is measured against [J]: the scale at t0 plus the energy the motion has
+  /// exchanged and that flowed in and out since, at least `floor`.
   double budgetScale(double floor) const
   {
-    return std::max(scale + work_in_moved + dissipated, floor);
+    return std::max(scale + exchanged + work_in_moved + dissipated, floor);
   }
 };
 
