@@ -8,4 +8,4 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/build.sh" >/dev/null
 (cd "$ROOT/build/ws" && make -C build test_stability >/dev/null)
 CP_STRESS_FULL=1 "$ROOT/build/ws/devel/lib/constrained_particles/test_stability" \
-  --gtest_filter='StressSweep.*'
+  --gtest_filter='LongStressSweep.*'

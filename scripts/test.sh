@@ -1,9 +1,19 @@
 #!/usr/bin/env bash
-# Builds and runs every test (core gtests and rostests), then prints "N passed, M failed"
-# counted from the JUnit results. Exits non-zero on any failure, including a build failure.
-# Arguments go to catkin_make (scripts/sanitize.sh passes compiler flags).
+# Builds and runs a tier of the tests, then prints "N passed, M failed" counted from the JUnit
+# results. Exits non-zero on any failure, including a build failure.
+#   bash scripts/test.sh         the fast tier (CI): every core gtest and every rostest of the
+#                                interface, short physics cases; about 3.5 minutes of tests
+#   bash scripts/test.sh --long  the long tier: the gtest suites named Long* (the 60 s energy
+#                                sweep, the 10,000-particle chain, million-step runs, the full
+#                                stress sweep); tens of minutes
+# Further arguments go to catkin_make (scripts/sanitize.sh passes compiler flags).
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+TIER=fast
+if [[ "${1:-}" == "--long" ]]; then
+  TIER=long
+  shift
+fi
 WS="${CP_WORKSPACE:-$ROOT/build/ws}"
 RESULTS="$WS/build/test_results"
 
@@ -29,8 +39,17 @@ if [[ "${CP_CPU_HOG:-0}" == 1 ]]; then
   done
   echo "running the tests beside ${#HOGS[@]} busy loops (CP_CPU_HOG=1)"
 fi
+# the tiers split by gtest suite name (gtest reads GTEST_FILTER); the rostests are all fast
+if [[ "$TIER" == long ]]; then
+  export GTEST_FILTER='Long*' CP_STRESS_FULL=1
+  TARGET=run_tests_constrained_particles_gtest
+else
+  export GTEST_FILTER='-Long*'
+  TARGET=run_tests
+fi
+echo "running the $TIER tier"
 # catkin_make run_tests exits 0 even when tests fail: the XML results decide
-(cd "$WS" && catkin_make run_tests -DPYTHON_EXECUTABLE=/usr/bin/python3 -j2) ||
+(cd "$WS" && catkin_make "$TARGET" -DPYTHON_EXECUTABLE=/usr/bin/python3 -j2) ||
   fail "building or running the tests failed"
 stop_hogs
 

@@ -64,6 +64,18 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
     }
 }
 
+// The power the driven anchors put in through their reactions [W]: sum_k r_k . v_k, r_k = m a -
+// f - (J^T lambda)_k, with the reactions and imposed velocities of the last forward stage
+// (addEliminatedReactions); a pin, at rest, puts in none
+double drivePower(const Model& model, const Data& data)
+{
+  const int m = model.numRows();
+  double power = 0.0;
+  for (std::size_t k = 0; k < data.imposed.size(); ++k)
+    power += data.multipliers.segment<3>(m + 3 * static_cast<int>(k)).dot(data.imposed[k].velocity);
+  return power;
+}
+
 // energyScale() at the current state with the forces acting now, the model's and the
 // perturbations' (between steps data.applied_forces may be older)
 double ledgerScale(const Model& model, const Data& data)
@@ -257,10 +269,15 @@ void Simulator::openLedger()
   ledger.initial_energy = ledger.kinetic + ledger.potential;
   ledger.initial_kinetic = ledger.kinetic;
   ledger.scale = ledgerScale(model, data);
-  for (const Constraint& constraint : model.scene().constraints)
-    if (std::holds_alternative<MovingAnchorConstraint>(constraint))
-      ledger.balanced = false;
   ledgerPowers(model, data, x, ledger.power_in, ledger.power_dissipated);
+  if (driven_)
+  {
+    // the reactions at t0; what the evaluation solved is no step's
+    const StepStatistics kept = data.statistics;
+    forwardAtState();
+    data.statistics = kept;
+    ledger.power_in += drivePower(model, data);
+  }
 }
 
 void Simulator::bookStep(double dt, bool end_energies)
@@ -276,6 +293,8 @@ void Simulator::bookStep(double dt, bool end_energies)
                                                     std::abs(ledger.potential - initial_potential));
   double in = 0.0, dissipated = 0.0;
   ledgerPowers(model, data, x, in, dissipated);
+  if (driven_)
+    in += drivePower(model, data);  // step() evaluated the reactions at the step's end
   // trapezoidal rule over the step: the forces acting during it are those at both ends
   ledger.work_in += 0.5 * dt * (ledger.power_in + in);
   ledger.work_in_moved += 0.5 * dt * (std::abs(ledger.power_in) + std::abs(in));
@@ -288,6 +307,9 @@ void Simulator::readSceneKind()
 {
   // a force from outside does work on the system: its energy is not kept while one acts
   conservative_ = isConservative(model_->scene()) && data_->perturbations.empty();
+  driven_ = false;
+  for (const Constraint& constraint : model_->scene().constraints)
+    driven_ = driven_ || std::holds_alternative<MovingAnchorConstraint>(constraint);
   has_stiffness_ = hasStiffness(*model_, data_->perturbations);
 }
 
@@ -413,11 +435,16 @@ StepStatistics Simulator::step(int count)
       }
     }
     total.merge(attempt);
+    const bool attempt_singular = attempt.solve.singular || attempt.projection.singular;
+    // a driven anchor's power is its reaction's at the step's end: every stage there (this
+    // leaves data.statistics to the evaluation; `attempt` is not read below)
+    if (driven_)
+      evaluateCurrentState(total);
     const bool end_energies = conservative_ && failed == StepCheck::None;
     const EnergyLedger before = data.ledger;  // put back with the step
     bookStep(settings_.dt, end_energies);
     const EnergyLedger& ledger = data.ledger;
-    if (failed == StepCheck::None && settings_.energy_budget > 0.0 && ledger.balanced &&
+    if (failed == StepCheck::None && settings_.energy_budget > 0.0 &&
         !(ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR)))
     {
       // over the run, not the step: no split of this step undoes what earlier ones gained
@@ -443,16 +470,18 @@ StepStatistics Simulator::step(int count)
     ++total.steps;
     total.substeps += substeps;
     total.max_substeps = std::max(total.max_substeps, substeps);
-    control.singular = attempt.solve.singular || attempt.projection.singular;
+    control.singular = attempt_singular;
     control.end_energies_current = end_energies;
     // velocity Verlet and fast projection solve for no multipliers
-    control.multipliers_current = method == integrator_ && !integrator_->holds_constraints;
+    control.multipliers_current =
+        driven_ || (method == integrator_ && !integrator_->holds_constraints);
     if (method != integrator_)
     {
       // the stiff-safe method solves for no multipliers: the forces of the failed attempt are
       // left in data, so they are evaluated at the accepted state
       ++total.stiff_steps;
-      evaluateCurrentState(total);
+      if (!driven_)
+        evaluateCurrentState(total);
       control.multipliers_current = true;
     }
     if (control.rejection_substeps > 1 && ++control.accepted_since_rejection >= RELAX_AFTER_STEPS)

@@ -411,7 +411,6 @@ void SimulatorNode::publish()
     msg.energy_work_in = ledger.work_in;
     msg.energy_dissipated = ledger.dissipated;
     msg.energy_residual = ledger.residual();
-    msg.energy_balanced = ledger.balanced;
     msg.step_time = snap->step_time;
     msg.real_time_factor = snap->real_time_factor;
     msg.behind = snap->behind;
@@ -881,10 +880,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   add("energy ledger since t [s]", formatValue(snap->ledger.t0));
   add("energy work in [J]", formatValue(snap->ledger.work_in));
   add("energy dissipated [J]", formatValue(snap->ledger.dissipated));
-  add("energy residual [J]", formatValue(snap->ledger.residual()) +
-                                 (snap->ledger.balanced ? ""
-                                                        : " (a driven anchor's work is not "
-                                                          "booked: it is in the residual)"));
+  add("energy residual [J]", formatValue(snap->ledger.residual()));
   add("energy scale [J]", formatValue(snap->ledger.scale));
   add("step_time [s]", formatValue(snap->step_time));
   add("real_time_factor achieved", formatValue(snap->real_time_factor));

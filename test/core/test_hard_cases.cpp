@@ -88,7 +88,7 @@ StepSettings settings(const std::string& integrator, double dt,
 // 1. 10,000 particles, first pinned, released horizontally, 10 s. Links of 1 m: a transverse
 // wave on a chain under tension T has speed sqrt(T l / m), so dt = 1 ms is stable only for links
 // of order 1 m at this n (see README, Hard cases).
-TEST(HardCases, LongChainOf10000For10Seconds)
+TEST(LongHardCases, ChainOf10000For10Seconds)
 {
   const int n = 10000;
   const BuiltScene scenario = shippedScene("chain", chainOf(n, 1.0, 0.01));
@@ -388,7 +388,7 @@ TEST(HardCases, FineLinkChainsRunAtDefaultSettings)
 
 // 7. 1,000,000 steps: constraint error stays bounded, and the symplectic integrator's energy
 // error does not grow (last tenth of the run no worse than twice the first tenth).
-TEST(HardCases, MillionStepRuns)
+TEST(LongHardCases, MillionStepRuns)
 {
   struct Case
   {

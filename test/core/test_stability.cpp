@@ -431,9 +431,9 @@ TEST(StepChecks, AFreeChainsWhipGainsNoEnergyWhateverItsKick)
 // (light at the first particle, heavy at the last), default settings, 2 s: no failed check,
 // finite, links held to 1e-9 m, and energy never above its start by more than 1e-2 of
 // T(0) + M |g| D (the energy the scene could turn over) for these conservative scenes.
-// Left out unless CP_STRESS_FULL is set (scripts/stress.sh), for time: pinned chains of 100 and
-// 1,000 with mass ratio 1e6 and links under 10 cm need over 1,024 rk4 sub-steps per 1 ms; the
-// fast-projection fallback carries them at 3 to 200 s of CPU each.
+// Left out unless CP_STRESS_FULL is set (the long tier sets it; scripts/stress.sh), for time:
+// pinned chains of 100 and 1,000 with mass ratio 1e6 and links under 10 cm need over 1,024 rk4
+// sub-steps per 1 ms; the fast-projection fallback carries them at 3 to 200 s of CPU each.
 // Semi-implicit Euler + projection is the constrained symplectic Euler (SHAKE along the start's
 // Jacobian, its displacement fed back into v, then RATTLE's velocity projection): its energy
 // error stays bounded. Projecting p_n+1 along its own Jacobian with v left alone gained energy
@@ -472,7 +472,7 @@ TEST(StepChecks, SemiImplicitEulerWithProjectionKeepsAChainsEnergy)
   }
 }
 
-TEST(StressSweep, ChainsStayStableAtDefaultSettings)
+TEST(LongStressSweep, ChainsStayStableAtDefaultSettings)
 {
   const bool full = std::getenv("CP_STRESS_FULL") != nullptr;
   // rk4 + projection gains no energy on average, but a kicked free chain's light links can

@@ -90,17 +90,15 @@ struct EnergyLedger
   double scale = 0.0;            ///< energyScale() at t0 [J]: what the residual is measured in
   double kinetic = 0.0;          ///< T at the current state [J]
   double potential = 0.0;        ///< U of the conservative forces at the current state [J]
-  double work_in = 0.0;          ///< integral of f . v of external forces and drags [J]
-  double dissipated = 0.0;       ///< -integral of f . v of damping and drag [J], >= 0
-  double work_in_moved = 0.0;    ///< integral of |f . v| of the work-in forces [J], >= 0
+  /// integral of f . v of external forces, drags and driven anchors (their reactions) [J]
+  double work_in = 0.0;
+  double dissipated = 0.0;     ///< -integral of f . v of damping and drag [J], >= 0
+  double work_in_moved = 0.0;  ///< integral of |f . v| of the work-in forces [J], >= 0
   /// the most the motion has exchanged since t0, max |T - T(t0)| + |U - U(t0)| [J]: a bead
   /// released from rest has no scale of its own at t0
   double exchanged = 0.0;
   double power_in = 0.0;          ///< f . v of the work-in forces at the current state [W]
   double power_dissipated = 0.0;  ///< -f . v of damping and drag at the current state [W]
-  /// false in a scene with a driven anchor (moving_anchor): the anchor's work through its
-  /// reaction is not booked yet, so the residual holds it
-  bool balanced = true;
 
   /// E(t) - E(t0) - work_in + dissipated [J]
   double residual() const

@@ -137,7 +137,8 @@ public:
 private:
   /// One step of dt as `substeps` sub-steps from data.control.start, checked; the statistics of
   /// its sub-steps merged into `attempt`. @return the first check a sub-step failed, or None
-  /// Sets conservative_ and has_stiffness_ from the model's scene (after any scene change).
+  /// Sets conservative_, has_stiffness_ and driven_ from the model's scene (after any scene
+  /// change).
   void readSceneKind();
 
   /// Opens the energy ledger at the current state (t0).
@@ -175,6 +176,7 @@ private:
   const IntegratorInfo* stiff_ = nullptr;       // STIFF_FALLBACK's row
   bool conservative_ = false;   // only conservative forces, no driven anchor: energy is checked
   bool has_stiffness_ = false;  // rows or springs: the stability estimate has something to see
+  bool driven_ = false;  // a driven anchor: its reactions are evaluated at each step's end (ledger)
   mutable RowData diagnostic_rows_;  // workspaces of diagnostics()
   mutable Eigen::VectorXd diagnostic_rates_;
 };
