@@ -263,6 +263,7 @@ void Simulator::openLedger()
   const State& x = data.state;
   EnergyLedger& ledger = data.ledger;
   ledger = EnergyLedger{};
+  data.control.budget_fallback = false;  // a new account: the integrator may take it again
   ledger.t0 = x.time;
   ledger.kinetic = kineticEnergy(model, x);
   ledger.potential = potentialEnergy(model, x);
@@ -344,15 +345,17 @@ StepStatistics Simulator::step(int count)
   const IntegratorInfo& stiff = *stiff_;
   for (int k = 0; k < count; ++k)
   {
-    const IntegratorInfo* method = integrator_;
-    int substeps = std::min(control.rejection_substeps, max_substeps);
-    const bool estimate =
-        integrator_->stability_limit < UNBOUNDED_STABILITY && max_substeps > 1 && has_stiffness_;
+    // after the integrator overdrew the energy budget, the stiff-safe method takes every step
+    const IntegratorInfo* method = control.budget_fallback ? &stiff : integrator_;
+    int substeps = control.budget_fallback ? 1 : std::min(control.rejection_substeps, max_substeps);
+    const bool estimate = !control.budget_fallback &&
+                          integrator_->stability_limit < UNBOUNDED_STABILITY && max_substeps > 1 &&
+                          has_stiffness_;
     // the estimate reads the multipliers of the last step's last stage and the energy check its
     // applied forces; after a reset or teleport, or where the integrator solves for no
     // multipliers (velocity Verlet's SHAKE), they are evaluated here (fast projection, with no
     // estimate, keeps the applied forces of its own last stage for the energy check)
-    const bool own_forces = integrator_->holds_constraints;
+    const bool own_forces = method->holds_constraints;
     if ((!control.multipliers_current && (estimate || (conservative_ && !own_forces))) ||
         (estimate && own_forces))
     {
@@ -398,59 +401,80 @@ StepStatistics Simulator::step(int count)
     control.end_energies_current = false;
     StepCheck failed = StepCheck::None;
     const StepStatistics& attempt = data.statistics;  // the last attempt's (attemptStep)
-    for (;;)
+    bool attempt_singular = false, end_energies = false;
+    EnergyLedger ledger_before;  // put back with the step
+    for (;;)                     // once; twice where the energy budget's fallback retakes the step
     {
-      // at the finest split a new singular solve is accepted (regularised) and the step finished
-      failed = attemptStep(*method, substeps, substeps >= max_substeps);
-      const bool finest = substeps >= max_substeps || failed == StepCheck::AdaptiveGuard;
-      if (failed == StepCheck::None)
-        break;
-      // the finest split of the chosen method failed: the stiff-safe one takes the step
-      const bool fall_back =
-          finest && max_substeps > 1 && method != &stiff && failed != StepCheck::AdaptiveGuard;
-      if (finest && !fall_back)
-        break;
-      // rejected: its work is counted, its outcome is not
-      ++total.rejected_steps;
-      ++total.rejections[static_cast<int>(failed)];
-      total.solve.factorizations += attempt.solve.factorizations;
-      total.solve.reused_factorizations += attempt.solve.reused_factorizations;
-      total.solve.singular_count += attempt.solve.singular_count;
-      total.projection.projections += attempt.projection.projections;
-      total.projection.iterations += attempt.projection.iterations;
-      total.rejected_internal_steps += attempt.internal_steps + attempt.rejected_internal_steps;
-      x = control.start;
-      data.chain_factorization_at_state = false;  // the attempt's, not of the start
-      if (fall_back)
+      for (;;)
       {
-        method = &stiff;
-        substeps = 1;
-        continue;
+        // at the finest split a new singular solve is accepted (regularised) and the step finished
+        failed = attemptStep(*method, substeps, substeps >= max_substeps);
+        const bool finest = substeps >= max_substeps || failed == StepCheck::AdaptiveGuard;
+        if (failed == StepCheck::None)
+          break;
+        // the finest split of the chosen method failed: the stiff-safe one takes the step
+        const bool fall_back =
+            finest && max_substeps > 1 && method != &stiff && failed != StepCheck::AdaptiveGuard;
+        if (finest && !fall_back)
+          break;
+        // rejected: its work is counted, its outcome is not
+        ++total.rejected_steps;
+        ++total.rejections[static_cast<int>(failed)];
+        total.solve.factorizations += attempt.solve.factorizations;
+        total.solve.reused_factorizations += attempt.solve.reused_factorizations;
+        total.solve.singular_count += attempt.solve.singular_count;
+        total.projection.projections += attempt.projection.projections;
+        total.projection.iterations += attempt.projection.iterations;
+        total.rejected_internal_steps += attempt.internal_steps + attempt.rejected_internal_steps;
+        x = control.start;
+        data.chain_factorization_at_state = false;  // the attempt's, not of the start
+        if (fall_back)
+        {
+          method = &stiff;
+          substeps = 1;
+          continue;
+        }
+        substeps = std::min(2 * substeps, max_substeps);
+        if (method == integrator_)  // the fallback's own retakes leave the integrator's memory
+        {
+          control.rejection_substeps = substeps;
+          control.accepted_since_rejection = 0;
+        }
       }
-      substeps = std::min(2 * substeps, max_substeps);
-      if (method == integrator_)  // the fallback's own retakes leave the integrator's memory
+      total.merge(attempt);
+      attempt_singular = attempt.solve.singular || attempt.projection.singular;
+      // a driven anchor's power is its reaction's at the step's end: every stage there (this
+      // leaves data.statistics to the evaluation; `attempt` is not read below)
+      if (driven_)
+        evaluateCurrentState(total);
+      end_energies = conservative_ && failed == StepCheck::None;
+      ledger_before = data.ledger;
+      bookStep(settings_.dt, end_energies);
+      const EnergyLedger& ledger = data.ledger;
+      if (failed == StepCheck::None && settings_.energy_budget > 0.0 &&
+          !(ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR)))
       {
-        control.rejection_substeps = substeps;
-        control.accepted_since_rejection = 0;
+        // over the run, not the step: no split of this step undoes what earlier ones gained;
+        // the stiff-safe method, whose projection only takes energy out, retakes it and the
+        // rest of the run (until the ledger opens again or the settings change)
+        control.budget_failure_residual = ledger.residual();
+        control.budget_failure_scale = ledger.budgetScale(ENERGY_SCALE_FLOOR);
+        if (max_substeps > 1 && method != &stiff)
+        {
+          control.budget_fallback_time = control.start.time;
+          ++total.rejected_steps;
+          ++total.rejections[static_cast<int>(StepCheck::EnergyBudget)];
+          x = control.start;
+          data.ledger = ledger_before;
+          data.chain_factorization_at_state = false;
+          control.budget_fallback = true;
+          method = &stiff;
+          substeps = 1;
+          continue;
+        }
+        failed = StepCheck::EnergyBudget;
       }
-    }
-    total.merge(attempt);
-    const bool attempt_singular = attempt.solve.singular || attempt.projection.singular;
-    // a driven anchor's power is its reaction's at the step's end: every stage there (this
-    // leaves data.statistics to the evaluation; `attempt` is not read below)
-    if (driven_)
-      evaluateCurrentState(total);
-    const bool end_energies = conservative_ && failed == StepCheck::None;
-    const EnergyLedger before = data.ledger;  // put back with the step
-    bookStep(settings_.dt, end_energies);
-    const EnergyLedger& ledger = data.ledger;
-    if (failed == StepCheck::None && settings_.energy_budget > 0.0 &&
-        !(ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR)))
-    {
-      // over the run, not the step: no split of this step undoes what earlier ones gained
-      failed = StepCheck::EnergyBudget;
-      control.budget_failure_residual = ledger.residual();
-      control.budget_failure_scale = ledger.budgetScale(ENERGY_SCALE_FLOOR);
+      break;
     }
     if (failed != StepCheck::None)
     {
@@ -459,7 +483,7 @@ StepStatistics Simulator::step(int count)
       if (max_substeps > 1)
       {
         x = control.start;  // put back: the state stays the last accepted one
-        data.ledger = before;
+        data.ledger = ledger_before;
         data.chain_factorization_at_state = false;
         control.multipliers_current = false;
         break;
@@ -561,6 +585,7 @@ void Simulator::setStepSettings(const StepSettings& settings)
   substep_settings_ = settings;
   data_->control.multipliers_current = false;  // another integrator may have left none
   data_->control.end_energies_current = false;
+  data_->control.budget_fallback = false;       // the new settings may keep the budget
   data_->chain_factorization_at_state = false;  // as after any write between steps
 }
 

@@ -739,8 +739,12 @@ std::string SimulationRunner::faultIn(const State& state, const StepStatistics& 
              formatValue(step.energy_budget * scale) + " J (~energy_budget " +
              formatValue(step.energy_budget) + " of scale " + formatValue(scale) +
              " J, since t = " + formatValue(ledger.t0) + " s): " + step.integrator +
-             " gained energy over the run; use rk4 or velocity_verlet, shorten ~dt, or set "
-             "~energy_budget 0 to run unchecked";
+             " gained energy over the run" +
+             (step.max_substeps > 1 ? std::string(" (and ") + Simulator::STIFF_FALLBACK +
+                                          ", retaking the step, overdrew it too)"
+                                    : std::string(" (~max_substeps 1: no fallback)")) +
+             "; use rk4 or velocity_verlet, shorten ~dt, or set ~energy_budget 0 to run "
+             "unchecked";
     }
     default:
       break;
@@ -879,6 +883,15 @@ void SimulationRunner::makeSnapshot()
   s->multipliers = multipliers_;
   s->diagnostics = simulator_->diagnostics();
   s->ledger = simulator_->energyLedger();
+  if (const StepControl& control = simulator_->data().control; control.budget_fallback)
+    s->energy_fallback =
+        "energy budget overdrawn at t = " + formatValue(control.budget_fallback_time) + " s by " +
+        parameters_.step.integrator + " (residual " + formatValue(control.budget_failure_residual) +
+        " J > " + formatValue(parameters_.step.energy_budget * control.budget_failure_scale) +
+        " J, ~energy_budget " + formatValue(parameters_.step.energy_budget) + " of " +
+        formatValue(control.budget_failure_scale) + " J): " + Simulator::STIFF_FALLBACK +
+        " takes the steps until a reset, ~set_state or a settings change; use rk4 or "
+        "velocity_verlet, or shorten ~dt";
   s->stamp = clock_base_ + s->state.time;
   s->step_time = step_time_;
   s->real_time_factor = achieved_rtf_;

@@ -411,6 +411,7 @@ void SimulatorNode::publish()
     msg.energy_work_in = ledger.work_in;
     msg.energy_dissipated = ledger.dissipated;
     msg.energy_residual = ledger.residual();
+    msg.energy_fallback = !snap->energy_fallback.empty();
     msg.step_time = snap->step_time;
     msg.real_time_factor = snap->real_time_factor;
     msg.behind = snap->behind;
@@ -844,8 +845,9 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   const bool singular = statistics.solve.singular_count > 0;
   const bool unconverged = !statistics.projection.converged;
   const bool waiting_for_clock = waiting_for_clock_;
+  const bool fallback = !snap->energy_fallback.empty();
   status.level = snap->faulted ? diagnostic_msgs::DiagnosticStatus::ERROR
-                 : (snap->behind || singular || unconverged || waiting_for_clock)
+                 : (snap->behind || singular || unconverged || waiting_for_clock || fallback)
                      ? diagnostic_msgs::DiagnosticStatus::WARN
                      : diagnostic_msgs::DiagnosticStatus::OK;
   std::string message = snap->faulted  ? snap->fault_reason
@@ -860,6 +862,8 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
                  " singular solves (regularised) in the last second";
     if (unconverged)
       message += "; a projection did not converge within its iteration limit";
+    if (fallback)
+      message += "; " + snap->energy_fallback;
   }
   if (waiting_for_clock)
     message += std::string("; ") + CLOCK_WAIT_MESSAGE;
@@ -867,6 +871,9 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   if (snap->faulted && snap->fault_reason != logged_fault_)
     ROS_ERROR("simulator: %s", snap->fault_reason.c_str());
   logged_fault_ = snap->faulted ? snap->fault_reason : "";
+  if (fallback && !logged_fallback_)
+    ROS_WARN("simulator: %s", snap->energy_fallback.c_str());
+  logged_fallback_ = fallback;
   const NodeParameters& p = snap->parameters;
   add("scenario", snap->scene->name);
   add("solve", solveMethodName(snap->model->solveMethod()));

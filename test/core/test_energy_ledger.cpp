@@ -201,34 +201,55 @@ TEST(EnergyLedger, ADragOnAChainAtRestPassesTheBudget)
   EXPECT_LE(std::abs(ledger.residual()), 1e-4 * ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR));
 }
 
-// The budget answers to the run: explicit Euler on the default chain gains energy until the
-// check energy_budget fails; the failed step is put back with the ledger, whose residual stays
-// within the budget; with ~energy_budget 0 the same run goes on unchecked.
-TEST(EnergyLedger, TheBudgetStopsARunThatGainsEnergy)
+// The budget answers to the run: explicit Euler on the default chain gains energy until it
+// would overdraw the budget; that step is retaken by the stiff-safe fast_projection, which takes
+// every step after it (its projection only takes energy out), so the run goes on within the
+// budget; a reset hands the run back to the integrator. Without sub-steps (max_substeps 1) there
+// is no fallback: energy_budget fails and the step is reported; with ~energy_budget 0 the same
+// run goes on unchecked, past the budget.
+TEST(EnergyLedger, TheBudgetHandsARunThatGainsEnergyToTheFallback)
 {
   const BuiltScene built = shippedScene("chain");
   Simulator simulator(built.scene, built.initial_state, settingsOf("explicit_euler", 1e-3));
-  StepCheck failed = StepCheck::None;
-  double time_before = 0.0;
-  for (int k = 0; k < 10000 && failed == StepCheck::None; ++k)
+  long stiff_steps = 0, budget_rejections = 0;
+  double switched_at = -1.0;
+  for (int k = 0; k < 10000; ++k)
   {
-    time_before = simulator.state().time;
-    failed = simulator.step().failed_check;
+    const StepStatistics s = simulator.step();
+    ASSERT_EQ(s.failed_check, StepCheck::None) << "at t = " << simulator.state().time;
+    stiff_steps += s.stiff_steps;
+    budget_rejections += s.rejections[static_cast<int>(StepCheck::EnergyBudget)];
+    if (switched_at < 0.0 && simulator.data().control.budget_fallback)
+      switched_at = simulator.data().control.budget_fallback_time;
+    const EnergyLedger& ledger = simulator.energyLedger();
+    ASSERT_LE(ledger.residual(), 1e-2 * ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR))
+        << "at t = " << simulator.state().time;
   }
-  ASSERT_EQ(failed, StepCheck::EnergyBudget);
-  EXPECT_EQ(simulator.state().time, time_before);  // put back
-  const EnergyLedger& ledger = simulator.energyLedger();
-  const double limit = 1e-2 * ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR);
-  EXPECT_LE(ledger.residual(), limit);
+  EXPECT_GT(switched_at, 0.5);  // explicit Euler took the first steps
+  EXPECT_LT(switched_at, 5.0);
+  EXPECT_EQ(budget_rejections, 1);  // once: then fast_projection takes every step
+  EXPECT_NEAR(static_cast<double>(stiff_steps), 10000 - std::lround(switched_at / 1e-3), 1.0);
   EXPECT_GT(simulator.data().control.budget_failure_residual,
             1e-2 * simulator.data().control.budget_failure_scale);
-  EXPECT_LT(time_before, 5.0);
+  simulator.reset();
+  EXPECT_FALSE(simulator.data().control.budget_fallback);
+  EXPECT_EQ(simulator.step(100).stiff_steps, 0);
+
+  StepSettings unsplit = settingsOf("explicit_euler", 1e-3);
+  unsplit.max_substeps = 1;
+  Simulator reported(built.scene, built.initial_state, unsplit);
+  StepCheck failed = StepCheck::None;
+  for (int k = 0; k < 10000 && failed == StepCheck::None; ++k)
+    failed = reported.step().failed_check;
+  EXPECT_EQ(failed, StepCheck::EnergyBudget);
+  EXPECT_FALSE(reported.data().control.budget_fallback);
 
   StepSettings unchecked = settingsOf("explicit_euler", 1e-3);
   unchecked.energy_budget = 0.0;
   Simulator free_run(built.scene, built.initial_state, unchecked);
   EXPECT_EQ(free_run.step(10000).failed_check, StepCheck::None);
-  EXPECT_GT(free_run.energyLedger().residual(), limit);  // it did gain past the budget
+  const EnergyLedger& ledger = free_run.energyLedger();
+  EXPECT_GT(ledger.residual(), 1e-2 * ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR));
 }
 
 // A bead released from rest in a bowl has no scale at t0 (no speed, no extent): the budget

@@ -318,28 +318,29 @@ TEST(HardCases, LargeStepsWithoutSubstepsBehaveAsDocumented)
 TEST(HardCases, LargeStepsWithSubstepsBehaveAsDocumented)
 {
   // dopri5's step size collapses on the chain (its guard is final: sub-steps would repeat its
-  // own internal steps); rk4 without stabilisation drifts off the links at any split; explicit
-  // Euler, midpoint and semi-implicit Euler + Baumgarte gain energy over the 10 s past 1 % of
-  // the scene's scale (energy_budget: sub-steps keep each step stable, not the run's account)
+  // own internal steps); explicit Euler without stabilisation leaves the bead's and the surface
+  // chain's constraints. The runs that gain energy past 1 % of the scene's scale over the 10 s
+  // (explicit Euler, midpoint, semi-implicit Euler + Baumgarte, rk4 without stabilisation) are
+  // handed to fast_projection when they would overdraw the budget, and stay bounded
   const DivergingTable diverging = {
     { "chain",
-      { { "explicit_euler", { "baumgarte", "projection" } },
-        { "semi_implicit_euler", { "baumgarte" } },
-        { "midpoint", { "baumgarte", "projection" } },
-        { "rk4", { "none" } },
+      { { "explicit_euler", {} },
+        { "semi_implicit_euler", {} },
+        { "midpoint", {} },
+        { "rk4", {} },
         { "velocity_verlet", {} },
         { "dopri5", { "none", "baumgarte", "projection" } },
         { "fast_projection", {} } } },
     { "bead",
-      { { "explicit_euler", { "none", "baumgarte", "projection" } },
+      { { "explicit_euler", { "none" } },
         { "semi_implicit_euler", {} },
-        { "midpoint", { "none", "projection" } },
+        { "midpoint", {} },
         { "rk4", {} },
         { "velocity_verlet", {} },
         { "dopri5", {} },
         { "fast_projection", {} } } },
     { "surface_chain",
-      { { "explicit_euler", { "none", "baumgarte", "projection" } },
+      { { "explicit_euler", { "none" } },
         { "semi_implicit_euler", {} },
         { "midpoint", {} },
         { "rk4", {} },

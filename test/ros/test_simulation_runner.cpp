@@ -466,4 +466,28 @@ TEST(SimulationRunner, DragsFollowTheirSceneAndEndOnRelease)
   EXPECT_EQ(heavy_runner.snapshot()->dragged_particles, 0u);
 }
 
+TEST(SimulationRunner, AnOverdrawnEnergyBudgetHandsTheRunToTheFallbackAndSaysSo)
+{
+  // explicit Euler gains energy on the default chain until about t = 2 s; 3,000 steps through
+  // ~step: the run goes on under fast_projection, not faulted, and the snapshot says why until
+  // a reset hands it back to the integrator
+  NodeParameters p = parametersFor("chain");
+  p.step.integrator = "explicit_euler";
+  p.step_given = { "integrator" };
+  SimulationRunner runner(p, scene("chain"));
+  runner.start(true);
+  const RunnerReply reply = runner.step(3000);
+  EXPECT_TRUE(reply.success) << reply.message;
+  EXPECT_EQ(reply.steps_taken, 3000u);
+  const std::shared_ptr<const Snapshot> snap = runner.snapshot();
+  EXPECT_FALSE(snap->faulted) << snap->fault_reason;
+  EXPECT_NE(snap->energy_fallback.find("energy budget overdrawn at t = "), std::string::npos)
+      << snap->energy_fallback;
+  EXPECT_NE(snap->energy_fallback.find("explicit_euler"), std::string::npos);
+  EXPECT_NE(snap->energy_fallback.find("fast_projection takes the steps"), std::string::npos);
+  const RunnerReply reset = runner.reset("");
+  EXPECT_TRUE(reset.success) << reset.message;
+  EXPECT_TRUE(runner.snapshot()->energy_fallback.empty());
+}
+
 }  // namespace constrained_particles

@@ -71,9 +71,13 @@ struct StepControl
   bool end_energies_current = false;
   double end_kinetic = 0.0, end_potential = 0.0, end_scale = 0.0;
   /// The energy ledger's residual and budget scale (EnergyLedger::budgetScale) of the last step
-  /// that failed energy_budget [J] (the fault message's figures: the step itself is put back,
-  /// and the ledger with it).
+  /// that overdrew the energy budget [J] (the figures of the fallback's warning or the fault's
+  /// message: the step itself is put back, and the ledger with it).
   double budget_failure_residual = 0.0, budget_failure_scale = 0.0;
+  /// The integrator overdrew the energy budget: the stiff-safe method (STIFF_FALLBACK) retook
+  /// that step and takes every step until the ledger is opened again or the settings change.
+  bool budget_fallback = false;
+  double budget_fallback_time = 0.0;  ///< the start of the step it began with [s]
 };
 
 /// The run's energy account since t0, the last reset, setState, restoreState or change of the

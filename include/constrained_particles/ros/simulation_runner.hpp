@@ -78,6 +78,9 @@ struct Snapshot
   Eigen::VectorXd multipliers;
   Diagnostics diagnostics;  ///< errors and energies of `state`
   EnergyLedger ledger;      ///< the energy account since the last reset, teleport or force change
+  /// The integrator overdrew ~energy_budget: fast_projection takes the steps (StepControl::
+  /// budget_fallback) until a reset, teleport, force or settings change; what it said, else ''
+  std::string energy_fallback;
   /// Monotone clock [s]: sim time plus the time of every earlier reset, plus TIME_JUMP per reset,
   /// scene change, teleport or fault, so a stamp taken from it is never repeated or earlier than
   /// one before.

@@ -134,7 +134,8 @@ private:
   int stale_arrows_ = 0;  // arrow ids up to this are deleted until stale_arrows_until_
   std::chrono::steady_clock::time_point stale_arrows_until_;
   std::uint64_t published_accuracy_serial_ = 0;
-  std::string logged_fault_;  // diagnostics timer: the fault last logged
+  std::string logged_fault_;      // diagnostics timer: the fault last logged
+  bool logged_fallback_ = false;  // diagnostics timer: the energy fallback's warning logged
   ros::Publisher clock_publisher_, tf_publisher_, state_publisher_, force_marker_publisher_,
       scene_marker_publisher_, diagnostics_publisher_, accuracy_publisher_, particles_publisher_,
       surface_publisher_, view_publisher_;
