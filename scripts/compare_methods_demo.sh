@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Regenerates README's "What accuracy costs on your own scene" figures: starts a master and a
+# Regenerates docs/accuracy.md's figures: starts a master and a
 # simulator on a free port (stopped afterwards by their PIDs), asks it ~compare_methods through
 # scripts/compare_methods.py and keeps the table, CSV and diagram in docs/compare_methods/.
 # Usage: scripts/compare_methods_demo.sh [scenario, default surface_chain] [horizon s, default 1]

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The peer chain (n particles, 0.1 m links, 0.1 kg, first pinned, released along +x, dt = 1 ms,
 # 10 s) and a chain of 20 pulled taut between two pins under gravity, run by the headless demo at
-# the node's default settings (max_substeps 1024), where README's peer table runs each integrator
+# the node's default settings (max_substeps 1024), where docs/performance.md's peer table runs each integrator
 # unsplit (the unsplit_ cases: max_substeps 1). Prints each run's last line: energy drift over
 # 10 s and the largest link error.
 # Usage: scripts/default_substeps.sh [case ...]

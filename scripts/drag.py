@@ -8,7 +8,7 @@ feedback rviz sends when a user grabs particle PARTICLE's marker on ~grab and mo
 MOUSE_DOWN where the particle is, pose updates moving the marker to (X, Y, Z) [m, in the node's
 fixed frame] over --seconds, then holds it there for --hold seconds (0 = until Ctrl-C) and lets
 go (MOUSE_UP; on Ctrl-C too). While held, the particle is pulled towards the marker by a
-critically damped spring (README "Grab, drag and push"). ~interactive stays on afterwards.
+critically damped spring (docs/node.md, "Grab, drag and push"). ~interactive stays on afterwards.
 """
 import argparse
 import signal

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the tests and prints the measured figures of the hard cases (test/core/test_hard_cases.cpp),
-# the source of README's "Hard cases" table. Exits non-zero if any hard case fails.
+# the source of docs/stability.md's "Hard cases" table. Exits non-zero if any hard case fails.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/build.sh" >/dev/null

@@ -384,7 +384,7 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
   }
   const Where top{ source, "" };
   if (!root.IsMap())
-    throw InvalidInput(source, "must hold a map with the keys of a scene (see README)");
+    throw InvalidInput(source, "must hold a map with the keys of a scene (see docs/scenes.md)");
   checkKeys(top, root,
             { "name", "description", "surfaces", "particles", "chains", "forces", "constraints",
               "solver", "region" },

@@ -57,7 +57,7 @@ RunSummary run(Simulator& simulator, long steps, long every = 1)
   return r;
 }
 
-// one line per case for README's table (scripts/hard_cases.sh prints them)
+// one line per case for docs/stability.md's table (scripts/hard_cases.sh prints them)
 void printHardCase(const char* name, const char* format, double a, double b = 0, double c = 0)
 {
   std::printf("[hard case] %s: ", name);
@@ -87,7 +87,7 @@ StepSettings settings(const std::string& integrator, double dt,
 
 // 1. 10,000 particles, first pinned, released horizontally, 10 s. Links of 1 m: a transverse
 // wave on a chain under tension T has speed sqrt(T l / m), so dt = 1 ms is stable only for links
-// of order 1 m at this n (see README, Hard cases).
+// of order 1 m at this n (see docs/stability.md, Hard cases).
 TEST(LongHardCases, ChainOf10000For10Seconds)
 {
   const int n = 10000;
@@ -140,7 +140,8 @@ TEST(HardCases, StraightChainUnderAxialLoadHasSmallResidual)
 
 // 3. Pulled taut between two pins: J W J^T is singular (one redundant constraint) at every step.
 // Detected, solved regularised, reported, finite. (Under a transverse load such as gravity the
-// taut chain would need infinite tension; the regularised solve holds it straight: see README.)
+// taut chain would need infinite tension; the regularised solve holds it straight: see
+// docs/stability.md.)
 TEST(HardCases, TautChainBetweenTwoPinsIsSingularButFinite)
 {
   const int n = 20;
@@ -232,7 +233,7 @@ TEST(HardCases, SharpBumpAtHighSpeed)
 // sub-steps off (max_substeps = 1: each step taken as asked) and once at the default
 // max_substeps. The combinations that stay bounded are asserted to; the others are documented
 // as diverging (or, with sub-steps off, stopped by a failed step check), and a change in either
-// direction fails here (README's Hard cases table lists them).
+// direction fails here (docs/stability.md's Hard cases table lists them).
 using DivergingTable = std::map<std::string, std::map<std::string, std::set<std::string>>>;
 
 void expectLargeSteps(const DivergingTable& diverging, int max_substeps, const char* label)
@@ -242,7 +243,7 @@ void expectLargeSteps(const DivergingTable& diverging, int max_substeps, const c
     for (const IntegratorInfo* integrator : integratorTable())
       EXPECT_EQ(by_integrator.count(integrator->name), 1u)
           << integrator->name << " on " << scenario_name
-          << ": list the stabilisations it diverges with at dt = 0.05 s (and in README)";
+          << ": list the stabilisations it diverges with at dt = 0.05 s (and in docs/stability.md)";
   int bounded = 0, combinations = 0;
   long steps = 0, substeps = 0, stiff = 0;
   for (const auto& [scenario_name, by_integrator] : diverging)

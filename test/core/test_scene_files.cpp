@@ -371,9 +371,9 @@ TEST(SceneFiles, DrivenAnchorsStartWhereTheirParticleIs)
   EXPECT_LE((Vec3(simulator.state().positions.col(0)) - Vec3(1, 2, 3)).norm(), 1e-15);
 }
 
-TEST(SceneFiles, ReadmeExampleLoadsAndRuns)
+TEST(SceneFiles, DocumentedExampleLoadsAndRuns)
 {
-  std::ifstream readme(README_PATH);
+  std::ifstream readme(SCENES_DOC_PATH);
   ASSERT_TRUE(readme.good());
   std::stringstream text;
   text << readme.rdbuf();
@@ -383,7 +383,7 @@ TEST(SceneFiles, ReadmeExampleLoadsAndRuns)
   const std::size_t start = all.find("```yaml\n", section);
   ASSERT_NE(start, std::string::npos);
   const std::size_t end = all.find("```", start + 8);
-  const SceneDescription d = parseScene(all.substr(start + 8, end - start - 8), "README.md");
+  const SceneDescription d = parseScene(all.substr(start + 8, end - start - 8), "docs/scenes.md");
   EXPECT_EQ(d.name, "hanging_bridge");
   EXPECT_EQ(d.surfaces.size(), 2u);
   EXPECT_EQ(d.numParticles(), 6);

@@ -1,6 +1,6 @@
 // Every range is written once (limits.hpp) and every other place that shows it agrees:
 // cfg/Simulator.cfg (dynamic_reconfigure's min, max, default and enums, read from the generated
-// SimulatorConfig), README's parameter table, config/default.yaml's comments and the service
+// SimulatorConfig), docs/node.md's parameter table, config/default.yaml's comments and the service
 // definitions in srv/. No ROS master: these read the generated code and the files.
 #include "constrained_particles/SimulatorConfig.h"
 #include "constrained_particles/core/integrators.hpp"
@@ -105,12 +105,12 @@ TEST(DocumentedRanges, ReconfigureRangesAreTheLimits)
   EXPECT_EQ(enums, 2);
 }
 
-TEST(DocumentedRanges, ReadmeParameterTableShowsTheLimits)
+TEST(DocumentedRanges, NodeDocParameterTableShowsTheLimits)
 {
-  const std::string readme = readFile(README_PATH);
-  const std::size_t start = readme.find("### Parameters");
+  const std::string doc = readFile(NODE_DOC_PATH);
+  const std::size_t start = doc.find("### Parameters");
   ASSERT_NE(start, std::string::npos);
-  const std::string section = readme.substr(start, readme.find("\n## ", start) - start);
+  const std::string section = doc.substr(start, doc.find("\n## ", start) - start);
   // | `name` | type | unit | default | range | R/S |
   const std::regex row(R"(\| `([a-z_/]+)` \|[^|]*\| *([^|]*?) *\|[^|]*\| *([^|]*?) *\|)");
   std::map<std::string, std::pair<std::string, std::string>> rows;
@@ -121,15 +121,15 @@ TEST(DocumentedRanges, ReadmeParameterTableShowsTheLimits)
   auto check = [&](const std::string& name)
   {
     SCOPED_TRACE(name);
-    ASSERT_EQ(rows.count(name), 1u) << "README's parameter table has no row for ~" << name;
+    ASSERT_EQ(rows.count(name), 1u) << "docs/node.md's parameter table has no row for ~" << name;
     const Range* range = settingRange(name);
     if (range == nullptr)
       return;
     const auto& [unit, text] = rows[name];
     EXPECT_EQ(text.rfind(range->interval(), 0), 0u)
-        << "README says '" << text << "', limits.hpp " << range->interval();
+        << "docs/node.md says '" << text << "', limits.hpp " << range->interval();
     EXPECT_TRUE(unit == range->unit || (std::string(range->unit) == "1" && unit.empty()))
-        << "README's unit '" << unit << "', limits.hpp " << range->unit;
+        << "docs/node.md's unit '" << unit << "', limits.hpp " << range->unit;
     ++checked;
   };
   forEachField<StepSettings>([&](const auto& spec) { check(spec.name); });

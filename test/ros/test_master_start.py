@@ -106,8 +106,8 @@ class MasterStartTest(WallClockWaits, unittest.TestCase):
             time.sleep(0.5)
         self.assert_running(node, "when the master restarted")
         print(f"after a master restart the node is {'re-registered' if registered else 'not re-registered'}")
-        # documented in README ("Reliability"): restart the node (or launch it with respawn)
-        self.assertFalse(registered, "roscpp re-registered: update README's Reliability section")
+        # documented in docs/reliability.md: restart the node (or launch it with respawn)
+        self.assertFalse(registered, "roscpp re-registered: update docs/reliability.md")
 
     def test_waits_for_master_without_parameters(self):
         # no _name:=value: nothing in ros::init touches the master, so the node's own wait runs

@@ -1,7 +1,7 @@
 /// @file limits.hpp
 /// @brief Every range the package accepts, written once with its unit. Core validation, scene
 /// files, the node's parameters, its services and dynamic_reconfigure read these; the tests
-/// check cfg/Simulator.cfg, config/default.yaml, srv/ and README's tables against them
+/// check cfg/Simulator.cfg, config/default.yaml, srv/ and docs/node.md's tables against them
 /// (test/ros/test_documented_ranges.cpp).
 #pragma once
 
@@ -23,7 +23,7 @@ struct Range
 
   /// True if value is finite, inside the interval and (if integer) whole.
   bool contains(double value) const;
-  /// "(0, 1e+06]": the interval alone, as README's and default.yaml's range columns write it.
+  /// "(0, 1e+06]": the interval alone, as docs/node.md's and default.yaml's range columns write it.
   std::string interval() const;
   /// "(0, 1e+06] [kg]": how messages write the range.
   std::string text() const;

@@ -3,7 +3,7 @@
 /// into a core Scene and initial State (the one place chains are expanded). Uses yaml-cpp; no
 /// ROS (the core stays Eigen-only).
 ///
-/// The format is documented in README.md ("Scenes") and config/scenes/*.yaml. Every key is read
+/// The format is documented in docs/scenes.md and config/scenes/*.yaml. Every key is read
 /// through field descriptors (effect_fields.hpp), so ranges and names are those of limits.hpp.
 #pragma once
 
