@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -14,14 +13,6 @@ namespace constrained_particles
 {
 namespace
 {
-/// CPU time of the calling thread [s] (POSIX clock_gettime: a study's runs share the machine
-/// with the live simulation, whose time must not count).
-double threadCpuSeconds()
-{
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 double median(std::vector<double> values)
 {

@@ -27,16 +27,22 @@ bool isConservative(const Scene& scene)
   return true;
 }
 
+// Calls `visit` on every force acting: the scene's, then those applied from outside.
+template <typename Visit>
+void forEachForce(const Model& model, const std::vector<Force>& perturbations, Visit&& visit)
+{
+  for (const std::vector<Force>* forces : { &model.scene().forces, &perturbations })
+    for (const Force& force : *forces)
+      visit(force);
+}
+
 // Rows or springs (the model's or applied from outside): something the stability estimate sees.
 bool hasStiffness(const Model& model, const std::vector<Force>& perturbations)
 {
-  if (model.numRows() > 0)
-    return true;
-  for (const std::vector<Force>* forces : { &model.scene().forces, &perturbations })
-    for (const Force& force : *forces)
-      if (forceHasStiffness(force))
-        return true;
-  return false;
+  bool stiff = model.numRows() > 0;
+  forEachForce(model, perturbations,
+               [&](const Force& force) { stiff |= forceHasStiffness(force); });
+  return stiff;
 }
 
 // sum |f_i| of the applied forces where it is known without a sweep (gravity alone, kept from
@@ -53,15 +59,15 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
 {
   in = dissipated = 0.0;
   const std::vector<double>& masses = model.scene().masses;
-  for (const std::vector<Force>* forces : { &model.scene().forces, &data.perturbations })
-    for (const Force& force : *forces)
-    {
-      const double p = power(force, masses, x.positions, x.velocities);
-      if (forceDissipates(force))
-        dissipated -= p;
-      else
-        in += p;
-    }
+  forEachForce(model, data.perturbations,
+               [&](const Force& force)
+               {
+                 const double p = power(force, masses, x.positions, x.velocities);
+                 if (forceDissipates(force))
+                   dissipated -= p;
+                 else
+                   in += p;
+               });
 }
 
 // The power the driven anchors put in through their reactions [W]: sum_k r_k . v_k, r_k = m a -
@@ -82,10 +88,10 @@ double ledgerScale(const Model& model, const Data& data)
 {
   const State& x = data.state;
   Points forces = Points::Zero(3, model.numParticles());
-  const std::vector<Force>* lists[] = { &model.scene().forces, &data.perturbations };
-  for (const std::vector<Force>* list : lists)
-    for (const Force& force : *list)
-      accumulateForce(force, model.scene().masses, x.positions, x.velocities, forces);
+  forEachForce(model, data.perturbations,
+               [&](const Force& force) {
+                 accumulateForce(force, model.scene().masses, x.positions, x.velocities, forces);
+               });
   return energyScale(model, x, forces);
 }
 
@@ -332,187 +338,224 @@ void Simulator::evaluateCurrentState(StepStatistics& total)
   total.solve.merge(data_->statistics.solve);
 }
 
-StepStatistics Simulator::step(int count)
+Simulator::StepPlan Simulator::planStep(StepStatistics& total)
 {
   const Model& model = *model_;
   Data& data = *data_;
   StepControl& control = data.control;
-  State& x = data.state;
+  const State& x = data.state;
+  const int max_substeps = settings_.max_substeps;
+  // after the integrator overdrew the energy budget, the stiff-safe method takes every step
+  StepPlan plan{ control.budget_fallback ? stiff_ : integrator_,
+                 control.budget_fallback ? 1 : std::min(control.rejection_substeps, max_substeps) };
+  const bool estimate = !control.budget_fallback &&
+                        integrator_->stability_limit < UNBOUNDED_STABILITY && max_substeps > 1 &&
+                        has_stiffness_;
+  // the estimate reads the multipliers of the last step's last stage and the energy check its
+  // applied forces; after a reset or teleport, or where the integrator solves for no
+  // multipliers (velocity Verlet's SHAKE), they are evaluated here (fast projection, with no
+  // estimate, keeps the applied forces of its own last stage for the energy check)
+  const bool own_forces = plan.method->holds_constraints;
+  if ((!control.multipliers_current && (estimate || (conservative_ && !own_forces))) ||
+      (estimate && own_forces))
+  {
+    evaluateCurrentState(total);
+  }
+  if (estimate)
+  {
+    const double omega = estimateMaxFrequency(model, data.multipliers, x.positions, x.time,
+                                              control.stiffness, data.perturbations);
+    total.max_frequency = std::max(total.max_frequency, omega);
+    const int wanted = stabilitySubsteps(omega, settings_.dt, integrator_->stability_limit,
+                                         MAX_STABILITY_SUBSTEPS);
+    // more than max_substeps cannot be stable: straight to the stiff-safe method
+    if (wanted > max_substeps)
+      plan = { stiff_, 1 };
+    else
+      plan.substeps = std::max(plan.substeps, wanted);
+  }
+  return plan;
+}
+
+void Simulator::markStart()
+{
+  const Model& model = *model_;
+  Data& data = *data_;
+  StepControl& control = data.control;
+  const State& x = data.state;
+  // the start is put back only where a step may be retaken (max_substeps > 1); otherwise its
+  // time is all the sub-steps read (at 10^5 particles the copy moves 4.8 MB a step)
+  if (settings_.max_substeps > 1)
+    control.start = x;
+  else
+    control.start.time = x.time;
+  if (conservative_ && control.end_energies_current)
+  {
+    // the last step ended here with these forces, and its checks measured them
+    control.start_kinetic = control.end_kinetic;
+    control.start_potential = control.end_potential;
+    control.start_scale = control.end_scale;
+  }
+  else if (conservative_)
+  {
+    const StepCheckSums sums = stepCheckSums(model, x, data.applied_forces, appliedForceSum(data));
+    control.start_kinetic = sums.kinetic;
+    control.start_potential = potentialEnergy(model, x);
+    control.start_scale = sums.scale;
+  }
+  control.end_energies_current = false;
+}
+
+StepCheck Simulator::attemptUntilPassed(StepPlan& plan, StepStatistics& total)
+{
+  Data& data = *data_;
+  StepControl& control = data.control;
+  const int max_substeps = settings_.max_substeps;
+  const StepStatistics& attempt = data.statistics;  // the last attempt's (attemptStep)
+  for (;;)
+  {
+    // at the finest split a new singular solve is accepted (regularised) and the step finished
+    const StepCheck failed =
+        attemptStep(*plan.method, plan.substeps, plan.substeps >= max_substeps);
+    const bool finest = plan.substeps >= max_substeps || failed == StepCheck::AdaptiveGuard;
+    if (failed == StepCheck::None)
+      return failed;
+    // the finest split of the chosen method failed: the stiff-safe one takes the step
+    const bool fall_back =
+        finest && max_substeps > 1 && plan.method != stiff_ && failed != StepCheck::AdaptiveGuard;
+    if (finest && !fall_back)
+      return failed;
+    // rejected: its work is counted, its outcome is not
+    ++total.rejected_steps;
+    ++total.rejections[static_cast<int>(failed)];
+    total.solve.factorizations += attempt.solve.factorizations;
+    total.solve.reused_factorizations += attempt.solve.reused_factorizations;
+    total.solve.singular_count += attempt.solve.singular_count;
+    total.projection.projections += attempt.projection.projections;
+    total.projection.iterations += attempt.projection.iterations;
+    total.rejected_internal_steps += attempt.internal_steps + attempt.rejected_internal_steps;
+    data.state = control.start;
+    data.chain_factorization_at_state = false;  // the attempt's, not of the start
+    if (fall_back)
+    {
+      plan = { stiff_, 1 };
+      continue;
+    }
+    plan.substeps = std::min(2 * plan.substeps, max_substeps);
+    if (plan.method == integrator_)  // the fallback's own retakes leave the integrator's memory
+    {
+      control.rejection_substeps = plan.substeps;
+      control.accepted_since_rejection = 0;
+    }
+  }
+}
+
+Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total)
+{
+  Data& data = *data_;
+  StepControl& control = data.control;
+  const StepStatistics& attempt = data.statistics;  // the last attempt's (attemptStep)
+  StepOutcome outcome;
+  for (;;)  // once; twice where the energy budget's fallback retakes the step
+  {
+    outcome.failed = attemptUntilPassed(plan, total);
+    total.merge(attempt);
+    outcome.singular = attempt.solve.singular || attempt.projection.singular;
+    // a driven anchor's power is its reaction's at the step's end: every stage there (this
+    // leaves data.statistics to the evaluation; `attempt` is not read below)
+    if (driven_)
+      evaluateCurrentState(total);
+    outcome.end_energies = conservative_ && outcome.failed == StepCheck::None;
+    outcome.ledger_before = data.ledger;
+    bookStep(settings_.dt, outcome.end_energies);
+    const EnergyLedger& ledger = data.ledger;
+    // not `<=` alone: a NaN residual overdraws too
+    if (outcome.failed != StepCheck::None || settings_.energy_budget <= 0.0 ||
+        ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR))
+      return outcome;
+    // over the run, not the step: no split of this step undoes what earlier ones gained; the
+    // stiff-safe method, whose projection only takes energy out, retakes it and the rest of the
+    // run (until the ledger opens again or the settings change)
+    control.budget_failure_residual = ledger.residual();
+    control.budget_failure_scale = ledger.budgetScale(ENERGY_SCALE_FLOOR);
+    if (settings_.max_substeps <= 1 || plan.method == stiff_)
+    {
+      outcome.failed = StepCheck::EnergyBudget;
+      return outcome;
+    }
+    control.budget_fallback_time = control.start.time;
+    ++total.rejected_steps;
+    ++total.rejections[static_cast<int>(StepCheck::EnergyBudget)];
+    data.state = control.start;
+    data.ledger = outcome.ledger_before;
+    data.chain_factorization_at_state = false;
+    control.budget_fallback = true;
+    plan = { stiff_, 1 };
+  }
+}
+
+void Simulator::putBack(const EnergyLedger& ledger_before)
+{
+  Data& data = *data_;
+  data.state = data.control.start;  // the state stays the last accepted one
+  data.ledger = ledger_before;
+  data.chain_factorization_at_state = false;
+  data.control.multipliers_current = false;
+}
+
+void Simulator::acceptStep(const StepPlan& plan, const StepOutcome& outcome, StepStatistics& total)
+{
+  StepControl& control = data_->control;
+  ++data_->state.steps;
+  ++total.steps;
+  total.substeps += plan.substeps;
+  total.max_substeps = std::max(total.max_substeps, plan.substeps);
+  control.singular = outcome.singular;
+  control.end_energies_current = outcome.end_energies;
+  // velocity Verlet and fast projection solve for no multipliers
+  control.multipliers_current =
+      driven_ || (plan.method == integrator_ && !integrator_->holds_constraints);
+  if (plan.method != integrator_)
+  {
+    // the stiff-safe method solves for no multipliers: the forces of the failed attempt are
+    // left in data, so they are evaluated at the accepted state
+    ++total.stiff_steps;
+    if (!driven_)
+      evaluateCurrentState(total);
+    control.multipliers_current = true;
+  }
+  if (control.rejection_substeps > 1 && ++control.accepted_since_rejection >= RELAX_AFTER_STEPS)
+  {
+    control.rejection_substeps /= 2;
+    control.accepted_since_rejection = 0;
+  }
+}
+
+StepStatistics Simulator::step(int count)
+{
+  // as mj_step reads: plan the step, mark its start, take it (attempts, splits, the stiff
+  // fallback, the energy budget), then accept it or put it back
+  Data& data = *data_;
   const EffectCounters before = data.counters;
   StepStatistics total;
-  total.solve.method = model.solveMethod();
-  const int max_substeps = settings_.max_substeps;
-  const IntegratorInfo& stiff = *stiff_;
+  total.solve.method = model_->solveMethod();
   for (int k = 0; k < count; ++k)
   {
-    // after the integrator overdrew the energy budget, the stiff-safe method takes every step
-    const IntegratorInfo* method = control.budget_fallback ? &stiff : integrator_;
-    int substeps = control.budget_fallback ? 1 : std::min(control.rejection_substeps, max_substeps);
-    const bool estimate = !control.budget_fallback &&
-                          integrator_->stability_limit < UNBOUNDED_STABILITY && max_substeps > 1 &&
-                          has_stiffness_;
-    // the estimate reads the multipliers of the last step's last stage and the energy check its
-    // applied forces; after a reset or teleport, or where the integrator solves for no
-    // multipliers (velocity Verlet's SHAKE), they are evaluated here (fast projection, with no
-    // estimate, keeps the applied forces of its own last stage for the energy check)
-    const bool own_forces = method->holds_constraints;
-    if ((!control.multipliers_current && (estimate || (conservative_ && !own_forces))) ||
-        (estimate && own_forces))
-    {
-      evaluateCurrentState(total);
-    }
-    if (estimate)
-    {
-      const double omega = estimateMaxFrequency(model, data.multipliers, x.positions, x.time,
-                                                control.stiffness, data.perturbations);
-      total.max_frequency = std::max(total.max_frequency, omega);
-      const int wanted = stabilitySubsteps(omega, settings_.dt, integrator_->stability_limit,
-                                           MAX_STABILITY_SUBSTEPS);
-      // more than max_substeps cannot be stable: straight to the stiff-safe method
-      if (wanted > max_substeps)
-      {
-        method = &stiff;
-        substeps = 1;
-      }
-      else
-        substeps = std::max(substeps, wanted);
-    }
-    // the start is put back only where a step may be retaken (max_substeps > 1); otherwise its
-    // time is all the sub-steps read (at 10^5 particles the copy moves 4.8 MB a step)
-    if (max_substeps > 1)
-      control.start = x;
-    else
-      control.start.time = x.time;
-    if (conservative_ && control.end_energies_current)
-    {
-      // the last step ended here with these forces, and its checks measured them
-      control.start_kinetic = control.end_kinetic;
-      control.start_potential = control.end_potential;
-      control.start_scale = control.end_scale;
-    }
-    else if (conservative_)
-    {
-      const StepCheckSums sums =
-          stepCheckSums(model, x, data.applied_forces, appliedForceSum(data));
-      control.start_kinetic = sums.kinetic;
-      control.start_potential = potentialEnergy(model, x);
-      control.start_scale = sums.scale;
-    }
-    control.end_energies_current = false;
-    StepCheck failed = StepCheck::None;
-    const StepStatistics& attempt = data.statistics;  // the last attempt's (attemptStep)
-    bool attempt_singular = false, end_energies = false;
-    EnergyLedger ledger_before;  // put back with the step
-    for (;;)                     // once; twice where the energy budget's fallback retakes the step
-    {
-      for (;;)
-      {
-        // at the finest split a new singular solve is accepted (regularised) and the step finished
-        failed = attemptStep(*method, substeps, substeps >= max_substeps);
-        const bool finest = substeps >= max_substeps || failed == StepCheck::AdaptiveGuard;
-        if (failed == StepCheck::None)
-          break;
-        // the finest split of the chosen method failed: the stiff-safe one takes the step
-        const bool fall_back =
-            finest && max_substeps > 1 && method != &stiff && failed != StepCheck::AdaptiveGuard;
-        if (finest && !fall_back)
-          break;
-        // rejected: its work is counted, its outcome is not
-        ++total.rejected_steps;
-        ++total.rejections[static_cast<int>(failed)];
-        total.solve.factorizations += attempt.solve.factorizations;
-        total.solve.reused_factorizations += attempt.solve.reused_factorizations;
-        total.solve.singular_count += attempt.solve.singular_count;
-        total.projection.projections += attempt.projection.projections;
-        total.projection.iterations += attempt.projection.iterations;
-        total.rejected_internal_steps += attempt.internal_steps + attempt.rejected_internal_steps;
-        x = control.start;
-        data.chain_factorization_at_state = false;  // the attempt's, not of the start
-        if (fall_back)
-        {
-          method = &stiff;
-          substeps = 1;
-          continue;
-        }
-        substeps = std::min(2 * substeps, max_substeps);
-        if (method == integrator_)  // the fallback's own retakes leave the integrator's memory
-        {
-          control.rejection_substeps = substeps;
-          control.accepted_since_rejection = 0;
-        }
-      }
-      total.merge(attempt);
-      attempt_singular = attempt.solve.singular || attempt.projection.singular;
-      // a driven anchor's power is its reaction's at the step's end: every stage there (this
-      // leaves data.statistics to the evaluation; `attempt` is not read below)
-      if (driven_)
-        evaluateCurrentState(total);
-      end_energies = conservative_ && failed == StepCheck::None;
-      ledger_before = data.ledger;
-      bookStep(settings_.dt, end_energies);
-      const EnergyLedger& ledger = data.ledger;
-      if (failed == StepCheck::None && settings_.energy_budget > 0.0 &&
-          !(ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR)))
-      {
-        // over the run, not the step: no split of this step undoes what earlier ones gained;
-        // the stiff-safe method, whose projection only takes energy out, retakes it and the
-        // rest of the run (until the ledger opens again or the settings change)
-        control.budget_failure_residual = ledger.residual();
-        control.budget_failure_scale = ledger.budgetScale(ENERGY_SCALE_FLOOR);
-        if (max_substeps > 1 && method != &stiff)
-        {
-          control.budget_fallback_time = control.start.time;
-          ++total.rejected_steps;
-          ++total.rejections[static_cast<int>(StepCheck::EnergyBudget)];
-          x = control.start;
-          data.ledger = ledger_before;
-          data.chain_factorization_at_state = false;
-          control.budget_fallback = true;
-          method = &stiff;
-          substeps = 1;
-          continue;
-        }
-        failed = StepCheck::EnergyBudget;
-      }
-      break;
-    }
-    if (failed != StepCheck::None)
+    StepPlan plan = planStep(total);
+    markStart();
+    const StepOutcome outcome = takeStep(plan, total);
+    if (outcome.failed != StepCheck::None)
     {
       if (total.failed_check == StepCheck::None)
-        total.failed_check = failed;
-      if (max_substeps > 1)
+        total.failed_check = outcome.failed;
+      if (settings_.max_substeps > 1)
       {
-        x = control.start;  // put back: the state stays the last accepted one
-        data.ledger = ledger_before;
-        data.chain_factorization_at_state = false;
-        control.multipliers_current = false;
+        putBack(outcome.ledger_before);
         break;
       }
       // max_substeps = 1: the checks only report; the step stands as taken (as before checks)
     }
-    ++x.steps;
-    ++total.steps;
-    total.substeps += substeps;
-    total.max_substeps = std::max(total.max_substeps, substeps);
-    control.singular = attempt_singular;
-    control.end_energies_current = end_energies;
-    // velocity Verlet and fast projection solve for no multipliers
-    control.multipliers_current =
-        driven_ || (method == integrator_ && !integrator_->holds_constraints);
-    if (method != integrator_)
-    {
-      // the stiff-safe method solves for no multipliers: the forces of the failed attempt are
-      // left in data, so they are evaluated at the accepted state
-      ++total.stiff_steps;
-      if (!driven_)
-        evaluateCurrentState(total);
-      control.multipliers_current = true;
-    }
-    if (control.rejection_substeps > 1 && ++control.accepted_since_rejection >= RELAX_AFTER_STEPS)
-    {
-      control.rejection_substeps /= 2;
-      control.accepted_since_rejection = 0;
-    }
+    acceptStep(plan, outcome, total);
   }
   total.effects = data.counters.since(before);
   data.statistics = total;

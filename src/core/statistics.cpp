@@ -1,6 +1,7 @@
 #include "constrained_particles/core/statistics.hpp"
 
 #include <algorithm>
+#include <ctime>
 
 namespace constrained_particles
 {
@@ -89,6 +90,13 @@ void ProjectionStatistics::merge(const ProjectionReport& report)
   max_position_error = worseError(max_position_error, report.max_position_error);
   max_velocity_change = std::max(max_velocity_change, report.max_velocity_change);
   singular = singular || report.singular;
+}
+
+double threadCpuSeconds()
+{
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 }  // namespace constrained_particles

@@ -3,7 +3,6 @@
 #include "constrained_particles/core/simulator.hpp"
 
 #include <cmath>
-#include <ctime>
 
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -11,16 +10,6 @@
 
 namespace constrained_particles
 {
-namespace
-{
-double threadCpuSeconds()
-{
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-}  // namespace
-
 void lowerThreadPriority()
 {
   // best effort: an unprivileged thread may always lower its own priority

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 
 namespace constrained_particles
 {
@@ -16,13 +15,6 @@ constexpr auto REPLY_POLL = std::chrono::milliseconds(50);
 double seconds(std::chrono::steady_clock::duration d)
 {
   return std::chrono::duration<double>(d).count();
-}
-
-double threadCpuSeconds()
-{
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 /// Live accuracy samples per window: about one per publish period, 4 to 64 (4 for large scenes:

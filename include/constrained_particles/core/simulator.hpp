@@ -156,6 +156,40 @@ private:
   /// statistics, all its sub-steps merged, are left in data_->statistics.
   StepCheck attemptStep(const IntegratorInfo& method, int substeps, bool accept_singular);
 
+  /// The method a step starts with and its sub-steps.
+  struct StepPlan
+  {
+    const IntegratorInfo* method;
+    int substeps;
+  };
+  /// How a step ended: the check it failed (None if it passed), whether its accepted attempt
+  /// had a singular solve, whether control.end_* hold its end energies, and the ledger before
+  /// it was booked (put back with the step).
+  struct StepOutcome
+  {
+    StepCheck failed = StepCheck::None;
+    bool singular = false;
+    bool end_energies = false;
+    EnergyLedger ledger_before;
+  };
+  /// The step's stages, in order (Simulator::step):
+  /// the method and sub-steps: the budget's fallback, else the integrator split as the
+  /// stability estimate and the last rejections ask, or the stiff-safe method where no split
+  /// can be stable
+  StepPlan planStep(StepStatistics& total);
+  /// control.start (to put back) and its energies
+  void markStart();
+  /// attempts from control.start until one passes: twice the sub-steps after a failed check,
+  /// the stiff-safe method after the finest split failed; the last check failed, else None
+  StepCheck attemptUntilPassed(StepPlan& plan, StepStatistics& total);
+  /// attemptUntilPassed, then the booking and the energy budget: a step that overdraws it is
+  /// retaken by the stiff-safe method, which keeps the run (control.budget_fallback)
+  StepOutcome takeStep(StepPlan& plan, StepStatistics& total);
+  /// a failed step: the state and the ledger as they were at control.start
+  void putBack(const EnergyLedger& ledger_before);
+  /// an accepted step: counted, and what the next step may reuse marked
+  void acceptStep(const StepPlan& plan, const StepOutcome& outcome, StepStatistics& total);
+
   /// Everything a scene change replaces together.
   struct Compiled
   {

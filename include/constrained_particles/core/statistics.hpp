@@ -196,4 +196,8 @@ struct StepStatistics
   void merge(const StepStatistics& later);
 };
 
+/// CPU time of the calling thread [s] (POSIX clock_gettime(CLOCK_THREAD_CPUTIME_ID)): what a
+/// study, a shadow reference or a live window cost, not the time of the threads beside it.
+double threadCpuSeconds();
+
 }  // namespace constrained_particles
