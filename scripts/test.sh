@@ -41,7 +41,7 @@ if [[ "${CP_CPU_HOG:-0}" == 1 ]]; then
 fi
 # the tiers split by gtest suite name (gtest reads GTEST_FILTER); the rostests are all fast
 if [[ "$TIER" == long ]]; then
-  export GTEST_FILTER='Long*' CP_STRESS_FULL=1
+  export GTEST_FILTER='Long*'
   TARGET=run_tests_constrained_particles_gtest
 else
   export GTEST_FILTER='-Long*'

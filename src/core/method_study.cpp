@@ -104,6 +104,18 @@ RunOutcome runOnce(const Scene& scene, const State& start, const StepSettings& s
       run.finite = false;
       break;
     }
+    if (const StepControl& control = simulator.data().control; control.budget_fallback)
+    {
+      // from here the stiff-safe method takes the steps: what follows is not this method's
+      if (run.failure.empty())
+        run.failure =
+            "energy budget overdrawn at t = " + formatValue(control.budget_fallback_time) +
+            " s (the node would hand the "
+            "run to " +
+            Simulator::STIFF_FALLBACK + ")";
+      run.finite = false;
+      break;
+    }
     if (taken % sample_every == 0 || taken == steps)
     {
       const Diagnostics d = simulator.diagnostics();

@@ -277,14 +277,20 @@ void Simulator::openLedger()
   ledger.initial_kinetic = ledger.kinetic;
   ledger.scale = ledgerScale(model, data);
   ledgerPowers(model, data, x, ledger.power_in, ledger.power_dissipated);
-  if (driven_)
-  {
-    // the reactions at t0; what the evaluation solved is no step's
-    const StepStatistics kept = data.statistics;
-    forwardAtState();
-    data.statistics = kept;
-    ledger.power_in += drivePower(model, data);
-  }
+  ledger.power_in += drivenPower();
+}
+
+double Simulator::drivenPower()
+{
+  if (!driven_)
+    return 0.0;
+  // the reactions at the current state with the forces acting now; what the evaluation solved
+  // is no step's
+  Data& data = *data_;
+  const StepStatistics kept = data.statistics;
+  forwardAtState();
+  data.statistics = kept;
+  return drivePower(*model_, data);
 }
 
 void Simulator::bookStep(double dt, bool end_energies)
@@ -623,12 +629,14 @@ void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMe
 void Simulator::setStepSettings(const StepSettings& settings)
 {
   validateStepSettings(settings);
+  // other settings may keep the budget; the same ones (a reconfigure of the node's own) not
+  if (!(settings == settings_))
+    data_->control.budget_fallback = false;
   integrator_ = &findIntegrator(settings.integrator);
   settings_ = settings;
   substep_settings_ = settings;
   data_->control.multipliers_current = false;  // another integrator may have left none
   data_->control.end_energies_current = false;
-  data_->control.budget_fallback = false;       // the new settings may keep the budget
   data_->chain_factorization_at_state = false;  // as after any write between steps
 }
 
@@ -661,6 +669,7 @@ void Simulator::setPerturbations(const std::vector<Force>& perturbations)
   // measured against what they could move too (a drag on a chain at rest: |f| times its extent)
   EnergyLedger& ledger = data_->ledger;
   ledgerPowers(*model_, *data_, data_->state, ledger.power_in, ledger.power_dissipated);
+  ledger.power_in += drivenPower();
   ledger.scale = std::max(ledger.scale, ledgerScale(*model_, *data_));
 }
 

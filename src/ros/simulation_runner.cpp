@@ -696,6 +696,18 @@ bool SimulationRunner::runBatch()
 
 std::string SimulationRunner::faultIn(const State& state, const StepStatistics& chunk) const
 {
+  std::string reason = checkFault(state, chunk);
+  // the fault ends the fallback (the state is restored, the ledger opened again): say it was on
+  if (const StepControl& control = simulator_->data().control;
+      !reason.empty() && control.budget_fallback)
+    reason += "; the run had been taken by " + std::string(Simulator::STIFF_FALLBACK) +
+              " since t = " + formatValue(control.budget_fallback_time) + " s, after " +
+              parameters_.step.integrator + " overdrew ~energy_budget";
+  return reason;
+}
+
+std::string SimulationRunner::checkFault(const State& state, const StepStatistics& chunk) const
+{
   const StepSettings& step = parameters_.step;
   const std::string split =
       step.max_substeps > 1
@@ -730,11 +742,11 @@ std::string SimulationRunner::faultIn(const State& state, const StepStatistics& 
              formatValue(simulator_->data().control.budget_failure_residual) + " J > " +
              formatValue(step.energy_budget * scale) + " J (~energy_budget " +
              formatValue(step.energy_budget) + " of scale " + formatValue(scale) +
-             " J, since t = " + formatValue(ledger.t0) + " s): " + step.integrator +
-             " gained energy over the run" +
-             (step.max_substeps > 1 ? std::string(" (and ") + Simulator::STIFF_FALLBACK +
-                                          ", retaking the step, overdrew it too)"
-                                    : std::string(" (~max_substeps 1: no fallback)")) +
+             " J, since t = " + formatValue(ledger.t0) + " s): the run gained energy" +
+             (step.max_substeps > 1 ? std::string(" even in steps of ") +
+                                          Simulator::STIFF_FALLBACK + ", the stiff-safe method"
+                                    : std::string(" (~max_substeps = 1: no fallback to ") +
+                                          Simulator::STIFF_FALLBACK + ")") +
              "; use rk4 or velocity_verlet, shorten ~dt, or set ~energy_budget 0 to run "
              "unchecked";
     }

@@ -165,20 +165,34 @@ TEST(EnergyLedger, ADrivenParticleGainsTheWorkOfItsReaction)
 }
 
 // The shipped shaken chain (a driven top, gravity, damping) at its defaults over 10 s: the
-// drive's work and the damping's loss are booked, the budget passes every step and the residual
-// is a small part of its scale; without the drive's work the account would not balance.
+// drive's work and the damping's loss are booked, the budget passes every step (no fallback)
+// and the residual is a small part of its scale; without the drive's work the account would
+// not balance. Then again with a drag on the last particle set anew every 10 steps, as the
+// node's drag stream does: each change books the drive's power at the new forces.
 TEST(EnergyLedger, ADrivenChainBalancesOverTenSeconds)
 {
-  const BuiltScene built = shippedScene("shaken_chain");
-  Simulator simulator(built.scene, built.initial_state, settingsOf("rk4", 1e-3));
-  for (int k = 0; k < 100; ++k)
-    ASSERT_EQ(simulator.step(100).failed_check, StepCheck::None) << "at step " << 100 * k;
-  const EnergyLedger& ledger = simulator.energyLedger();
-  const double scale = ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR);
-  EXPECT_GT(ledger.work_in_moved, 1e-1 * scale);
-  EXPECT_GT(ledger.dissipated, 1e-3 * scale);
-  EXPECT_LE(std::abs(ledger.residual()), 1e-4 * scale);
-  EXPECT_GT(std::abs(ledger.residual() + ledger.work_in), 1e2 * std::abs(ledger.residual()));
+  for (const bool dragged : { false, true })
+  {
+    SCOPED_TRACE(dragged ? "dragged" : "alone");
+    const BuiltScene built = shippedScene("shaken_chain");
+    Simulator simulator(built.scene, built.initial_state, settingsOf("rk4", 1e-3));
+    const double m = 0.2, w = 10.0;  // the node's grab: k = m w^2, c = 2 m w
+    for (int k = 0; k < 1000; ++k)
+    {
+      if (dragged)
+        simulator.setPerturbations({ TargetSpringForce{ 5, Vec3(0.3 * std::sin(0.01 * k), 0.1, 0.4),
+                                                        m * w * w, 2 * m * w } });
+      const StepStatistics s = simulator.step(10);
+      ASSERT_EQ(s.failed_check, StepCheck::None) << "at step " << 10 * k;
+      ASSERT_EQ(s.rejections[static_cast<int>(StepCheck::EnergyBudget)], 0) << "at step " << 10 * k;
+    }
+    const EnergyLedger& ledger = simulator.energyLedger();
+    const double scale = ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR);
+    EXPECT_GT(ledger.work_in_moved, 1e-1 * scale);
+    EXPECT_GT(ledger.dissipated, 1e-3 * scale);
+    EXPECT_LE(std::abs(ledger.residual()), 1e-4 * scale);
+    EXPECT_GT(std::abs(ledger.residual() + ledger.work_in), 1e2 * std::abs(ledger.residual()));
+  }
 }
 
 // A drag on a chain at rest without gravity (as the node's grab in views.test): the scene had no
@@ -231,6 +245,13 @@ TEST(EnergyLedger, TheBudgetHandsARunThatGainsEnergyToTheFallback)
   EXPECT_NEAR(static_cast<double>(stiff_steps), 10000 - std::lround(switched_at / 1e-3), 1.0);
   EXPECT_GT(simulator.data().control.budget_failure_residual,
             1e-2 * simulator.data().control.budget_failure_scale);
+  // the same settings again (a node's reconfigure of something else) keep the fallback;
+  // other settings hand the run back to the integrator, as a reset does
+  simulator.setStepSettings(settingsOf("explicit_euler", 1e-3));
+  EXPECT_TRUE(simulator.data().control.budget_fallback);
+  simulator.setStepSettings(settingsOf("explicit_euler", 5e-4));
+  EXPECT_FALSE(simulator.data().control.budget_fallback);
+  simulator.setStepSettings(settingsOf("explicit_euler", 1e-3));
   simulator.reset();
   EXPECT_FALSE(simulator.data().control.budget_fallback);
   EXPECT_EQ(simulator.step(100).stiff_steps, 0);
@@ -262,7 +283,10 @@ TEST(EnergyLedger, ABeadReleasedFromRestPassesTheBudget)
   for (const std::string integrator : { "rk4", "semi_implicit_euler", "velocity_verlet" })
   {
     Simulator simulator(scene, stateOf(p, v), settingsOf(integrator, 1e-3));
-    EXPECT_EQ(simulator.step(10000).failed_check, StepCheck::None) << integrator;
+    const StepStatistics s = simulator.step(10000);
+    EXPECT_EQ(s.failed_check, StepCheck::None) << integrator;
+    EXPECT_EQ(s.rejections[static_cast<int>(StepCheck::EnergyBudget)], 0) << integrator;
+    EXPECT_FALSE(simulator.data().control.budget_fallback) << integrator;
     EXPECT_GT(simulator.energyLedger().exchanged, 0.1) << integrator;
   }
 }

@@ -3,8 +3,10 @@
 // 60 s with every accepted step's energy residual within ~energy_budget of its scale, or stops
 // on a named failed step check (the node faults on it, naming it) with the state put back to
 // the last accepted one, finite and within the budget: never an accepted step over the budget.
-// CP_ENERGY_SWEEP_CSV=<path> writes one row per run; scripts/energy_sweep.sh turns them into
-// docs/energy_sweep.md.
+// Each run's outcome (ok or the check it stopped on, and whether the fallback took over) is
+// compared with docs/bench/energy_sweep.csv, so a change either way fails here;
+// CP_ENERGY_SWEEP_CSV=<path> writes the rows instead (scripts/energy_sweep.sh, which turns them
+// into docs/energy_sweep.md, for a change meant to be made).
 #include "constrained_particles/core/simulator.hpp"
 
 #include "test_helpers.hpp"
@@ -17,6 +19,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 
 using namespace constrained_particles;
 using namespace constrained_particles::testing;
@@ -33,6 +37,26 @@ std::vector<std::string> shippedSceneNames()
       names.push_back(entry.path().stem().string());
   std::sort(names.begin(), names.end());
   return names;
+}
+
+/// docs/bench/energy_sweep.csv: "scene integrator stabilization" -> "outcome, fallback yes/no".
+std::map<std::string, std::string> documentedOutcomes()
+{
+  std::ifstream csv(std::string(DOCS_BENCH_DIR) + "/energy_sweep.csv");
+  std::map<std::string, std::string> out;
+  std::string line;
+  std::getline(csv, line);  // the header
+  while (std::getline(csv, line))
+  {
+    std::vector<std::string> cells;
+    std::stringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');)
+      cells.push_back(cell);
+    if (cells.size() >= 11)  // stiff_steps is the 11th column
+      out[cells[0] + " " + cells[1] + " " + cells[2]] =
+          cells[3] + (cells[10] != "0" ? ", fallback" : "");
+  }
+  return out;
 }
 
 struct SweepRun
@@ -99,11 +123,29 @@ TEST(LongEnergySweep, EveryShippedSceneAndMethodFor60Seconds)
   int completed = 0;
   for (const SweepRun& r : runs)
     completed += r.failed == StepCheck::None;
+  const char* write_to = std::getenv("CP_ENERGY_SWEEP_CSV");
+  if (!write_to)
+  {
+    const std::map<std::string, std::string> documented = documentedOutcomes();
+    EXPECT_EQ(documented.size(), runs.size()) << "docs/bench/energy_sweep.csv";
+    for (const SweepRun& r : runs)
+    {
+      const std::string key = r.scene + " " + r.integrator + " " + r.stabilization;
+      const std::string outcome =
+          std::string(r.failed == StepCheck::None ? "ok" : stepCheckName(r.failed)) +
+          (r.stiff_steps > 0 ? ", fallback" : "");
+      const auto it = documented.find(key);
+      EXPECT_TRUE(it != documented.end() && it->second == outcome)
+          << key << ": " << outcome << ", documented "
+          << (it == documented.end() ? "nothing" : it->second)
+          << " (bash scripts/energy_sweep.sh regenerates the table)";
+    }
+  }
   std::printf(
       "[energy sweep] %d of %zu runs reached %.0f s within the budget; the others "
       "stopped on a named step check\n",
       completed, runs.size(), HORIZON);
-  if (const char* path = std::getenv("CP_ENERGY_SWEEP_CSV"))
+  if (const char* path = write_to)
   {
     std::ofstream csv(path);
     csv << "scene,integrator,stabilization,outcome,time_s,residual_J,max_residual_over_budget,"
@@ -157,6 +199,9 @@ TEST(LongEnergySweep, TheIssueCasesStayWithinTheBudget)
       ASSERT_LE(ledger.residual(), limit) << "at t = " << simulator.state().time;
       worst = std::max(worst, std::abs(ledger.residual()));
     }
+    // the integrators hold these by themselves: the fallback never took a step
+    EXPECT_EQ(stiff, 0);
+    EXPECT_FALSE(simulator.data().control.budget_fallback);
     const EnergyLedger& ledger = simulator.energyLedger();
     std::printf(
         "[energy sweep] %s: residual %.3g J at the end, |residual| <= %.3g J over the run, "

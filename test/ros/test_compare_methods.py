@@ -1,9 +1,11 @@
 #!/usr/bin/python3
 """~compare_methods and ~accuracy seen from outside (compare_methods.test). Waits are wall-clock
 deadlines with polling; rates are compared within one run (before / during the study)."""
+import collections
 import os
 import shutil
 import tempfile
+import threading
 import time
 import unittest
 
@@ -11,7 +13,8 @@ import actionlib
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalID, GoalStatus
-from constrained_particles.msg import (Accuracy, CompareMethodsAction, CompareMethodsActionGoal,
+from constrained_particles.msg import (Accuracy, CompareMethodsAction,
+                                       CompareMethodsActionFeedback, CompareMethodsActionGoal,
                                        CompareMethodsActionResult, CompareMethodsGoal, Method,
                                        SimState)
 from constrained_particles.srv import Reset
@@ -25,6 +28,59 @@ NODE = "/simulator"
 LIVE = "/live"
 
 
+class ActionTopics:
+    """~compare_methods on the action's own topics: goals and cancels sent, results and feedback
+    read by goal id. actionlib's Python client drops feedback it reads after the result (another
+    connection, another thread: update_feedback in actionlib/action_client.py) and marks a goal
+    LOST when a status array sent before the server saw the goal reaches it after its cancel
+    (update_status): races of the client's, not outcomes of the server's."""
+
+    def __init__(self, ns):
+        self.goals = rospy.Publisher(ns + "/goal", CompareMethodsActionGoal, queue_size=100)
+        self.cancels = rospy.Publisher(ns + "/cancel", GoalID, queue_size=100)
+        self.lock = threading.Lock()
+        self.results = {}
+        self.feedback = collections.defaultdict(list)
+        self.listeners = [
+            rospy.Subscriber(ns + "/result", CompareMethodsActionResult, self._on_result,
+                             queue_size=100),
+            rospy.Subscriber(ns + "/feedback", CompareMethodsActionFeedback, self._on_feedback,
+                             queue_size=1000)]
+        self.sent = 0
+
+    def _on_result(self, message):
+        with self.lock:
+            self.results.setdefault(message.status.goal_id.id, message)
+
+    def _on_feedback(self, message):
+        with self.lock:
+            self.feedback[message.status.goal_id.id].append(message.feedback)
+
+    def connected(self):
+        return (self.goals.get_num_connections() > 0 and self.cancels.get_num_connections() > 0
+                and all(s.get_num_connections() > 0 for s in self.listeners))
+
+    def send(self, goal):
+        """Sends `goal` under a new id, which it returns."""
+        self.sent += 1
+        goal_id = GoalID(stamp=rospy.Time.now(), id=f"test_goal_{self.sent}_{time.time()}")
+        message = CompareMethodsActionGoal(goal_id=goal_id, goal=goal)
+        message.header.stamp = goal_id.stamp
+        self.goals.publish(message)
+        return goal_id.id
+
+    def cancel(self, goal_id):
+        self.cancels.publish(GoalID(id=goal_id))
+
+    def result(self, goal_id):
+        with self.lock:
+            return self.results.get(goal_id)
+
+    def feedback_of(self, goal_id):
+        with self.lock:
+            return list(self.feedback[goal_id])
+
+
 class CompareMethodsTest(WallClockWaits, unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -35,13 +91,21 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
         cls.tf = Recorder("/tf", TFMessage, keep=20000)
         cls.reports = Recorder(LIVE + "/accuracy", Accuracy, keep=100)
         cls.reconfigure = Client(LIVE, timeout=60.0)
+        cls.topics = ActionTopics(NODE + "/compare_methods")
 
     def run_goal(self, goal, timeout=240.0):
-        feedback = []
-        self.client.send_goal(goal, feedback_cb=feedback.append)
-        self.wait_until(lambda: self.client.wait_for_result(rospy.Duration(0.05)),
-                        "the study's result", timeout=timeout)
-        return self.client.get_state(), self.client.get_result(), feedback
+        """Sends `goal` on the action's topics and waits for its result (and, for a study that
+        succeeded, its last feedback, done = total). Returns (status, result, feedback, status
+        text)."""
+        self.wait_until(self.topics.connected, "the action's topics connected")
+        goal_id = self.topics.send(goal)
+        ended = self.wait_until(lambda: self.topics.result(goal_id), "the study's result",
+                                timeout=timeout)
+        if ended.status.status == GoalStatus.SUCCEEDED:
+            self.wait_until(lambda: (lambda f: f and f[-1].done == f[-1].total)(
+                self.topics.feedback_of(goal_id)), "the study's last feedback", timeout=30.0)
+        return (ended.status.status, ended.result, self.topics.feedback_of(goal_id),
+                ended.status.text)
 
     def test_study_keeps_real_time_and_tf_and_writes_its_outputs(self):
         self.wait_until(lambda: self.states.latest() is not None and
@@ -64,9 +128,9 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
         try:
             goal = CompareMethodsGoal(horizon=3.0, error_target=1e-6, output_directory=output)
             start, wall_start = time.monotonic(), time.time()
-            state, result, feedback = self.run_goal(goal)
+            state, result, feedback, text = self.run_goal(goal)
             end, wall_end = time.monotonic(), time.time()
-            self.assertEqual(state, GoalStatus.SUCCEEDED, self.client.get_goal_status_text())
+            self.assertEqual(state, GoalStatus.SUCCEEDED, text)
             self.assertGreater(end - start, 2.5, "the study must last for the rates to mean much")
             # the node kept real time: every achieved factor taken wholly inside the study
             inside = self.states.since(start + 1.2, end)
@@ -147,48 +211,27 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
     def test_a_cancel_at_any_moment_ends_the_goal(self):
         # 30 goals, each cancelled 0 to 300 ms after it was sent: while the cancel may still
         # overtake the goal, while the goal is pending (its job being built), just accepted and
-        # running; none may run to its end once its cancel was accepted. On the action's own
-        # topics, read by goal id: actionlib's Python client marks a goal LOST when a status
-        # array sent before the server saw the goal reaches it after its cancel (update_status
-        # in actionlib/action_client.py), a race of the client's, not an outcome of the server's
-        goals = rospy.Publisher(NODE + "/compare_methods/goal", CompareMethodsActionGoal,
-                                queue_size=100)
-        cancels = rospy.Publisher(NODE + "/compare_methods/cancel", GoalID, queue_size=100)
-        results = {}
-        listener = rospy.Subscriber(
-            NODE + "/compare_methods/result", CompareMethodsActionResult,
-            lambda r: results.setdefault(r.status.goal_id.id, (r.status.status, r.status.text)))
-        try:
-            self.wait_until(lambda: goals.get_num_connections() > 0 and
-                            cancels.get_num_connections() > 0 and
-                            listener.get_num_connections() > 0, "the action's topics connected")
-            slow = Method(integrator="explicit_euler", stabilization="none", dt=1e-6)
-            ends = []
-            for k in range(30):
-                delay = 0.3 * k / 29
-                goal_id = GoalID(stamp=rospy.Time.now(),
-                                 id=f"cancel_at_any_moment_{k}_{time.time()}")
-                message = CompareMethodsActionGoal(goal_id=goal_id, goal=CompareMethodsGoal(
-                    horizon=3600.0, methods=[slow]))
-                message.header.stamp = goal_id.stamp
-                goals.publish(message)
-                time.sleep(delay)
-                cancels.publish(GoalID(id=goal_id.id))
-                self.wait_until(lambda: goal_id.id in results,
-                                f"the result of goal {k} cancelled after {delay:.3f} s",
-                                timeout=60.0)
-                ends.append((round(delay, 3),) + results[goal_id.id])
-        finally:
-            listener.unregister()
-            goals.unregister()
-            cancels.unregister()
+        # running; none may run to its end once its cancel was accepted (on the action's own
+        # topics: see ActionTopics)
+        self.wait_until(self.topics.connected, "the action's topics connected")
+        slow = Method(integrator="explicit_euler", stabilization="none", dt=1e-6)
+        ends = []
+        for k in range(30):
+            delay = 0.3 * k / 29
+            goal_id = self.topics.send(CompareMethodsGoal(horizon=3600.0, methods=[slow]))
+            time.sleep(delay)
+            self.topics.cancel(goal_id)
+            ended = self.wait_until(lambda: self.topics.result(goal_id),
+                                    f"the result of goal {k} cancelled after {delay:.3f} s",
+                                    timeout=60.0)
+            ends.append((round(delay, 3), ended.status.status, ended.status.text))
         wrong = [e for e in ends if e[1] not in (GoalStatus.PREEMPTED, GoalStatus.RECALLED)]
         self.assertEqual(wrong, [], ends)
         # the server is free: a last goal is accepted and runs to its end
         quick = Method(integrator="rk4", stabilization="projection", dt=1e-3)
-        state, result, feedback = self.run_goal(CompareMethodsGoal(horizon=0.2, methods=[quick]),
-                                                timeout=120.0)
-        self.assertEqual(state, GoalStatus.SUCCEEDED, self.client.get_goal_status_text())
+        state, result, feedback, text = self.run_goal(
+            CompareMethodsGoal(horizon=0.2, methods=[quick]), timeout=120.0)
+        self.assertEqual(state, GoalStatus.SUCCEEDED, text)
         self.assertEqual(len(result.runs), 1, result.message)
         self.assertTrue(feedback)
 
@@ -202,9 +245,9 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
                         feedback_cb=feedback.append)
         self.wait_until(lambda: feedback, "the first study under way", timeout=120.0)
         quick = Method(integrator="rk4", stabilization="projection", dt=1e-3)
-        state, result, _ = self.run_goal(CompareMethodsGoal(horizon=0.2, methods=[quick]),
-                                         timeout=120.0)
-        self.assertEqual(state, GoalStatus.SUCCEEDED, self.client.get_goal_status_text())
+        state, result, _, text = self.run_goal(CompareMethodsGoal(horizon=0.2, methods=[quick]),
+                                               timeout=120.0)
+        self.assertEqual(state, GoalStatus.SUCCEEDED, text)
         self.assertEqual(len(result.runs), 1, result.message)
         self.wait_until(lambda: first.wait_for_result(rospy.Duration(0.05)),
                         "the first study's result", timeout=30.0)
@@ -230,10 +273,9 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
             (CompareMethodsGoal(part=2, parts=2), "part"),
         ]
         for goal, field in cases:
-            state, _, feedback = self.run_goal(goal, timeout=30.0)
+            state, _, feedback, text = self.run_goal(goal, timeout=30.0)
             self.assertEqual(state, GoalStatus.REJECTED, field)
-            self.assertTrue(self.client.get_goal_status_text().startswith(field),
-                            self.client.get_goal_status_text())
+            self.assertTrue(text.startswith(field), text)
             self.assertEqual(feedback, [])
         # nothing else changed: same scene, still running, time went on
         after = self.wait_until(lambda: self.states.latest().sim_time > before.sim_time and

@@ -13,6 +13,7 @@ from wall_clock import WallClockWaits
 import tf2_ros
 from constrained_particles.msg import SceneView, SimState
 from constrained_particles.srv import ListScenes, Reset, SetChain, SetState, SetSurface, Step
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import Point, Vector3
 from std_srvs.srv import Empty
 from visualization_msgs.msg import Marker, MarkerArray
@@ -417,6 +418,37 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
             self.assertAlmostEqual(response.sim_time, 0.2, places=12)
         finally:
             client.update_configuration({"dt": 0.001, "integrator": "rk4"})
+
+    def test_an_overdrawn_energy_budget_hands_the_run_to_the_fallback(self):
+        # explicit Euler gains energy on the default chain until about t = 2.14 s: the node goes
+        # on with fast_projection, says so in ~state and at WARN on /diagnostics, and keeps it
+        # through a reconfigure that leaves the step settings alone
+        client = dynamic_reconfigure.client.Client(NODE, timeout=60.0)
+        reports = []
+        listener = rospy.Subscriber("/diagnostics", DiagnosticArray, reports.append)
+
+        def warned_since(count):
+            return any(s.level == DiagnosticStatus.WARN and "energy budget overdrawn" in s.message
+                       for r in reports[count:] for s in r.status if s.name.endswith("physics"))
+        try:
+            client.update_configuration({"integrator": "explicit_euler"})
+            self.assertTrue(self.reset("chain").success)
+            response = self.step(3000)
+            self.assertTrue(response.success, response.message)
+            state = self.wait_until(
+                lambda: self.latest_state if self.latest_state.sim_time >= 2.9 else None,
+                "the ~state after 3,000 steps")
+            self.assertTrue(state.energy_fallback)
+            self.assertNotEqual(state.status, SimState.STATUS_FAULT, state.status_message)
+            self.wait_until(lambda: warned_since(0), "the fallback's WARN on /diagnostics")
+            seen = len(reports)
+            client.update_configuration({"publish_rate": 40.0})
+            self.wait_until(lambda: warned_since(seen), "the WARN after a reconfigure")
+            self.assertTrue(self.reset("").success)
+            self.assertFalse(self.fresh_state().energy_fallback)
+        finally:
+            listener.unregister()
+            client.update_configuration({"integrator": "rk4", "publish_rate": 50.0})
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@
 #include "constrained_particles/core/limits.hpp"
 
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace constrained_particles
@@ -42,8 +43,9 @@ struct StepSettings
   /// Most sub-steps of dt/2^k a step is split into when its checks fail or the stability
   /// estimate asks for them (simulator.hpp); 1 = never split [1]
   int max_substeps = 1024;
-  /// Largest energy residual a run may gain (EnergyLedger::residual() above this fraction of
-  /// EnergyLedger::scale fails the step check energy_budget); 0 = not checked [1]
+  /// Largest energy residual a run may gain, as a fraction of EnergyLedger::budgetScale(): a
+  /// step that would overdraw it is retaken by the stiff-safe method, which keeps the run
+  /// (simulator.hpp); 0 = not checked [1]
   double energy_budget = 1e-2;
 
   /// Every field: name (as in parameters and scene files), member, kind and range.
@@ -75,5 +77,13 @@ struct StepSettings
 
 /// @throws InvalidInput naming the first bad field (as fields() names it) and its valid range
 void validateStepSettings(const StepSettings& settings);
+
+/// Every field of fields() equal.
+inline bool operator==(const StepSettings& a, const StepSettings& b)
+{
+  return std::apply([&](const auto&... spec)
+                    { return ((a.*(spec.member) == b.*(spec.member)) && ...); },
+                    StepSettings::fields());
+}
 
 }  // namespace constrained_particles

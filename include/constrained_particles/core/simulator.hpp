@@ -143,6 +143,9 @@ private:
 
   /// Opens the energy ledger at the current state (t0).
   void openLedger();
+  /// The driven anchors' power at the current state with the forces acting now [W] (a forward
+  /// stage there; 0 without a driven anchor).
+  double drivenPower();
   /// Books one accepted step of `dt` [s] ending at the current state, whose end energies are
   /// control.end_* where `end_energies` (else measured here).
   void bookStep(double dt, bool end_energies);

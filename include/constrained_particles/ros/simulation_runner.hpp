@@ -251,6 +251,8 @@ private:
   bool runBatch();
   /// Why `state`, reached by a chunk with `chunk` statistics, is a fault, or empty if it is not.
   std::string faultIn(const State& state, const StepStatistics& chunk) const;
+  /// faultIn's reason before it says whether the energy budget's fallback had the run.
+  std::string checkFault(const State& state, const StepStatistics& chunk) const;
   /// Stops stepping, puts back `good` and records why.
   void fault(const std::string& reason, const State& good);
   /// Ends a running ~step early (nothing if none runs).
