@@ -4,8 +4,8 @@
 #   bash scripts/test.sh         the fast tier (CI): every core gtest and every rostest of the
 #                                interface, short physics cases; about 3.5 minutes of tests
 #   bash scripts/test.sh --long  the long tier: the gtest suites named Long* (the 60 s energy
-#                                sweep, the 10,000-particle chain, million-step runs, the full
-#                                stress sweep); tens of minutes
+#                                sweep, the 10,000-particle chain, million-step runs, the stress
+#                                sweep's 4 heavy chains); about 3.5 minutes
 # Further arguments go to catkin_make (scripts/sanitize.sh passes compiler flags).
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
