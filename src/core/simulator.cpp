@@ -9,6 +9,7 @@
 #include "constrained_particles/core/stability.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <string>
 
 namespace constrained_particles
@@ -93,6 +94,20 @@ double ledgerScale(const Model& model, const Data& data)
                  accumulateForce(force, model.scene().masses, x.positions, x.velocities, forces);
                });
   return energyScale(model, x, forces);
+}
+
+// A rejected attempt into `total`: its work is counted (solves, projections, internal steps),
+// its outcome is not.
+void countRejected(const StepStatistics& attempt, StepCheck failed, StepStatistics& total)
+{
+  ++total.rejected_steps;
+  ++total.rejections[static_cast<int>(failed)];
+  total.solve.factorizations += attempt.solve.factorizations;
+  total.solve.reused_factorizations += attempt.solve.reused_factorizations;
+  total.solve.singular_count += attempt.solve.singular_count;
+  total.projection.projections += attempt.projection.projections;
+  total.projection.iterations += attempt.projection.iterations;
+  total.rejected_internal_steps += attempt.internal_steps + attempt.rejected_internal_steps;
 }
 
 // Forgets what the checks learnt of the previous state (reset, teleport, new scene).
@@ -431,15 +446,7 @@ StepCheck Simulator::attemptUntilPassed(StepPlan& plan, StepStatistics& total)
         finest && max_substeps > 1 && plan.method != stiff_ && failed != StepCheck::AdaptiveGuard;
     if (finest && !fall_back)
       return failed;
-    // rejected: its work is counted, its outcome is not
-    ++total.rejected_steps;
-    ++total.rejections[static_cast<int>(failed)];
-    total.solve.factorizations += attempt.solve.factorizations;
-    total.solve.reused_factorizations += attempt.solve.reused_factorizations;
-    total.solve.singular_count += attempt.solve.singular_count;
-    total.projection.projections += attempt.projection.projections;
-    total.projection.iterations += attempt.projection.iterations;
-    total.rejected_internal_steps += attempt.internal_steps + attempt.rejected_internal_steps;
+    countRejected(attempt, failed, total);
     data.state = control.start;
     data.chain_factorization_at_state = false;  // the attempt's, not of the start
     if (fall_back)
@@ -465,12 +472,17 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
   for (;;)  // once; twice where the energy budget's fallback retakes the step
   {
     outcome.failed = attemptUntilPassed(plan, total);
-    total.merge(attempt);
     outcome.singular = attempt.solve.singular || attempt.projection.singular;
-    // a driven anchor's power is its reaction's at the step's end: every stage there (this
-    // leaves data.statistics to the evaluation; `attempt` is not read below)
+    // merged once the budget has passed the step; a driven anchor's power is its reaction's at
+    // the step's end, from every stage there, which leaves data.statistics to the evaluation
+    // (the attempt's kept aside first: a copy only in driven scenes)
+    std::optional<StepStatistics> kept;
     if (driven_)
+    {
+      kept = attempt;
       evaluateCurrentState(total);
+    }
+    const StepStatistics& taken = kept ? *kept : attempt;
     outcome.end_energies = conservative_ && outcome.failed == StepCheck::None;
     outcome.ledger_before = data.ledger;
     bookStep(settings_.dt, outcome.end_energies);
@@ -478,7 +490,10 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
     // not `<=` alone: a NaN residual overdraws too
     if (outcome.failed != StepCheck::None || settings_.energy_budget <= 0.0 ||
         ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR))
+    {
+      total.merge(taken);
       return outcome;
+    }
     // over the run, not the step: no split of this step undoes what earlier ones gained; the
     // stiff-safe method, whose projection only takes energy out, retakes it and the rest of the
     // run (until the ledger opens again or the settings change)
@@ -486,12 +501,13 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
     control.budget_failure_scale = ledger.budgetScale(ENERGY_SCALE_FLOOR);
     if (settings_.max_substeps <= 1 || plan.method == stiff_)
     {
+      total.merge(taken);
       outcome.failed = StepCheck::EnergyBudget;
       return outcome;
     }
+    // retaken: its work is counted, its outcome (singular solves, projections' state) is not
     control.budget_fallback_time = control.start.time;
-    ++total.rejected_steps;
-    ++total.rejections[static_cast<int>(StepCheck::EnergyBudget)];
+    countRejected(taken, StepCheck::EnergyBudget, total);
     data.state = control.start;
     data.ledger = outcome.ledger_before;
     data.chain_factorization_at_state = false;
