@@ -110,9 +110,7 @@ RunOutcome runOnce(const Scene& scene, const State& start, const StepSettings& s
       if (run.failure.empty())
         run.failure =
             "energy budget overdrawn at t = " + formatValue(control.budget_fallback_time) +
-            " s (the node would hand the "
-            "run to " +
-            Simulator::STIFF_FALLBACK + ")";
+            " s (the node would hand the run to " + Simulator::STIFF_FALLBACK + ")";
       run.finite = false;
       break;
     }

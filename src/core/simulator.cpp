@@ -16,14 +16,11 @@ namespace constrained_particles
 {
 namespace
 {
-// Only conservative forces and no driven anchor (the one time-dependent kind): energy is kept.
-bool isConservative(const Scene& scene)
+// Only conservative forces among the scene's.
+bool forcesConservative(const Scene& scene)
 {
   for (const Force& force : scene.forces)
     if (!std::visit([](const auto& f) { return std::decay_t<decltype(f)>::CONSERVATIVE; }, force))
-      return false;
-  for (const Constraint& constraint : scene.constraints)
-    if (std::holds_alternative<MovingAnchorConstraint>(constraint))
       return false;
   return true;
 }
@@ -333,11 +330,12 @@ void Simulator::bookStep(double dt, bool end_energies)
 
 void Simulator::readSceneKind()
 {
-  // a force from outside does work on the system: its energy is not kept while one acts
-  conservative_ = isConservative(model_->scene()) && data_->perturbations.empty();
   driven_ = false;
   for (const Constraint& constraint : model_->scene().constraints)
     driven_ = driven_ || std::holds_alternative<MovingAnchorConstraint>(constraint);
+  // a driven anchor (the one time-dependent kind) or a force from outside does work on the
+  // system: its energy is not kept
+  conservative_ = !driven_ && forcesConservative(model_->scene()) && data_->perturbations.empty();
   has_stiffness_ = hasStiffness(*model_, data_->perturbations);
 }
 
@@ -487,7 +485,7 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
     outcome.ledger_before = data.ledger;
     bookStep(settings_.dt, outcome.end_energies);
     const EnergyLedger& ledger = data.ledger;
-    // not `<=` alone: a NaN residual overdraws too
+    // a NaN residual fails `<=`: it overdraws
     if (outcome.failed != StepCheck::None || settings_.energy_budget <= 0.0 ||
         ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR))
     {
