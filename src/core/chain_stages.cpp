@@ -10,6 +10,7 @@
 // step: the first stage at the state solves with the one its last projection left there (counted
 // as reused, SolveStatistics::reused_factorizations). A singular pivot hands the stage to the
 // generic path, whose factorisation regularises it.
+#include "constrained_particles/core/effects/link_constraint.hpp"
 #include "solvers/solver.hpp"
 #include "stabilization.hpp"
 #include "stages.hpp"
@@ -27,7 +28,7 @@ namespace
 struct LinkRows
 {
   explicit LinkRows(Data& data)
-    : jacobian(data.chain_jacobian.data())
+    : jacobian(data.fused.chain_jacobian.data())
     , value(data.rows.value.data())
     , jdot_v(data.rows.jdot_v.data())
     , diagonal(data.rows.diagonal.data())
@@ -55,29 +56,25 @@ inline double dot3(double ax, double ay, double az, const double* b)
 
 // Link k's Jacobian and diagonal entry of J W J^T at `positions` (link_constraint.hpp's
 // evaluateRows, evaluateRowRecords' diagonal); only its first block d is stored, row after row in
-// Data::chain_jacobian: the second is -d exactly (the sweeps read -d where the generic stages read
-// the second block); not storing it, nor leaving its slot between the rows' first blocks as
-// data.rows.jacobian would, saves 2.4 MB a sweep at 10^5 links. The diagonal is
-// w_i |d|^2 + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order.
+// FusedWorkspace::chain_jacobian: the second is -d exactly (the sweeps read -d where the generic
+// stages read the second block); not storing it, nor leaving its slot between the rows' first
+// blocks as data.rows.jacobian would, saves 2.4 MB a sweep at 10^5 links. The diagonal is w_i |d|^2
+// + w_j |d|^2: |-d|^2 is |d|^2 exactly, and squaredNorm sums in this order.
 inline LinkLengths evaluateLink(const ChainRow& link, int k, const double* positions,
                                 const LinkRows& rows)
 {
-  const double* pi = positions + 3 * link.first;
-  const double* pj = positions + 3 * link.second;
-  const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
-  const double squared = dx * dx + dy * dy + dz * dz;
+  const LinkDelta d = linkDelta(positions + 3 * link.first, positions + 3 * link.second);
   double* first = rows.jacobian[k].data();
-  first[0] = dx;
-  first[1] = dy;
-  first[2] = dz;
-  const double diagonal = link.w_first * squared + link.w_second * squared;
-  return { { dx, dy, dz }, squared, diagonal };
+  first[0] = d.x;
+  first[1] = d.y;
+  first[2] = d.z;
+  return { { d.x, d.y, d.z }, d.squared, linkDiagonal(link.w_first, link.w_second, d.squared) };
 }
 
 // Surface row k (Model::chainSurfaceRecords(): `record` in the surface kind table): C, Jdot v and
 // the violation by the surface kind's own evaluateRows into `rows`, its one block J into
-// `jacobian` (row k's of Data::chain_jacobian), and the diagonal entry of J W J^T summed as
-// evaluateKind sums it; its J (the vector the sweeps carry on to the row below) and diagonal
+// `jacobian` (row k's of FusedWorkspace::chain_jacobian), and the diagonal entry of J W J^T summed
+// as evaluateKind sums it; its J (the vector the sweeps carry on to the row below) and diagonal
 // returned.
 inline LinkLengths evaluateSurfaceRow(const Model& model, const ChainRow& row, int record, int k,
                                       double time, const Points& positions,
@@ -171,11 +168,11 @@ void countChainRows(const Model& model, Data& data)
 }
 
 // Up the chain; false at a singular pivot (the Jacobian and factorisation then hold the rows
-// before it only). Only each link's first Jacobian block is stored (Data::chain_jacobian): C,
-// Jdot v, the diagonals and the violations (a square root per link) are read by the projections
-// and Baumgarte only, after evaluating rows of their own. REUSED: the Jacobian and LDL^T in data
-// are of these positions (Data::chain_factorization_at_state): only the right-hand side and its
-// forward substitution.
+// before it only). Only each link's first Jacobian block is stored
+// (FusedWorkspace::chain_jacobian): C, Jdot v, the diagonals and the violations (a square root per
+// link) are read by the projections and Baumgarte only, after evaluating rows of their own. REUSED:
+// the Jacobian and LDL^T in data are of these positions (FusedWorkspace::factorization): only the
+// right-hand side and its forward substitution.
 template <bool REUSED, Layout L>
 bool chainSweepUp(const Model& model, Data& data, double time, const Points& positions,
                   const Points& velocities, double& min_ratio)
@@ -189,8 +186,8 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
   const bool uniform = data.applied_forces_are_gravity;  // a0 = g on every free particle
   const ImposedMotion* imposed = data.imposed.data();
   double* rhs = data.rhs.data();
-  double* lower = data.chain_lower.data();
-  double* inverse_pivots = data.chain_inverse_pivots.data();
+  double* lower = data.fused.lower.data();
+  double* inverse_pivots = data.fused.inverse_pivots.data();
   min_ratio = 1.0;
   double inverse_pivot_above = 0.0, rhs_above = 0.0, d_above[3] = { 0.0, 0.0, 0.0 };
   const int m = model.numRows();
@@ -218,10 +215,7 @@ bool chainSweepUp(const Model& model, Data& data, double time, const Points& pos
         std::copy(rows.jacobian[k].data(), rows.jacobian[k].data() + 3, lengths.d);
       else
         lengths = evaluateLink(link, k, p, rows);
-      const double* vi = v + 3 * i;
-      const double* vj = v + 3 * j;
-      const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
-      const double jdot_v = ux * ux + uy * uy + uz * uz;
+      const double jdot_v = linkJdotV(v + 3 * i, v + 3 * j);
       // the right-hand side -(Jdot v + J a0) - J a_held (stages.cpp's constraintForceStage);
       // jdot_v >= 0, so jdot_v + 0.0 (the absent bias) is jdot_v
       const double dx = lengths.d[0], dy = lengths.d[1], dz = lengths.d[2];
@@ -274,9 +268,9 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 {
   const ChainRow* links = model.chainRows().data();
   const RowLayout<L> layout(model);
-  const Vec3* jacobian = data.chain_jacobian.data();
-  const double* lower = data.chain_lower.data();
-  const double* inverse_pivots = data.chain_inverse_pivots.data();
+  const Vec3* jacobian = data.fused.chain_jacobian.data();
+  const double* lower = data.fused.lower.data();
+  const double* inverse_pivots = data.fused.inverse_pivots.data();
   const FreeAccelerations a0(model, data);
   double* rhs = data.rhs.data();
   double* multipliers = data.multipliers.data();
@@ -309,7 +303,7 @@ void chainSweepDown(const Model& model, Data& data, Points& accelerations)
 
 // Up the chain for a projection at `positions`: the Jacobian blocks, the largest violation
 // (data.rows.max_violation), LDL^T, and the forward substitutions of C into data.rhs and of J v
-// into data.chain_velocity_rhs. The links' C, diagonals and violations are not stored (at 10^5
+// into data.fused.velocity_rhs. The links' C, diagonals and violations are not stored (at 10^5
 // links, 3.2 MB a sweep): the generic fallback evaluates its own rows. Returns false at a
 // singular pivot (the violations are still all measured; the factorisation is then unusable).
 template <Layout L>
@@ -322,9 +316,9 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
   const double* p = positions.data();
   const double* v = velocities.data();
   double* y = data.rhs.data();
-  double* z = data.chain_velocity_rhs.data();
-  double* lower = data.chain_lower.data();
-  double* inverse_pivots = data.chain_inverse_pivots.data();
+  double* z = data.fused.velocity_rhs.data();
+  double* lower = data.fused.lower.data();
+  double* inverse_pivots = data.fused.inverse_pivots.data();
   double max_violation = 0.0;
   bool factorised = true;
   min_ratio = 1.0;
@@ -348,8 +342,7 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
     else
     {
       lengths = evaluateLink(link, k, p, rows);
-      const double violation = std::abs(std::sqrt(lengths.squared) - link.length);
-      max_violation = worseError(max_violation, violation);
+      max_violation = worseError(max_violation, linkViolation(lengths.squared, link.length));
       if (!factorised)
         continue;
       // J v as multiplyJacobian sums it
@@ -361,7 +354,7 @@ bool chainProjectionSweep(const Model& model, Data& data, double time, const Poi
     // C as link_constraint.hpp's evaluateRows forms it (a surface row's own C for a surface row)
     double c = L != LINKS_ONLY && layout.surfaceRecord(k) >= 0
                    ? rows.value[k]
-                   : 0.5 * (lengths.squared - link.length * link.length);
+                   : linkValue(lengths.squared, link.length);
     double l = 0.0;
     const double pivot =
         pivotOf(link, k, lengths, d_above, lengths.diagonal, inverse_pivot_above, l, min_ratio);
@@ -417,11 +410,11 @@ void chainCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& ou
 {
   const ChainRow* links = model.chainRows().data();
   const RowLayout<L> layout(model);
-  const Vec3* jacobian = data.chain_jacobian.data();
-  const double* lower = data.chain_lower.data();
-  const double* inverse_pivots = data.chain_inverse_pivots.data();
+  const Vec3* jacobian = data.fused.chain_jacobian.data();
+  const double* lower = data.fused.lower.data();
+  const double* inverse_pivots = data.fused.inverse_pivots.data();
   double* mu = x.data();
-  double* pending = data.chain_pending.data();
+  double* pending = data.fused.pending.data();
   double* o = out.data();
   const int m = model.numRows();
   double mu_below = 0.0;

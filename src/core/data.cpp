@@ -35,13 +35,13 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   accelerations.setZero(3, n);
   multipliers.setZero(model.numMultipliers());
   rhs.setZero(model.numRows());
-  chain_lower.setZero(std::max(model.numRows() - 1, 0));
-  chain_inverse_pivots.setZero(model.numRows());
-  chain_velocity_rhs.setZero(model.numRows());
-  chain_pending.setZero(3, model.fusedChain() ? n : 0);
-  chain_jacobian.assign(model.fusedChain() ? model.numRows() : 0, Vec3::Zero());
-  tree_jacobian.setZero(3, model.fusedTree() ? model.numRows() : 0);
-  tree_lower.assign(model.fusedTree() ? model.treeCliqueEntries() : 0, 0.0);
+  fused.lower.setZero(std::max(model.numRows() - 1, 0));
+  fused.inverse_pivots.setZero(model.numRows());
+  fused.velocity_rhs.setZero(model.numRows());
+  fused.pending.setZero(3, model.fusedChain() ? n : 0);
+  fused.chain_jacobian.assign(model.fusedChain() ? model.numRows() : 0, Vec3::Zero());
+  fused.tree_jacobian.setZero(3, model.fusedTree() ? model.numRows() : 0);
+  fused.clique_lower.assign(model.fusedTree() ? model.treeCliqueEntries() : 0, 0.0);
   for (Points* buffer :
        { &stages.a1, &stages.a2, &stages.sum_p, &stages.sum_v, &stages.p_stage, &stages.v_stage,
          &stages.p_start, &stages.correction, &stages.change, &stages.p_unprojected, &stages.zero })

@@ -56,6 +56,20 @@ SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
   throw InvalidInput(field, "= '" + name + "' is unknown; valid: " + valid);
 }
 
+const char* forwardPathName(ForwardPath path)
+{
+  switch (path)
+  {
+    case ForwardPath::FusedChain:
+      return "fused_chain";
+    case ForwardPath::FusedTree:
+      return "fused_tree";
+    case ForwardPath::Generic:
+      break;
+  }
+  return "generic";
+}
+
 namespace
 {
 // Model::treeRows()'s structure: few rows on every free particle.
@@ -199,7 +213,8 @@ int planTreeElimination(const Model& model, std::vector<int>& order,
 // The fused tree stages' links (Model::fusedTree()) in treeOrder(), or none unless every row of
 // a treeRows() model is a link between particles not both held; `unlinked` gets the particles no
 // link touches.
-std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlinked)
+std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlinked,
+                                    std::string& why_not)
 {
   const int m = model.numRows();
   if (!model.treeRows() || m < 1)
@@ -207,7 +222,10 @@ std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlink
   const bool only_links = rowsOnlyOfKinds<LinkConstraint>(model);
   const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
   if (!only_links || static_cast<int>(links.size()) != m)
+  {
+    why_not = "a row that is not a link (only a tree of links has fused sweeps)";
     return {};
+  }
   std::vector<int> held(model.numBlocks(), -1);
   for (const EliminatedBlock& block : model.eliminatedBlocks())
     held[block.block] = block.eliminated;
@@ -231,7 +249,11 @@ std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlink
     row.held_first = held[entry.first_block];
     row.held_second = held[entry.first_block + 1];
     if (row.w_first == 0.0 && row.w_second == 0.0)
-      return {};  // a link between held particles: always singular, the generic solve's case
+    {
+      why_not =
+          "a link between two held particles (always singular: the generic solve regularises it)";
+      return {};
+    }
   }
   const auto& cliques = model.treeCliques();
   for (int c = 0; c < static_cast<int>(cliques.size()); ++c)
@@ -271,7 +293,8 @@ std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlink
 // tridiagonal solve takes; `surface_rows` counts the surface rows and `surface_records` gives
 // each row's index in the surface kind table (-1 for a link; empty without surface rows).
 std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlinked,
-                                    int& surface_rows, std::vector<int>& surface_records)
+                                    int& surface_rows, std::vector<int>& surface_records,
+                                    std::string& why_not)
 {
   surface_rows = 0;
   surface_records.clear();
@@ -283,7 +306,10 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
   const auto& surfaces = std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables());
   const int s = static_cast<int>(surfaces.size());
   if (!only_links || static_cast<int>(links.size()) + s != m)
+  {
+    why_not = "a row that is not a link or a surface row (only those have fused sweeps)";
     return {};
+  }
   // each row's kind: a surface row is one row of one block, a link one row of two
   std::vector<int> surface_of(m, -1);
   for (int j = 0; j < s; ++j)
@@ -291,7 +317,10 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
   const auto& row_start = model.rowStart();
   for (int k = 0; k < m; ++k)
     if (row_start[k + 1] - row_start[k] != (surface_of[k] >= 0 ? 1 : 2))
+    {
+      why_not = "a row whose blocks are not a link's or a surface row's";
       return {};
+    }
   std::vector<int> held(model.numBlocks(), -1);
   std::vector<int> held_blocks(model.numParticles(), 0);
   for (const EliminatedBlock& block : model.eliminatedBlocks())
@@ -300,7 +329,11 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
     // J^T lambda is summed down the chain: beyond two rows on one held particle its force would
     // be summed in another order than the generic stages' (not the motion; the reported force)
     if (++held_blocks[model.blockParticle()[block.block]] > 2)
+    {
+      why_not =
+          "more than two rows on one held particle (its reaction is summed in the generic order)";
       return {};
+    }
   }
   const auto& w = model.inverseMasses();
   std::vector<ChainRow> rows(m);
@@ -311,7 +344,12 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
     row.first = row.second = surface.record.particle;
     row.w_first = w[row.first];
     if (row.w_first == 0.0)
-      return {};  // a held particle on a surface: its row is always singular (generic)
+    {
+      why_not =
+          "a held particle on a surface (its row is always singular: the generic solve regularises "
+          "it)";
+      return {};
+    }
   }
   for (int j = 0; j < static_cast<int>(links.size()); ++j)
   {
@@ -326,7 +364,11 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
     row.held_first = held[block];
     row.held_second = held[block + 1];
     if (row.w_first == 0.0 && row.w_second == 0.0)
-      return {};  // a link between held particles: always singular, the generic solve's case
+    {
+      why_not =
+          "a link between two held particles (always singular: the generic solve regularises it)";
+      return {};
+    }
   }
   // a block's sign against the vector the sweeps carry: a link's first block is d, its second
   // -d; a surface row's is its Jacobian itself
@@ -346,7 +388,10 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
         std::swap(a, b);
       ChainRow& row = rows[b.row];
       if (row.coupling >= 0)
-        return {};  // two links between the same two particles: the generic solve sums them
+      {
+        why_not = "two links between the same two particles (the generic solve sums them)";
+        return {};
+      }
       row.coupling = i;
       // multiplying by -1 is exact, so the signs give the same sum
       row.w_coupling_signed = sign(a.block) * sign(b.block) * w[i];
@@ -381,6 +426,38 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
   return rows;
 }
 
+// Model::path(): the fused path the structure allows, or the generic stages and why.
+PathChoice choosePathOf(const Model& model, StagePaths paths, const std::string& chain_why_not,
+                        const std::string& tree_why_not)
+{
+  const int m = model.numRows();
+  const std::string rows = std::to_string(m) + (m == 1 ? " row" : " rows");
+  if (!model.chainRows().empty())
+    return { ForwardPath::FusedChain,
+             rows + " (" + std::to_string(model.chainSurfaceRows()) +
+                 " on surfaces) form a chain: J W J^T is tridiagonal, so rows, solve and "
+                 "accelerations run in two sweeps along it" };
+  if (!model.treeLinks().empty())
+    return { ForwardPath::FusedTree, rows + " are links forming a tree with at most " +
+                                         std::to_string(Model::TREE_ROWS_PER_PARTICLE) +
+                                         " on a particle: two sweeps, leaves first" };
+  if (paths == StagePaths::Generic)
+    return { ForwardPath::Generic, "StagePaths::Generic asks for the generic stages" };
+  if (m == 0)
+    return { ForwardPath::Generic, "no constraint rows to solve" };
+  if (model.solveMethod() == SolveMethod::Tridiagonal)
+    return { ForwardPath::Generic, "a chain, but " + chain_why_not };
+  if (model.solveMethod() == SolveMethod::Tree && !model.treeRows())
+    return { ForwardPath::Generic,
+             "a tree with more than " + std::to_string(Model::TREE_ROWS_PER_PARTICLE) +
+                 " rows on one particle (its solve eliminates particles, not rows)" };
+  if (model.solveMethod() == SolveMethod::Tree)
+    return { ForwardPath::Generic, "a tree, but " + tree_why_not };
+  return { ForwardPath::Generic, std::string("solve method ") +
+                                     solveMethodName(model.solveMethod()) +
+                                     ": only a chain (tridiagonal) or a tree of links has "
+                                     "fused sweeps" };
+}
 }  // namespace
 
 Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
@@ -511,15 +588,17 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     model.method_ = method;
   model.tree_rows_ =
       paths == StagePaths::Specialized && model.method_ == SolveMethod::Tree && fitsTreeRows(model);
+  std::string tree_why_not, chain_why_not;
   if (model.tree_rows_)
   {
     model.tree_clique_entries_ = planTreeElimination(
         model, model.tree_order_, model.tree_eliminated_in_, model.tree_cliques_);
-    model.tree_links_ = findTreeLinks(model, model.tree_unlinked_);
+    model.tree_links_ = findTreeLinks(model, model.tree_unlinked_, tree_why_not);
   }
   if (paths == StagePaths::Specialized)
     model.chain_rows_ = findChainRows(model, model.chain_unlinked_, model.chain_surface_rows_,
-                                      model.chain_surface_records_);
+                                      model.chain_surface_records_, chain_why_not);
+  model.path_ = choosePathOf(model, paths, chain_why_not, tree_why_not);
   return model;
 }
 

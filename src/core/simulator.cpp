@@ -115,7 +115,6 @@ void forgetControl(Data& data)
   data.control.singular = false;
   data.control.multipliers_current = false;
   data.control.end_energies_current = false;
-  data.chain_factorization_at_state = false;
 }
 
 }  // namespace
@@ -225,15 +224,15 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     // would jitter every step's length), and the last ends where one step of dt would
     const double end = j == substeps ? start.time + settings_.dt : start.time + j * h;
     sub.dt = h;
-    // an integrator holding the constraints itself moves x.positions outside the fused stages:
-    // no factorisation of them is kept for its stages (Data::chain_factorization_at_state)
+    // an integrator holding the constraints itself moves x.positions outside the fused stages
     if (method.holds_constraints)
-      data.chain_factorization_at_state = false;
+      data.noteStateChange();
     method.step(model, data, sub);
     if (!method.holds_constraints && settings_.stabilization == Stabilization::Projection)
     {
       // projectStep imposes the eliminated motion at `end` on both, before it reads either
-      projectStep(model, data, end, x.positions, x.velocities, settings_.projection_tolerance,
+      projectStep(model, data, constrained_particles::forwardPath(model, settings_), end,
+                  x.positions, x.velocities, settings_.projection_tolerance,
                   settings_.projection_max_iterations);
     }
     else
@@ -445,8 +444,7 @@ StepCheck Simulator::attemptUntilPassed(StepPlan& plan, StepStatistics& total)
     if (finest && !fall_back)
       return failed;
     countRejected(attempt, failed, total);
-    data.state = control.start;
-    data.chain_factorization_at_state = false;  // the attempt's, not of the start
+    data.setState(control.start);
     if (fall_back)
     {
       plan = { stiff_, 1 };
@@ -506,9 +504,8 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
     // retaken: its work is counted, its outcome (singular solves, projections' state) is not
     control.budget_fallback_time = control.start.time;
     countRejected(taken, StepCheck::EnergyBudget, total);
-    data.state = control.start;
+    data.setState(control.start);
     data.ledger = outcome.ledger_before;
-    data.chain_factorization_at_state = false;
     control.budget_fallback = true;
     plan = { stiff_, 1 };
   }
@@ -517,9 +514,8 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
 void Simulator::putBack(const EnergyLedger& ledger_before)
 {
   Data& data = *data_;
-  data.state = data.control.start;  // the state stays the last accepted one
+  data.setState(data.control.start);  // the state stays the last accepted one
   data.ledger = ledger_before;
-  data.chain_factorization_at_state = false;
   data.control.multipliers_current = false;
 }
 
@@ -584,7 +580,7 @@ StepStatistics Simulator::step(int count)
 
 void Simulator::reset()
 {
-  data_->state = initial_state_;
+  data_->setState(initial_state_);
   data_->state.time = 0.0;
   data_->state.steps = 0;
   data_->statistics = StepStatistics{};
@@ -613,7 +609,7 @@ ProjectionReport Simulator::setState(const State& state)
   report.max_displacement = (projected.positions - state.positions).colwise().norm().maxCoeff();
   if (!isFinite(projected))
     throw InvalidInput("positions", "projection produced a non-finite state; state unchanged");
-  data_->state = projected;
+  data_->setState(projected);
   forgetControl(*data_);
   openLedger();  // a teleport: the energy it brought or took is no step's
   return report;
@@ -622,7 +618,7 @@ ProjectionReport Simulator::setState(const State& state)
 void Simulator::restoreState(const State& state)
 {
   model_->validateState(state);
-  data_->state = state;
+  data_->setState(state);
   forgetControl(*data_);
   openLedger();
 }
@@ -651,7 +647,7 @@ void Simulator::setStepSettings(const StepSettings& settings)
   substep_settings_ = settings;
   data_->control.multipliers_current = false;  // another integrator may have left none
   data_->control.end_energies_current = false;
-  data_->chain_factorization_at_state = false;  // as after any write between steps
+  data_->noteStateChange();  // the kept factorisation may not serve the new settings' stages
 }
 
 void Simulator::setForces(const std::vector<Force>& forces)

@@ -111,13 +111,19 @@ ProjectionReport shakePositions(const Model& model, Data& data, double time,
   return report;
 }
 
-ProjectionReport projectStep(const Model& model, Data& data, double time, Points& positions,
-                             Points& velocities, double tolerance, int max_iterations)
+ProjectionReport projectStep(const Model& model, Data& data, ForwardPath path, double time,
+                             Points& positions, Points& velocities, double tolerance,
+                             int max_iterations)
 {
-  if (model.fusedChain())
-    return chainProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
-  if (model.fusedTree())
-    return treeProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
+  switch (path)
+  {
+    case ForwardPath::FusedChain:
+      return chainProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
+    case ForwardPath::FusedTree:
+      return treeProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
+    case ForwardPath::Generic:
+      break;
+  }
   const ProjectionReport report =
       projectPositions(model, data, time, positions, tolerance, max_iterations);
   return finishProjection(model, data, time, positions, velocities, true, false, report);
@@ -128,7 +134,6 @@ ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, P
                                   const FusedProjection& fused)
 {
   ProjectionReport report;
-  data.chain_factorization_at_state = false;
   imposeEliminated(model, data, time, &positions, nullptr);
   imposeEliminated(model, data, time, nullptr, &velocities);
   bool factorised = false;
@@ -163,7 +168,7 @@ ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, P
   if (factorised)
   {
     countFusedFactorization(model, data, min_ratio);
-    fused.correct(model, data, data.chain_velocity_rhs, velocities);
+    fused.correct(model, data, data.fused.velocity_rhs, velocities);
   }
   else
   {
@@ -171,9 +176,10 @@ ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, P
     report.singular |= correctAlongRows(model, data, velocities);
   }
   // the factorisation at the state's final positions serves the next step's first stage
-  data.chain_factorization_at_state = factorised && &positions == &data.state.positions;
-  data.chain_factorization_time = time;
-  data.chain_min_pivot_ratio = min_ratio;
+  FactorizationCache& cache = data.fused.factorization;
+  cache.state_version = factorised && &positions == &data.state.positions ? data.stateVersion() : 0;
+  cache.time = time;
+  cache.min_pivot_ratio = min_ratio;
   data.statistics.projection.merge(report);
   return report;
 }

@@ -35,11 +35,12 @@ double projectVelocities(const Model& model, Data& data, double time, const Poin
 /// (positions [m] or velocities [m/s]). @return whether the factorisation was singular.
 bool correctAlongRows(const Model& model, Data& data, Points& out);
 
-/// A step's projection: projectPositions(), then finishProjection() at the final rows without
-/// measuring the velocity change; a fused chain (Model::fusedChain()) takes chainProjectStep(), a
-/// fused tree (Model::fusedTree()) treeProjectStep().
-ProjectionReport projectStep(const Model& model, Data& data, double time, Points& positions,
-                             Points& velocities, double tolerance, int max_iterations);
+/// A step's projection on `path` (forwardPath(), forward_path.hpp): projectPositions(), then
+/// finishProjection() at the final rows without measuring the velocity change; a fused chain
+/// takes chainProjectStep(), a fused tree treeProjectStep().
+ProjectionReport projectStep(const Model& model, Data& data, ForwardPath path, double time,
+                             Points& positions, Points& velocities, double tolerance,
+                             int max_iterations);
 
 /// projectStep() for a fused chain (chain_stages.cpp): each check's sweep also factorises and
 /// forward-substitutes C and J v, so the last check's factorisation projects the velocities;
@@ -50,7 +51,7 @@ ProjectionReport chainProjectStep(const Model& model, Data& data, double time, P
 
 /// What a fused projection's Newton loop (fusedProjectStep) calls: `sweep` evaluates the rows at
 /// the positions, sets data.rows.max_violation, factorises J W J^T and forward-substitutes C
-/// into data.rhs and J v into data.chain_velocity_rhs, false at a singular pivot; `count_rows`
+/// into data.rhs and J v into data.fused.velocity_rhs, false at a singular pivot; `count_rows`
 /// counts one evaluation of every row as rowStage would; `correct` back-substitutes x in place
 /// and subtracts W J^T x from `out`.
 struct FusedProjection
@@ -65,7 +66,7 @@ struct FusedProjection
 /// final rows, each check's sweep also factorising, the last check's factorisation projecting the
 /// velocities); a singular pivot hands the solves to the generic ones. Merges the report into
 /// data.statistics. The last factorisation, if usable and at data.state.positions, is kept for
-/// the next stage there (Data::chain_factorization_at_state, takeFactorizationAtState).
+/// the next stage there (FusedWorkspace::factorization, takeFactorizationAtState).
 ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, Points& positions,
                                   Points& velocities, double tolerance, int max_iterations,
                                   const FusedProjection& fused);

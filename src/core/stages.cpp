@@ -87,7 +87,7 @@ void evaluateRowRecords(const Model& model, double time, const Points& positions
 void rowStage(const Model& model, Data& data, double time, const Points& positions,
               const Points& velocities, RowData& rows)
 {
-  data.chain_factorization_at_state = false;  // the rows may be of other positions from here
+  data.noteStateChange();  // its callers may move the positions past any kept factorisation
   evaluateRowRecords(model, time, positions, velocities, rows, &data.counters);
 }
 
@@ -244,12 +244,15 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
                     Points& positions, Points& velocities, Points& accelerations)
 {
   imposeEliminated(model, data, time, &positions, &velocities);
-  // a chain of links: rows, solve and constraint forces in two sweeps (chain_stages.cpp)
-  if (model.fusedChain() && settings.stabilization != Stabilization::Baumgarte)
-    return chainForward(model, data, time, positions, velocities, accelerations);
-  // a tree of links: the same in two sweeps leaves first (tree_stages.cpp)
-  if (model.fusedTree() && settings.stabilization != Stabilization::Baumgarte)
-    return treeForward(model, data, time, positions, velocities, accelerations);
+  switch (forwardPath(model, settings))
+  {
+    case ForwardPath::FusedChain:  // rows, solve and forces in two sweeps (chain_stages.cpp)
+      return chainForward(model, data, time, positions, velocities, accelerations);
+    case ForwardPath::FusedTree:  // the same in two sweeps, leaves first (tree_stages.cpp)
+      return treeForward(model, data, time, positions, velocities, accelerations);
+    case ForwardPath::Generic:
+      break;
+  }
   rowStage(model, data, time, positions, velocities, data.rows);
   appliedForceStage(model, data, positions, velocities);
   const Eigen::VectorXd* bias = nullptr;

@@ -10,6 +10,7 @@
 #pragma once
 
 #include "constrained_particles/core/data.hpp"
+#include "constrained_particles/core/forward_path.hpp"
 #include "constrained_particles/core/model.hpp"
 #include "constrained_particles/core/settings.hpp"
 
@@ -49,20 +50,20 @@ void addEliminatedReactions(const Model& model, Data& data);
 /// Stages 1, 2, 4 and 5 for a fused chain (Model::fusedChain(), no Baumgarte bias), in two
 /// sweeps over the rows (the down sweep also sets each particle's acceleration)
 /// (chain_stages.cpp): the same data (of the links' rows only the Jacobian, each row's first
-/// block in data.chain_jacobian: C, Jdot v, the diagonals and violations are read by the
+/// block in data.fused.chain_jacobian: C, Jdot v, the diagonals and violations are read by the
 /// projections and Baumgarte only, after evaluating rows of their own; a surface row's C, Jdot v,
 /// diagonal and violation in data.rows), counters and report as the generic stages; a singular
 /// pivot hands the stage to them. At data.state.positions and the time its last fused projection
-/// factorised at (Data::chain_factorization_at_state) it solves with that factorisation, counted as
+/// factorised at (FusedWorkspace::factorization) it solves with that factorisation, counted as
 /// reused; every call clears that flag. Eliminated motion already imposed.
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations);
 
 /// Stages 1, 2, 4 and 5 for a fused tree (Model::fusedTree(), no Baumgarte bias), in two sweeps
 /// over the links in elimination order (tree_stages.cpp): the same data as chainForward's but
-/// none of the rows (each link's d is in data.tree_jacobian), the same counters and report as the
-/// generic stages, and the same motion to rounding; a singular pivot hands the stage to them. At
-/// the state its last fused projection factorised, it solves with that factorisation, as
+/// none of the rows (each link's d is in data.fused.tree_jacobian), the same counters and report as
+/// the generic stages, and the same motion to rounding; a singular pivot hands the stage to them.
+/// At the state its last fused projection factorised, it solves with that factorisation, as
 /// chainForward does. Eliminated motion already imposed.
 SolveReport treeForward(const Model& model, Data& data, double time, const Points& positions,
                         const Points& velocities, Points& accelerations);
@@ -118,14 +119,14 @@ void accelerationStage(const Model& model, Data& data, Points& accelerations);
 void heldAccelerations(const Model& model, const Data& data, Points& accelerations);
 
 /// For a fused forward stage at (time, positions): whether the last fused projection's
-/// factorisation is of them (then its L and D serve the stage's solve: J W J^T depends on the
-/// positions only), clearing the flag either way (the stage uses or overwrites it).
+/// factorisation is of them (FactorizationCache: then its L and D serve the stage's solve, as
+/// J W J^T depends on the positions only); used once either way (the stage uses or overwrites it).
 inline bool takeFactorizationAtState(Data& data, double time, const Points& positions)
 {
-  const bool at_state = data.chain_factorization_at_state &&
-                        positions.data() == data.state.positions.data() &&
-                        time == data.chain_factorization_time;
-  data.chain_factorization_at_state = false;
+  FactorizationCache& cache = data.fused.factorization;
+  const bool at_state = cache.state_version == data.stateVersion() &&
+                        positions.data() == data.state.positions.data() && time == cache.time;
+  cache.state_version = 0;
   return at_state;
 }
 
@@ -150,7 +151,7 @@ inline SolveReport fusedForward(const Model& model, Data& data, double time,
   {
     sweep_up(std::true_type{}, min_ratio);
     report.method = model.solveMethod();
-    report.min_pivot_ratio = data.chain_min_pivot_ratio;
+    report.min_pivot_ratio = data.fused.factorization.min_pivot_ratio;
     data.statistics.solve.mergeReused(report);
   }
   else if (sweep_up(std::false_type{}, min_ratio))

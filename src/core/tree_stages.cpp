@@ -9,6 +9,7 @@
 // motion to rounding, the same counters. A singular pivot hands the stage to the generic path,
 // whose factorisation regularises it. The projection likewise: each Newton check's sweep also
 // factorises, and the back substitution and the correction share one.
+#include "constrained_particles/core/effects/link_constraint.hpp"
 #include "solvers/solver.hpp"
 #include "stabilization.hpp"
 #include "stages.hpp"
@@ -94,14 +95,12 @@ inline void substituteLink(const TreeLink& link, const TreeClique* cliques,
 // sweeps read them from there, and data.rows is not written); returns |d|^2.
 inline double evaluateTreeLink(const TreeLink& link, int k, const double* p, double* jacobians)
 {
-  const double* pi = p + 3 * link.first;
-  const double* pj = p + 3 * link.second;
-  const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
+  const LinkDelta delta = linkDelta(p + 3 * link.first, p + 3 * link.second);
   double* d = jacobians + 3 * k;
-  d[0] = dx;
-  d[1] = dy;
-  d[2] = dz;
-  return dx * dx + dy * dy + dz * dz;
+  d[0] = delta.x;
+  d[1] = delta.y;
+  d[2] = delta.z;
+  return delta.squared;
 }
 
 // Counts one evaluation of every link, as rowStage counts them.
@@ -111,7 +110,7 @@ void countLinks(const Model& model, Data& data)
 }
 
 // Up the tree; false at a singular pivot. REUSED: d, L and D in data are of these positions (the
-// last fused projection's, Data::chain_factorization_at_state): only the right-hand side and its
+// last fused projection's, FusedWorkspace::factorization): only the right-hand side and its
 // forward substitution.
 template <bool REUSED>
 bool treeSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
@@ -124,10 +123,10 @@ bool treeSweepUp(const Model& model, Data& data, const Points& positions, const 
   const double* a0 = data.free_accelerations.data();
   const bool uniform = data.applied_forces_are_gravity;  // a0 = g on every free particle
   const ImposedMotion* imposed = data.imposed.data();
-  double* jacobians = data.tree_jacobian.data();
+  double* jacobians = data.fused.tree_jacobian.data();
   double* y = data.rhs.data();
-  double* inverse_pivots = data.chain_inverse_pivots.data();
-  double* lower_entries = data.tree_lower.data();
+  double* inverse_pivots = data.fused.inverse_pivots.data();
+  double* lower_entries = data.fused.clique_lower.data();
   min_ratio = 1.0;
   const int m = model.numRows();
   for (int k = 0; k < m; ++k)
@@ -138,10 +137,7 @@ bool treeSweepUp(const Model& model, Data& data, const Points& positions, const 
     const double dx = d[0], dy = d[1], dz = d[2];
     // the right-hand side -(Jdot v + J a0) - J a_held (chain_stages.cpp's, summed in another
     // order: the same to rounding)
-    const double* vi = v + 3 * link.first;
-    const double* vj = v + 3 * link.second;
-    const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
-    const double jdot_v = ux * ux + uy * uy + uz * uz;
+    const double jdot_v = linkJdotV(v + 3 * link.first, v + 3 * link.second);
     double r;
     if (uniform && (link.held_first & link.held_second) == -1)
       r = -jdot_v;  // J a0 = d.g + (-d).g = 0 exactly
@@ -157,7 +153,7 @@ bool treeSweepUp(const Model& model, Data& data, const Points& positions, const 
     }
     if constexpr (!REUSED)
     {
-      const double diagonal = link.w_first * squared + link.w_second * squared;
+      const double diagonal = linkDiagonal(link.w_first, link.w_second, squared);
       const double pivot = factorLink(link, cliques, d, diagonal, jacobians, inverse_pivots,
                                       lower_entries, min_ratio);
       if (ConstraintSolver::isSingularPivot(pivot, diagonal))
@@ -200,9 +196,9 @@ void treeSweepDown(const Model& model, Data& data, Points& accelerations)
 {
   const TreeLink* links = model.treeLinks().data();
   const TreeClique* cliques = model.treeCliques().data();
-  const double* jacobians = data.tree_jacobian.data();
-  const double* inverse_pivots = data.chain_inverse_pivots.data();
-  const double* lower_entries = data.tree_lower.data();
+  const double* jacobians = data.fused.tree_jacobian.data();
+  const double* inverse_pivots = data.fused.inverse_pivots.data();
+  const double* lower_entries = data.fused.clique_lower.data();
   const FreeAccelerations a0(model, data);
   double* lambda = data.rhs.data();
   double* multipliers = data.multipliers.data();
@@ -229,7 +225,7 @@ void treeSweepDown(const Model& model, Data& data, Points& accelerations)
 
 // Up the tree for a projection at `positions`: the Jacobian, the largest violation
 // (data.rows.max_violation), LDL^T, and the forward substitutions of C into data.rhs and of J v
-// into data.chain_velocity_rhs, by place. The links' C, diagonals and violations are not stored
+// into data.fused.velocity_rhs, by place. The links' C, diagonals and violations are not stored
 // in data.rows: the generic fallback evaluates its own. Returns false at a singular pivot (the
 // violations are still all measured; the factorisation is then unusable).
 bool treeProjectionSweep(const Model& model, Data& data, double /*time*/, const Points& positions,
@@ -239,11 +235,11 @@ bool treeProjectionSweep(const Model& model, Data& data, double /*time*/, const 
   const TreeClique* cliques = model.treeCliques().data();
   const double* p = positions.data();
   const double* v = velocities.data();
-  double* jacobians = data.tree_jacobian.data();
+  double* jacobians = data.fused.tree_jacobian.data();
   double* y = data.rhs.data();
-  double* z = data.chain_velocity_rhs.data();
-  double* inverse_pivots = data.chain_inverse_pivots.data();
-  double* lower_entries = data.tree_lower.data();
+  double* z = data.fused.velocity_rhs.data();
+  double* inverse_pivots = data.fused.inverse_pivots.data();
+  double* lower_entries = data.fused.clique_lower.data();
   double max_violation = 0.0;
   bool factorised = true;
   min_ratio = 1.0;
@@ -253,15 +249,15 @@ bool treeProjectionSweep(const Model& model, Data& data, double /*time*/, const 
     const TreeLink& link = links[k];
     const double squared = evaluateTreeLink(link, k, p, jacobians);
     // the violation and C as link_constraint.hpp's evaluateRows forms them
-    max_violation = worseError(max_violation, std::abs(std::sqrt(squared) - link.length));
+    max_violation = worseError(max_violation, linkViolation(squared, link.length));
     if (!factorised)
       continue;
     const double* d = jacobians + 3 * k;
     const double* vi = v + 3 * link.first;
     const double* vj = v + 3 * link.second;
     double jv = d[0] * (vi[0] - vj[0]) + d[1] * (vi[1] - vj[1]) + d[2] * (vi[2] - vj[2]);
-    double c = 0.5 * (squared - link.length * link.length);
-    const double diagonal = link.w_first * squared + link.w_second * squared;
+    double c = linkValue(squared, link.length);
+    const double diagonal = linkDiagonal(link.w_first, link.w_second, squared);
     const double pivot =
         factorLink(link, cliques, d, diagonal, jacobians, inverse_pivots, lower_entries, min_ratio);
     substituteLink(link, cliques, lower_entries, y, c);
@@ -285,9 +281,9 @@ void treeCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out
 {
   const TreeLink* links = model.treeLinks().data();
   const TreeClique* cliques = model.treeCliques().data();
-  const double* jacobians = data.tree_jacobian.data();
-  const double* inverse_pivots = data.chain_inverse_pivots.data();
-  const double* lower_entries = data.tree_lower.data();
+  const double* jacobians = data.fused.tree_jacobian.data();
+  const double* inverse_pivots = data.fused.inverse_pivots.data();
+  const double* lower_entries = data.fused.clique_lower.data();
   double* mu = x.data();
   double* o = out.data();
   for (int k = model.numRows() - 1; k >= 0; --k)

@@ -887,6 +887,7 @@ void SimulationRunner::makeSnapshot()
   s->multipliers = multipliers_;
   s->diagnostics = simulator_->diagnostics();
   s->ledger = simulator_->energyLedger();
+  s->forward_path = simulator_->forwardPath();
   if (const StepControl& control = simulator_->data().control; control.budget_fallback)
     s->energy_fallback =
         "energy budget overdrawn at t = " + formatValue(control.budget_fallback_time) + " s by " +

@@ -258,6 +258,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
            parameters_.step.integrator.c_str(), stabilizationName(parameters_.step.stabilization),
            parameters_.step.dt, solveMethodName(first->model->solveMethod()),
            parameters_.frame_prefix.c_str(), parameters_.fixed_frame.c_str());
+  ROS_INFO("simulator: stages %s: %s", forwardPathName(first->forward_path.path),
+           first->forward_path.reason.c_str());
 }
 
 void SimulatorNode::checkClockCallback(const ros::WallTimerEvent&)
@@ -412,6 +414,8 @@ void SimulatorNode::publish()
     msg.energy_dissipated = ledger.dissipated;
     msg.energy_residual = ledger.residual();
     msg.energy_fallback = !snap->energy_fallback.empty();
+    msg.forward_path = forwardPathName(snap->forward_path.path);
+    msg.forward_path_reason = snap->forward_path.reason;
     msg.step_time = snap->step_time;
     msg.real_time_factor = snap->real_time_factor;
     msg.behind = snap->behind;
@@ -877,6 +881,8 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   const NodeParameters& p = snap->parameters;
   add("scenario", snap->scene->name);
   add("solve", solveMethodName(snap->model->solveMethod()));
+  add("forward path",
+      std::string(forwardPathName(snap->forward_path.path)) + ": " + snap->forward_path.reason);
   add("particles", std::to_string(snap->model->numParticles()));
   add("sim_time [s]", formatValue(snap->state.time));
   add("steps", std::to_string(snap->state.steps));

@@ -86,6 +86,18 @@ inline Scene pinnedChain(const std::vector<double>& masses, double link_length,
   return scene;
 }
 
+/// n particles at rest along +x from the origin, 0.1 m apart: a 0.1 m pinnedChain laid out
+/// straight.
+inline State horizontalStart(int n)
+{
+  State start;
+  start.positions.setZero(3, n);
+  start.velocities.setZero(3, n);
+  for (int i = 0; i < n; ++i)
+    start.positions(0, i) = 0.1 * i;
+  return start;
+}
+
 /// The seed derivation's three systems, as shipped in config/scenes.
 inline std::vector<std::string> seedSceneNames()
 {

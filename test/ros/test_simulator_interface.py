@@ -419,6 +419,34 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
         finally:
             client.update_configuration({"dt": 0.001, "integrator": "rk4"})
 
+    def test_state_names_the_stage_path_and_why(self):
+        # surface_chain is a chain whose first particle slides on the bowl: the fused chain sweeps;
+        # Baumgarte's bias keeps it on the generic stages, and ~state and /diagnostics say so
+        client = dynamic_reconfigure.client.Client(NODE, timeout=60.0)
+        reports = []
+        listener = rospy.Subscriber("/diagnostics", DiagnosticArray, reports.append)
+
+        def path_reported(prefix):
+            return any(v.key == "forward path" and v.value.startswith(prefix)
+                       for r in reports for s in r.status if s.name.endswith("physics")
+                       for v in s.values)
+        try:
+            state = self.fresh_state()
+            self.assertEqual(state.forward_path, "fused_chain")
+            self.assertIn("form a chain", state.forward_path_reason)
+            self.assertIn("1 on surfaces", state.forward_path_reason)
+            self.wait_until(lambda: path_reported("fused_chain: "), "the path on /diagnostics")
+            client.update_configuration({"stabilization": "baumgarte"})
+            state = self.wait_until(
+                lambda: self.latest_state if self.latest_state.forward_path == "generic" else None,
+                "~state on the generic stages after the change to Baumgarte")
+            self.assertIn("baumgarte", state.forward_path_reason)
+            self.wait_until(lambda: path_reported("generic: stabilization = baumgarte"),
+                            "the generic path on /diagnostics")
+        finally:
+            listener.unregister()
+            client.update_configuration({"stabilization": "projection"})
+
     def test_an_overdrawn_energy_budget_hands_the_run_to_the_fallback(self):
         # explicit Euler gains energy on the default chain until about t = 2.14 s: the node goes
         # on with fast_projection, says so in ~state and at WARN on /diagnostics, and keeps it

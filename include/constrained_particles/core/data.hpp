@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -117,6 +118,42 @@ struct EnergyLedger
   }
 };
 
+/// The last fused projection's factorisation of J W J^T, kept for the next forward stage at the
+/// same positions and time (a step's first), which then solves with it instead of factorising
+/// again. One rule keeps it honest (Drake's NoteContinuousStateChange): it is valid while
+/// Data::stateVersion() is the one it was taken at; every write of the state outside the fused
+/// stages bumps that (Data::setState, Data::noteStateChange), and the stage that takes it uses it
+/// once.
+struct FactorizationCache
+{
+  std::uint64_t state_version = 0;  ///< Data::stateVersion() it was taken at; 0: none kept
+  double time = 0.0;                ///< its time [s] (eliminated motion imposed then)
+  double min_pivot_ratio = 1.0;     ///< its smallest pivot / diagonal entry
+};
+
+/// The fused stages' buffers (chain_stages.cpp, tree_stages.cpp).
+struct FusedWorkspace
+{
+  /// LDL^T of J W J^T: a chain's L sub-diagonal (m - 1) and, on both paths, D^-1 (m); the
+  /// projection's J v, forward- then back-substituted in place (m). The solver's own
+  /// factorisation is not updated by them.
+  Eigen::VectorXd lower, inverse_pivots, velocity_rhs;
+  /// A chain's Jacobian (m) [C]/m: each row's first block (a link's d, its second being -d; a
+  /// surface row's one), row after row, where Data::rows.jacobian keeps the generic blocks.
+  std::vector<Vec3> chain_jacobian;
+  /// A chain projection's corrections waiting for a particle's other row (3 x n) [m] or [m/s].
+  Points pending;
+  /// A tree's LDL^T by place in Model::treeOrder(): each link's d (3 x m) [m], read by its
+  /// later clique-mates and the down sweeps, and the cliques' L entries
+  /// (Model::treeCliqueEntries()); D^-1 in inverse_pivots, the right-hand sides, then lambda or
+  /// mu, in Data::rhs and velocity_rhs, by place too.
+  Points tree_jacobian;
+  std::vector<double> clique_lower;
+  /// lower, inverse_pivots and chain_jacobian (a tree's clique_lower, inverse_pivots and
+  /// tree_jacobian) when they are of the state's positions.
+  FactorizationCache factorization;
+};
+
 /// Everything that changes. Made for one model (Data(model)); valid while that model lives.
 class Data
 {
@@ -127,7 +164,25 @@ public:
   Data(const Data&) = delete;
   Data& operator=(const Data&) = delete;
 
-  State state;  ///< positions, velocities (3 x n), time, steps
+  /// Positions, velocities (3 x n), time, steps. The step's stages write it in place; every other
+  /// write goes through setState() or is followed by noteStateChange().
+  State state;
+  /// Replaces the state (a reset, a put-back, ~set_state) and notes the change.
+  void setState(const State& replacement)
+  {
+    state = replacement;
+    noteStateChange();
+  }
+  /// What was computed from the state before (FusedWorkspace::factorization) is no longer of it.
+  void noteStateChange()
+  {
+    ++state_version_;
+  }
+  /// Counts the state's changes outside the fused stages; starts at 1 (0 means "none").
+  std::uint64_t stateVersion() const
+  {
+    return state_version_;
+  }
   /// Rows at the last evaluated stage; after a fused chain's forward stage or projection
   /// (chain_stages.cpp) only a surface row's C, Jdot v, diagonal and violation, and (after a
   /// projection) max_violation are of that stage (the fused stages keep their Jacobian in
@@ -162,33 +217,9 @@ public:
   /// it and chain_velocity_rhs, so after one it holds the last check's forward-substituted C
   /// (the fused tree stages by place in Model::treeOrder(), not by row).
   Eigen::VectorXd rhs;
-  /// The fused chain stages' LDL^T of J W J^T (chain_stages.cpp): L's sub-diagonal (m - 1) and
-  /// D^-1 (m), and the projection's J v, forward- then back-substituted in place (m). The
-  /// solver's own factorisation is not updated by them.
-  Eigen::VectorXd chain_lower, chain_inverse_pivots, chain_velocity_rhs;
-  /// The fused chain stages' Jacobian (m if fused) [C]/m: each row's first block (a link's d, its
-  /// second being -d; a surface row's one), row after row, where data.rows.jacobian keeps the
-  /// generic stages' blocks.
-  std::vector<Vec3> chain_jacobian;
-  /// chain_lower, chain_inverse_pivots and chain_jacobian (a fused tree's: tree_lower,
-  /// chain_inverse_pivots and tree_jacobian) are of `state.positions` at
-  /// `chain_factorization_time`, taken by the last fused projection: the next stage at the state
-  /// and that time (a step's first) solves with them instead of factorising again. Cleared by
-  /// every fused stage (which uses or overwrites them), every generic stage (rowStage: a
-  /// conservative clear, as the stages that follow it may move the positions), and every write
-  /// of the state between steps.
-  bool chain_factorization_at_state = false;
-  double chain_factorization_time = 0.0;  ///< its time [s] (eliminated motion imposed then)
-  double chain_min_pivot_ratio = 1.0;     ///< its smallest pivot / diagonal entry
-  /// The fused projection's corrections waiting for a particle's other row (3 x n if fused) [m]
-  /// or [m/s].
-  Points chain_pending;
-  /// The fused tree stages' LDL^T of J W J^T (tree_stages.cpp), by place in Model::treeOrder():
-  /// each link's d (3 x m if fused) [m], read by its later clique-mates and the down sweeps, and
-  /// the cliques' L entries (Model::treeCliqueEntries()); D^-1 in chain_inverse_pivots and the
-  /// right-hand sides, then lambda or mu, in rhs and chain_velocity_rhs, by place too.
-  Points tree_jacobian;
-  std::vector<double> tree_lower;
+  /// The fused stages' own buffers (ForwardPath::FusedChain, FusedTree): their Jacobian layout
+  /// and LDL^T of J W J^T, which the generic rows and the solver do not hold.
+  FusedWorkspace fused;
   StageBuffers stages;        ///< the integrators' buffers
   EffectCounters counters;    ///< evaluations since this data was made
   StepStatistics statistics;  ///< of the batch being stepped
@@ -207,6 +238,7 @@ public:
   }
 
 private:
+  std::uint64_t state_version_ = 1;
   std::unique_ptr<ConstraintSolver> solver_;
   std::unique_ptr<Dopri5Workspace> dopri5_;
 };

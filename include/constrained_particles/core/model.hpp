@@ -84,6 +84,28 @@ enum class StagePaths
   Generic,      ///< always the generic stages (the equivalence tests' reference)
 };
 
+/// The path a model's stages take in forward() and the projection (docs/architecture.md, "Which
+/// path a scene takes"): the generic stages (stages.cpp), or two sweeps that fuse the row,
+/// constraint-force, solve and acceleration stages for a chain (chain_stages.cpp) or a tree
+/// (tree_stages.cpp) of links. Chosen once: Model::compile finds what the structure allows
+/// (Model::path()), forwardPath(model, settings) (forward_path.hpp) what the settings keep.
+enum class ForwardPath
+{
+  Generic,     ///< every stage on its own, row records by kind (stages.cpp)
+  FusedChain,  ///< links and surface rows with J W J^T tridiagonal (chain_stages.cpp)
+  FusedTree,   ///< links forming a tree, few rows on a particle (tree_stages.cpp)
+};
+
+/// "generic", "fused_chain" or "fused_tree": the name ~state and /diagnostics report.
+const char* forwardPathName(ForwardPath path);
+
+/// A path and why it was chosen (one sentence, for the start-up log, ~state and /diagnostics).
+struct PathChoice
+{
+  ForwardPath path = ForwardPath::Generic;
+  std::string reason;
+};
+
 /// One row of a fused chain (Model::chainRows()): what its sweeps read, in one place. A link, or
 /// a surface row (Model::chainSurfaceRecords(); its particle and inverse mass in first and
 /// w_first, its flags in first_opens and first_closes).
@@ -313,11 +335,16 @@ public:
   {
     return tree_clique_entries_;
   }
-  /// True if treeRows() and every row is a link: forward() then takes the fused tree stages
-  /// (tree_stages.cpp).
+  /// The path the structure allows, with its reason (forward_path.hpp's forwardPath() keeps it
+  /// or, for settings a fused path does not serve, takes the generic stages).
+  const PathChoice& path() const
+  {
+    return path_;
+  }
+  /// True if path() is ForwardPath::FusedTree: treeRows() and every row a link.
   bool fusedTree() const
   {
-    return !tree_links_.empty();
+    return path_.path == ForwardPath::FusedTree;
   }
   /// Fused trees: the links in treeOrder().
   const std::vector<TreeLink>& treeLinks() const
@@ -329,12 +356,11 @@ public:
   {
     return tree_unlinked_;
   }
-  /// True if every row is a link or a surface row (in any order), J W J^T is tridiagonal and
-  /// adjacent rows share at most one free particle: forward() then takes the fused chain stages
-  /// (chain_stages.cpp).
+  /// True if path() is ForwardPath::FusedChain: every row a link or a surface row (in any
+  /// order), J W J^T tridiagonal and adjacent rows sharing at most one free particle.
   bool fusedChain() const
   {
-    return !chain_rows_.empty();
+    return path_.path == ForwardPath::FusedChain;
   }
   /// Fused chains: row k's link, masses, held particles and what it shares with row k - 1.
   const std::vector<ChainRow>& chainRows() const
@@ -393,6 +419,7 @@ private:
   std::vector<int> chain_unlinked_;
   int chain_surface_rows_ = 0;
   std::vector<int> chain_surface_records_;
+  PathChoice path_;
 };
 
 /// True if rows touching each free particle are at most two and adjacent, so J W J^T is

@@ -6,6 +6,7 @@
 #include "constrained_particles/core/data.hpp"
 #include "constrained_particles/core/diagnostics.hpp"
 #include "constrained_particles/core/integrators.hpp"
+#include "constrained_particles/core/forward_path.hpp"
 #include "constrained_particles/core/model.hpp"
 #include "constrained_particles/core/settings.hpp"
 
@@ -82,6 +83,11 @@ public:
   const Model& model() const
   {
     return *model_;
+  }
+  /// The stage path the steps take under the current settings, and why (forward_path.hpp).
+  PathChoice forwardPath() const
+  {
+    return choosePath(*model_, settings_);
   }
   /// Rows, forces, multipliers and buffers of the last evaluation (after the fused chain stages
   /// only part of `rows` is of it: Data::rows says which).

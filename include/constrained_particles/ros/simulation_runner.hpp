@@ -81,6 +81,8 @@ struct Snapshot
   /// The integrator overdrew ~energy_budget: fast_projection takes the steps (StepControl::
   /// budget_fallback) until a reset, teleport, force or settings change; what it said, else ''
   std::string energy_fallback;
+  /// The stage path the steps take under the settings in force, and why (forward_path.hpp).
+  PathChoice forward_path;
   /// Monotone clock [s]: sim time plus the time of every earlier reset, plus TIME_JUMP per reset,
   /// scene change, teleport or fault, so a stamp taken from it is never repeated or earlier than
   /// one before.

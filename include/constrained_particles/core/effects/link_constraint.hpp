@@ -40,23 +40,52 @@ inline std::array<int, 2> rowParticles(const LinkConstraint& constraint)
   return { { constraint.first, constraint.second } };
 }
 
+/// The link's scalar formulas, one copy: evaluateRows below and the fused sweeps
+/// (chain_stages.cpp, tree_stages.cpp) all call these, so a change to the link's C, J or Jdot v
+/// is made here only. Raw pointers to a particle's 3 coordinates, as the sweeps hold them.
+struct LinkDelta
+{
+  double x, y, z;  ///< d = p_i - p_j [m]: J's block on i (and -d on j)
+  double squared;  ///< |d|^2 [m^2], summed (x x + y y) + z z as Eigen's squaredNorm sums it
+};
+inline LinkDelta linkDelta(const double* pi, const double* pj)
+{
+  const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
+  return { dx, dy, dz, dx * dx + dy * dy + dz * dz };
+}
+/// C = (|d|^2 - l^2) / 2 [m^2] from |d|^2 [m^2] and l [m].
+inline double linkValue(double squared, double length)
+{
+  return 0.5 * (squared - length * length);
+}
+/// Jdot v = |v_i - v_j|^2 [m^2/s^2].
+inline double linkJdotV(const double* vi, const double* vj)
+{
+  const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
+  return ux * ux + uy * uy + uz * uz;
+}
+/// The violation ||d| - l| [m].
+inline double linkViolation(double squared, double length)
+{
+  return std::abs(std::sqrt(squared) - length);
+}
+/// The link's diagonal entry of J W J^T, w_i |d|^2 + w_j |-d|^2 [m^2/kg] (|-d|^2 is |d|^2 exactly).
+inline double linkDiagonal(double w_first, double w_second, double squared)
+{
+  return w_first * squared + w_second * squared;
+}
+
 /// C, J, Jdot v and |(|p_i - p_j| - l)| [m] at positions p [m], velocities v [m/s]. Stateless.
 inline void evaluateRows(const LinkConstraint& constraint, const EffectContext& /*context*/,
                          const Points& positions, const Points& velocities, RowBlock out)
 {
   const int i = constraint.first, j = constraint.second;
-  const double* pi = positions.data() + 3 * i;
-  const double* pj = positions.data() + 3 * j;
-  const double* vi = velocities.data() + 3 * i;
-  const double* vj = velocities.data() + 3 * j;
-  const double dx = pi[0] - pj[0], dy = pi[1] - pj[1], dz = pi[2] - pj[2];
-  const double ux = vi[0] - vj[0], uy = vi[1] - vj[1], uz = vi[2] - vj[2];
-  const double squared = dx * dx + dy * dy + dz * dz;
-  out.jacobian[0] = Vec3(dx, dy, dz);
-  out.jacobian[1] = Vec3(-dx, -dy, -dz);
-  out.value[0] = 0.5 * (squared - constraint.length * constraint.length);
-  out.jdot_v[0] = ux * ux + uy * uy + uz * uz;
-  out.violation[0] = std::abs(std::sqrt(squared) - constraint.length);
+  const LinkDelta d = linkDelta(positions.data() + 3 * i, positions.data() + 3 * j);
+  out.jacobian[0] = Vec3(d.x, d.y, d.z);
+  out.jacobian[1] = Vec3(-d.x, -d.y, -d.z);
+  out.value[0] = linkValue(d.squared, constraint.length);
+  out.jdot_v[0] = linkJdotV(velocities.data() + 3 * i, velocities.data() + 3 * j);
+  out.violation[0] = linkViolation(d.squared, constraint.length);
 }
 
 /// Geometric stiffness (stability.hpp): lambda times the Hessian of C, [[I, -I], [-I, I]], has
