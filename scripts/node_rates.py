@@ -78,6 +78,65 @@ def workspace_env(workspace, master_uri):
     return env
 
 
+def private_master(workspace, name):
+    """A free port, its master URI, the workspace's environment for it and a log directory; this
+    process's rospy pointed there, and SIGTERM and SIGHUP made Ctrl-C (the caller's finally
+    stops what it started)."""
+    port = free_port()
+    master_uri = f"http://localhost:{port}"
+    env = workspace_env(workspace, master_uri)
+    log_dir = tempfile.mkdtemp(prefix=f"{name}.")
+    env["ROS_LOG_DIR"] = log_dir
+    # rospy in this process reads these at init_node
+    os.environ["ROS_MASTER_URI"] = master_uri
+    os.environ["ROS_LOG_DIR"] = log_dir
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, lambda s, _: sys.exit(128 + s))
+    return port, master_uri, env, log_dir
+
+
+def start_roscore(port, env, log_dir):
+    """roscore on `port` in a session of its own (stop() ends it and what it started)."""
+    with open(os.path.join(log_dir, "roscore.log"), "w") as log:
+        return subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=log,
+                                stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                start_new_session=True)
+
+
+def wait_for_master(roscore, port, master_uri, log_dir, caller, timeout=30.0):
+    """Returns once the master answers; RuntimeError if roscore died or `timeout` [s] passed."""
+    import rosgraph
+    master = rosgraph.Master(caller, master_uri=master_uri)
+    deadline = time.monotonic() + timeout
+    while not master.is_online():
+        if roscore.poll() is not None or time.monotonic() > deadline:
+            raise RuntimeError(f"roscore on port {port} did not start:\n"
+                               f"{tail(os.path.join(log_dir, 'roscore.log'))}")
+        time.sleep(0.2)
+
+
+def shut_down(roscore, log_dir, failed, name):
+    """rospy down, roscore stopped; the logs kept only after a failure."""
+    if "rospy" in sys.modules:
+        sys.modules["rospy"].signal_shutdown(f"{name} done")
+    stop(roscore)
+    if failed:
+        print(f"logs kept in {log_dir}", file=sys.stderr)
+    else:
+        shutil.rmtree(log_dir, ignore_errors=True)
+
+
+def run(main, name, errors=(RuntimeError,)):
+    """sys.exit(main()), with Ctrl-C as 130 and `errors` printed as exit 2."""
+    try:
+        sys.exit(main())
+    except KeyboardInterrupt:
+        sys.exit(130)
+    except errors as e:
+        print(f"{name}: {e}", file=sys.stderr)
+        sys.exit(2)
+
+
 def proc_stat(pid):
     """Fields of /proc/<pid>/stat after the command name (which may hold spaces), or None."""
     try:
@@ -281,37 +340,20 @@ def machine():
 def main():
     args = parse_args()
     args.workspace = os.path.abspath(args.workspace)
-    port = free_port()
-    master_uri = f"http://localhost:{port}"
-    env = workspace_env(args.workspace, master_uri)
-    log_dir = tempfile.mkdtemp(prefix="node_rates.")
-    env["ROS_LOG_DIR"] = log_dir
-    # rospy in this process reads these at init_node
-    os.environ["ROS_MASTER_URI"] = master_uri
-    os.environ["ROS_LOG_DIR"] = log_dir
-    # SIGTERM and SIGHUP as Ctrl-C, so the finally below stops what we started
-    for sig in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(sig, lambda s, _: sys.exit(128 + s))
+    port, master_uri, env, log_dir = private_master(args.workspace, "node_rates")
     roscore = None
     failed = False
     try:
-        with open(os.path.join(log_dir, "roscore.log"), "w") as log:
-            roscore = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=log,
-                                       stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                       start_new_session=True)
-        import rosgraph
+        roscore = start_roscore(port, env, log_dir)
+        try:
+            wait_for_master(roscore, port, master_uri, log_dir, "/node_rates")
+        except RuntimeError as e:
+            sys.stderr.write(f"{e}\n")
+            failed = True
+            return 2
         import rospy
         from diagnostic_msgs.msg import DiagnosticArray
 
-        master = rosgraph.Master("/node_rates", master_uri=master_uri)
-        deadline = time.monotonic() + 30.0
-        while not master.is_online():
-            if roscore.poll() is not None or time.monotonic() > deadline:
-                sys.stderr.write(f"roscore on port {port} did not start:\n"
-                                 f"{tail(os.path.join(log_dir, 'roscore.log'))}")
-                failed = True
-                return 2
-            time.sleep(0.2)
         rospy.init_node("node_rates", anonymous=True, disable_signals=True)
         counters = Counters()
         # unbounded queues: rospy drops beyond queue_size per read, which would undercount
@@ -367,20 +409,8 @@ def main():
                 return 2 if failed else 1
         return 2 if failed else 0
     finally:
-        if "rospy" in sys.modules:
-            sys.modules["rospy"].signal_shutdown("node_rates done")
-        stop(roscore)
-        if failed:
-            print(f"logs kept in {log_dir}", file=sys.stderr)
-        else:
-            shutil.rmtree(log_dir, ignore_errors=True)
+        shut_down(roscore, log_dir, failed, "node_rates")
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except KeyboardInterrupt:
-        sys.exit(130)
-    except RuntimeError as e:
-        print(f"node_rates: {e}", file=sys.stderr)
-        sys.exit(2)
+    run(main, "node_rates")

@@ -1,9 +1,12 @@
 #include "constrained_particles/core/stability.hpp"
 
+#include "stages.hpp"
+
 #include "constrained_particles/core/constraints.hpp"
 #include "constrained_particles/core/forces.hpp"
 
 #include <cmath>
+#include <tuple>
 #include <type_traits>
 
 namespace constrained_particles
@@ -15,16 +18,15 @@ double estimateMaxFrequency(const Model& model, const Eigen::VectorXd& multiplie
   const Scene& scene = model.scene();
   const EffectContext context{ scene.surfaces, time };
   stiffness.setZero(model.numParticles());
-  for (const RowRecord& record : model.rowRecords())
-    std::visit(
-        [&](const auto& constraint)
-        {
-          using Kind = std::decay_t<decltype(constraint)>;
-          if constexpr (!Kind::ELIMINATED)
-            addGeometricStiffness(constraint, context, positions,
-                                  multipliers.data() + record.first_row, stiffness.data());
-        },
-        scene.constraints[record.constraint]);
+  // kind by kind through the model's tables (no variant dispatch per record: at 10 particles
+  // that dispatch was half the estimate's cost); a particle's terms are summed by kind
+  forEachRowTable(model,
+                  [&](const auto& table)
+                  {
+                    for (const auto& entry : table)
+                      addGeometricStiffness(entry.record, context, positions,
+                                            multipliers.data() + entry.first_row, stiffness.data());
+                  });
   // position-dependent forces (springs), the model's and those applied from outside
   for (const std::vector<Force>* forces : { &scene.forces, &perturbations })
     for (const Force& force : *forces)

@@ -185,6 +185,30 @@ void imposeEliminated(const Model& model, Data& data, double time, Points* posit
 /// data.statistics.
 SolveReport factorizeRows(const Model& model, Data& data);
 
+/// Calls fn(table) with every row kind's table of KindRecords (eliminated kinds make no rows), in
+/// registry order: a loop per kind with no dispatch per record.
+template <typename Fn>
+#if defined(__GNUC__)
+__attribute__((always_inline))
+#endif
+inline void
+forEachRowTable(const Model& model, Fn&& fn)
+{
+  std::apply(
+      [&](const auto&... tables)
+      {
+        (
+            [&](const auto& table)
+            {
+              using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
+              if constexpr (!Kind::ELIMINATED)
+                fn(table);
+            }(tables),
+            ...);
+      },
+      model.kindTables());
+}
+
 /// Calls fn(row, first_block, width) for every row, kind by kind, with `width` (its blocks) a
 /// std::integral_constant: loops over a row's blocks have a fixed trip count the compiler
 /// unrolls, where one generic loop per row costs more than the arithmetic in it.
@@ -195,22 +219,15 @@ __attribute__((always_inline))  // one loop per kind, inlined into each product:
 inline void
 forEachRow(const Model& model, Fn&& fn)
 {
-  std::apply(
-      [&](const auto&... tables)
-      {
-        (
-            [&](const auto& table)
-            {
-              using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
-              if constexpr (!Kind::ELIMINATED)
-                for (const auto& entry : table)
-                  for (int r = 0; r < Kind::ROWS; ++r)
-                    fn(entry.first_row + r, entry.first_block + r * Kind::PARTICLES,
-                       std::integral_constant<int, Kind::PARTICLES>{});
-            }(tables),
-            ...);
-      },
-      model.kindTables());
+  forEachRowTable(model,
+                  [&](const auto& table)
+                  {
+                    using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
+                    for (const auto& entry : table)
+                      for (int r = 0; r < Kind::ROWS; ++r)
+                        fn(entry.first_row + r, entry.first_block + r * Kind::PARTICLES,
+                           std::integral_constant<int, Kind::PARTICLES>{});
+                  });
 }
 
 // --- Jacobian products over the rows' blocks (J is m x 3n, blocks per model.rowStart()) ---

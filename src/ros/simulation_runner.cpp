@@ -17,11 +17,6 @@ double seconds(std::chrono::steady_clock::duration d)
   return std::chrono::duration<double>(d).count();
 }
 
-/// Live accuracy samples per window: about one per publish period, 4 to 64 (4 for large scenes:
-/// each sample holds the positions twice until compared).
-constexpr int MIN_WINDOW_SAMPLES = 4, MAX_WINDOW_SAMPLES = 64;
-constexpr int MANY_PARTICLES = 10000;
-
 RunnerReply refused(const std::string& message)
 {
   RunnerReply reply;
@@ -335,7 +330,7 @@ RunnerReply SimulationRunner::reconfigure(
         step_time_estimate_ = 0;
         last_chunk_ = 1;
         reanchor();
-        if (!drags_.empty())
+        if (perturbations_.draggedCount() > 0)
           updatePerturbations();  // a drag's spring is scaled to dt
         return accepted("reconfigured");
       });
@@ -346,31 +341,14 @@ RunnerReply SimulationRunner::applyForce(long particle, const Vec3& force, doubl
   return submit(
       [this, particle, force, duration]
       {
-        const int n = simulator_->model().numParticles();
-        if (particle < 0 || particle >= n)
-          throw InvalidInput("particle", "= " + std::to_string(particle) + ", must be in [0, " +
-                                             std::to_string(n - 1) + "] (scene '" + scene_->name +
-                                             "' has " + std::to_string(n) + " particles)");
-        requireInRange("force", force, limits::FORCE);
-        requireInRange("duration", duration, limits::APPLIED_FORCE_DURATION);
-        if (applied_.size() >= MAX_APPLIED_FORCES)
-          return refused("applied forces: " + std::to_string(applied_.size()) +
-                         " act already, the most at once; call ~clear_forces");
         const State& now = simulator_->state();
-        // the steps that begin within `duration`: counted in steps, so round-off in the summed
-        // time cannot add or drop one (a duration within 1e-9 dt of N dt counts as N steps)
-        const double dt = simulator_->stepSettings().dt;
-        const auto steps = static_cast<std::uint64_t>(
-            std::max(1.0, std::ceil(std::min(duration / dt, 1e15) - 1e-9)));
-        applied_.push_back(AppliedForce{ ExternalForce{ static_cast<int>(particle), force },
-                                         duration > 0.0 ? now.steps + steps : 0 });
+        const Perturbations::Outcome outcome =
+            perturbations_.apply(particle, force, duration, simulator_->model().numParticles(),
+                                 now.steps, now.time, simulator_->stepSettings().dt, scene_->name);
+        if (!outcome.accepted)
+          return refused(outcome.message);
         updatePerturbations();
-        return accepted("force applied to particle " + std::to_string(particle) +
-                        (duration > 0.0 ? " for " + std::to_string(steps) + " steps (" +
-                                              formatValue(duration) +
-                                              " s) from t = " + formatValue(now.time) + " s"
-                                        : std::string(" until ~clear_forces")) +
-                        " (" + std::to_string(applied_.size()) + " acting)");
+        return accepted(outcome.message);
       });
 }
 
@@ -379,8 +357,7 @@ RunnerReply SimulationRunner::clearForces()
   return submit(
       [this]
       {
-        const std::size_t count = applied_.size();
-        applied_.clear();
+        const std::size_t count = perturbations_.clearApplied();
         updatePerturbations();
         return accepted("cleared " + std::to_string(count) + " applied forces");
       });
@@ -388,98 +365,47 @@ RunnerReply SimulationRunner::clearForces()
 
 void SimulationRunner::drag(std::uint64_t scene_serial, int particle, const Vec3& target)
 {
+  perturbations_.queueDrag(scene_serial, particle, target);
   {
-    std::lock_guard<std::mutex> lock(drag_mutex_);
-    drag_inbox_.push_back(DragUpdate{ scene_serial, particle, target, false });
-  }
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);  // not between the loop's check and its wait
-    drag_inbox_dirty_ = true;
+    // taken under the loop's lock: not between its check of hasQueued() and its wait
+    std::lock_guard<std::mutex> lock(queue_mutex_);
   }
   wake_.notify_all();
 }
 
 void SimulationRunner::release(std::uint64_t scene_serial, int particle)
 {
-  {
-    std::lock_guard<std::mutex> lock(drag_mutex_);
-    drag_inbox_.push_back(DragUpdate{ scene_serial, particle, Vec3::Zero(), true });
-  }
+  perturbations_.queueRelease(scene_serial, particle);
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
-    drag_inbox_dirty_ = true;
   }
   wake_.notify_all();
 }
 
 void SimulationRunner::applyDragInbox()
 {
-  if (!drag_inbox_dirty_)
-    return;
-  std::vector<DragUpdate> updates;
-  {
-    std::lock_guard<std::mutex> lock(drag_mutex_);
-    updates.swap(drag_inbox_);
-    drag_inbox_dirty_ = false;
-  }
-  const std::size_t before = drags_.size();
-  bool changed = false;
-  for (const DragUpdate& u : updates)
-  {
-    // made for another scene (a marker rviz still held across a reset): not this one's particle
-    if (u.scene_serial != scene_serial_ && u.scene_serial != 0)
-      continue;
-    if (u.release)
-    {
-      changed |= u.particle < 0 ? !drags_.empty() : drags_.count(u.particle) > 0;
-      if (u.particle < 0)
-        drags_.clear();
-      else
-        drags_.erase(u.particle);
-    }
-    else if (u.particle >= 0 && u.particle < simulator_->model().numParticles() &&
-             limits::COORDINATE.contains(u.target.x()) &&
-             limits::COORDINATE.contains(u.target.y()) && limits::COORDINATE.contains(u.target.z()))
-    {
-      drags_[u.particle] = u.target;
-      changed = true;
-    }
-  }
-  if (!changed)
+  const Perturbations::DragChange change =
+      perturbations_.takeQueued(scene_serial_, simulator_->model().numParticles());
+  if (change == Perturbations::DragChange::None)
     return;
   updatePerturbations();
   // a new target moves only the spring: the next batch's snapshot shows it; a grab or a release
   // changes what ~state reports at once
-  if (drags_.size() != before)
+  if (change == Perturbations::DragChange::Grabbed)
     snapshot_due_ = true;
 }
 
 void SimulationRunner::updatePerturbations()
 {
-  std::vector<Force> forces;
-  forces.reserve(applied_.size() + drags_.size());
-  for (const AppliedForce& applied : applied_)
-    forces.push_back(applied.force);
-  const double dt = simulator_->stepSettings().dt;
-  for (const auto& [particle, target] : drags_)
-  {
-    const double m = simulator_->model().scene().masses[particle];
-    // critically damped (c = 2 m w) within the ranges a target spring takes: a heavy particle
-    // is pulled more slowly rather than refused
-    const double w =
-        std::min({ DRAG_FREQUENCY, DRAG_STEP_LIMIT / dt, limits::DAMPING.high / (2.0 * m),
-                   std::sqrt(limits::STIFFNESS.high / m) });
-    forces.push_back(TargetSpringForce{ particle, target, m * w * w, 2.0 * m * w });
-  }
   try
   {
-    simulator_->setPerturbations(forces);
+    simulator_->setPerturbations(
+        perturbations_.forces(simulator_->model().scene().masses, simulator_->stepSettings().dt));
   }
   catch (const InvalidInput&)
   {
     // every record was checked on its way in: not reached; never leave forces half set
-    applied_.clear();
-    drags_.clear();
+    perturbations_.clearAll();
     simulator_->setPerturbations({});
   }
   // the shadow reference does not feel them: the window would measure the push, not the method
@@ -488,21 +414,12 @@ void SimulationRunner::updatePerturbations()
 
 std::uint64_t SimulationRunner::expireForces(std::uint64_t limit)
 {
-  const std::uint64_t steps = simulator_->state().steps;
-  const std::size_t before = applied_.size();
-  applied_.erase(
-      std::remove_if(applied_.begin(), applied_.end(),
-                     [&](const AppliedForce& a) { return a.end_step != 0 && a.end_step <= steps; }),
-      applied_.end());
-  if (applied_.size() != before)
+  std::uint64_t next = limit;
+  if (perturbations_.expire(simulator_->state().steps, limit, next))
   {
     updatePerturbations();
     snapshot_due_ = true;
   }
-  std::uint64_t next = limit;
-  for (const AppliedForce& a : applied_)
-    if (a.end_step != 0)
-      next = std::min(next, a.end_step - steps);
   return next;
 }
 
@@ -532,12 +449,16 @@ void SimulationRunner::loop()
       const double dt = simulator_->stepSettings().dt;
       const double until_next =
           (simulator_->state().time + dt - anchor_sim_) / parameters_.real_time_factor;
-      wake = std::min(wake, anchor_wall_ + std::chrono::duration_cast<Clock::duration>(
-                                               std::chrono::duration<double>(until_next)));
+      const Clock::time_point due = anchor_wall_ + std::chrono::duration_cast<Clock::duration>(
+                                                       std::chrono::duration<double>(until_next));
+      const Clock::time_point period =
+          last_batch_start_ +
+          std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(BATCH_PERIOD));
+      wake = std::min(wake, std::max(due, period));
     }
     std::unique_lock<std::mutex> lock(queue_mutex_);
     wake_.wait_until(lock, wake,
-                     [this] { return stopping_ || !queue_.empty() || drag_inbox_dirty_; });
+                     [this] { return stopping_ || !queue_.empty() || perturbations_.hasQueued(); });
   }
   // refuse what is still queued, and a running ~step with what it took
   std::deque<std::shared_ptr<Request>> left;
@@ -601,12 +522,15 @@ bool SimulationRunner::runBatch()
   }
   else
   {
+    if (seconds(start - last_batch_start_) < BATCH_PERIOD)
+      return false;
     const double target =
         anchor_sim_ + parameters_.real_time_factor * seconds(start - anchor_wall_);
     const double due = std::floor((target - simulator_->state().time) / dt + 1e-9);
     if (!(due >= 1.0))
       return false;
     wanted = static_cast<std::uint64_t>(std::min(due, 1e15));
+    last_batch_start_ = start;
   }
   last_good_ = simulator_->state();
   std::uint64_t taken = 0;
@@ -623,20 +547,16 @@ bool SimulationRunner::runBatch()
                                             std::min({ static_cast<double>(wanted - taken), 1e6,
                                                        2.0 * static_cast<double>(last_chunk_) })));
     // a live accuracy sample ends a chunk exactly on its step
-    int steps_now = chunk;
-    if (window_ && window_->recorded < static_cast<int>(window_->sample_steps.size()))
-      steps_now = static_cast<int>(std::min<std::uint64_t>(
-          static_cast<std::uint64_t>(chunk),
-          window_->sample_steps[window_->recorded] - simulator_->state().steps));
+    int steps_now = accuracy_.stepsToNextSample(simulator_->state().steps, chunk);
     // an applied force's last step ends a chunk too: it is dropped exactly after it
     steps_now = static_cast<int>(expireForces(static_cast<std::uint64_t>(std::max(steps_now, 1))));
     last_chunk_ = chunk;
     const Clock::time_point chunk_start = Clock::now();
-    const double cpu_start = window_ ? threadCpuSeconds() : 0.0;
+    const double cpu_start = accuracy_.open() ? threadCpuSeconds() : 0.0;
     const StepStatistics statistics = simulator_->step(steps_now);
-    if (window_)
-      window_->live_cpu += threadCpuSeconds() - cpu_start;
-    reference_now_.reset();
+    if (accuracy_.open())
+      accuracy_.addLiveCpu(threadCpuSeconds() - cpu_start);
+    accuracy_.clearReferenceNow();
     step_time_estimate_ = seconds(Clock::now() - chunk_start) / steps_now;
     // an undone chunk's statistics go with it: reports count the steps that stand
     if (const std::string reason = faultIn(simulator_->state(), statistics); !reason.empty())
@@ -647,10 +567,8 @@ bool SimulationRunner::runBatch()
       taken += static_cast<std::uint64_t>(steps_now);
       expireForces(0);
       last_good_ = simulator_->state();
-      if (window_ && window_->recorded < static_cast<int>(window_->sample_steps.size()) &&
-          simulator_->state().steps == window_->sample_steps[window_->recorded])
+      if (accuracy_.record(simulator_->state()))
       {
-        window_->live[window_->recorded++] = simulator_->state().positions;
         // the batch ends on a sample: its snapshot can carry the reference beside it
         snapshot_due_ = true;
         break;
@@ -709,6 +627,9 @@ std::string SimulationRunner::faultIn(const State& state, const StepStatistics& 
 std::string SimulationRunner::checkFault(const State& state, const StepStatistics& chunk) const
 {
   const StepSettings& step = parameters_.step;
+  // the wording only where a check failed: this runs after every chunk
+  if (chunk.failed_check == StepCheck::None)
+    return checkState(state);
   const std::string split =
       step.max_substeps > 1
           ? " even in ~max_substeps = " + std::to_string(step.max_substeps) + " sub-steps"
@@ -753,6 +674,11 @@ std::string SimulationRunner::checkFault(const State& state, const StepStatistic
     default:
       break;
   }
+  return checkState(state);
+}
+
+std::string SimulationRunner::checkState(const State& state) const
+{
   if (!isFinite(state))
     return "the state became non-finite between t = " + formatValue(last_good_.time) +
            " s and t = " + formatValue(state.time) + " s";
@@ -817,13 +743,7 @@ void SimulationRunner::rebuild(const SceneDescription& description, const StepSe
   }
   abandonWindow();
   // the new Data holds no perturbations: pushes and drags end with the scene they acted on
-  applied_.clear();
-  drags_.clear();
-  {
-    std::lock_guard<std::mutex> lock(drag_mutex_);
-    drag_inbox_.clear();
-    drag_inbox_dirty_ = false;
-  }
+  perturbations_.clearAll();
   region_ = sceneRegion(description, built.initial_state);
   // the clock runs on across the reset: stamps never go back (see Snapshot::stamp)
   clock_base_ += time_before + TIME_JUMP;
@@ -905,12 +825,13 @@ void SimulationRunner::makeSnapshot()
   s->stepping = step_request_.has_value();
   s->faulted = faulted_;
   s->fault_reason = fault_reason_;
-  s->accuracy = accuracy_;
-  s->reference_positions = reference_now_;
-  s->skipped_windows = skippedWindows();
+  s->accuracy = accuracy_.report();
+  s->reference_positions = accuracy_.referenceNow();
+  s->skipped_windows =
+      accuracy_.skippedWindows(simulator_->state().time, parameters_.accuracy_window);
   s->region = region_;
-  s->applied_forces = static_cast<std::uint32_t>(applied_.size());
-  s->dragged_particles = static_cast<std::uint32_t>(drags_.size());
+  s->applied_forces = static_cast<std::uint32_t>(perturbations_.appliedCount());
+  s->dragged_particles = static_cast<std::uint32_t>(perturbations_.draggedCount());
   {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
     snapshot_ = std::move(s);
@@ -924,127 +845,17 @@ void SimulationRunner::makeSnapshot()
 
 void SimulationRunner::abandonWindow()
 {
-  reference_now_.reset();
-  waiting_since_ = -1.0;
-  if (!window_)
-    return;
-  window_.reset();
-  ++abandoned_windows_;
-  if (shadow_)
-    shadow_->cancel();
-}
-
-std::uint64_t SimulationRunner::skippedWindows() const
-{
-  const double length = parameters_.accuracy_window;
-  if (!(length > 0.0))
-    return skipped_windows_;
-  const double now = simulator_->state().time;
-  double behind_since = waiting_since_;  // no window open: the shadow still busy
-  if (window_ && window_->recorded == static_cast<int>(window_->sample_steps.size()))
-    behind_since = window_->sample_times.back();  // live done, the shadow not yet
-  if (behind_since < 0.0 || now <= behind_since)
-    return skipped_windows_;
-  return skipped_windows_ + static_cast<std::uint64_t>(std::floor((now - behind_since) / length));
+  accuracy_.abandon();
 }
 
 void SimulationRunner::updateAccuracy()
 {
-  const double length = parameters_.accuracy_window;
-  if (window_ && shadow_)
-  {
-    AccuracyWindow& w = *window_;
-    // compare what both sides have; the shadow never holds up stepping
-    const int both = std::min(w.recorded, shadow_->ready());
-    for (; w.compared < both; ++w.compared)
-    {
-      const int k = w.compared;
-      auto reference = std::make_shared<const Points>(shadow_->take(k));
-      w.errors[k] = (w.live[k] - *reference).colwise().norm().maxCoeff();
-      w.live[k] = Points();
-      if (w.sample_steps[k] == simulator_->state().steps)
-        reference_now_ = reference;
-    }
-    const int samples = static_cast<int>(w.sample_steps.size());
-    if (w.compared == samples)
-    {
-      auto report = std::make_shared<AccuracyReport>();
-      report->serial = accuracy_ ? accuracy_->serial + 1 : 1;
-      report->window_start = w.start_time;
-      report->window = w.sample_times.back() - w.start_time;
-      report->stamp = clock_base_ + w.sample_times.back();
-      report->integrator = w.settings.integrator;
-      report->stabilization = w.settings.stabilization;
-      report->dt = w.settings.dt;
-      report->sample_times = w.sample_times;
-      report->position_errors = w.errors;
-      report->position_error = w.errors.back();
-      report->error_growth_rate = report->position_error / report->window;
-      report->live_cpu_per_sim_second = w.live_cpu / report->window;
-      report->reference_cpu_per_sim_second = shadow_->cpuSeconds() / report->window;
-      report->windows = ++windows_;
-      skipped_windows_ = skippedWindows();
-      report->skipped = skipped_windows_;
-      report->abandoned = abandoned_windows_;
-      accuracy_ = report;
-      window_.reset();
-      snapshot_due_ = true;
-    }
-    else if (!shadow_->busy() && shadow_->ready() < samples)
-    {
-      // the shadow gave up (its failure says why): this window cannot be measured
-      abandonWindow();
-    }
-  }
-  // the next window starts from the state now, when there is stepping to measure
   // pushed or dragged, the live state follows forces the shadow does not feel: no window opens
-  const bool stepping =
-      !faulted_ && (!paused_ || step_request_) && applied_.empty() && drags_.empty();
-  if (window_ || !(length > 0.0) || !stepping)
-    return;
-  if (!shadow_)
-    shadow_ = std::make_unique<ShadowReference>();
-  const State& now = simulator_->state();
-  if (shadow_->busy())
-  {
-    if (waiting_since_ < 0.0)
-      waiting_since_ = now.time;
-    return;
-  }
-  if (waiting_since_ >= 0.0)
-  {
-    // the windows that would have run while the shadow was busy
-    skipped_windows_ = skippedWindows();
-    waiting_since_ = -1.0;
-  }
-  AccuracyWindow w;
-  w.settings = parameters_.step;
-  const double dt = w.settings.dt;
-  const int wanted_samples = simulator_->model().numParticles() > MANY_PARTICLES
-                                 ? MIN_WINDOW_SAMPLES
-                                 : static_cast<int>(std::lround(length * parameters_.publish_rate));
-  const auto steps = static_cast<std::uint64_t>(std::max(1L, std::lround(length / dt)));
-  const auto samples = static_cast<int>(
-      std::min<std::uint64_t>(steps, static_cast<std::uint64_t>(std::clamp(
-                                         wanted_samples, MIN_WINDOW_SAMPLES, MAX_WINDOW_SAMPLES))));
-  w.start_time = now.time;
-  w.start_steps = now.steps;
-  for (int k = 1; k <= samples; ++k)
-  {
-    const std::uint64_t offset =
-        (steps * static_cast<std::uint64_t>(k)) / static_cast<std::uint64_t>(samples);
-    w.sample_steps.push_back(now.steps + offset);
-    w.sample_times.push_back(now.time + static_cast<double>(offset) * dt);
-  }
-  w.live.assign(samples, Points());
-  w.errors.assign(samples, 0.0);
-  ShadowReference::Job job;
-  job.scene = scene_;
-  job.base = w.settings;
-  job.start = now;
-  job.sample_times = w.sample_times;
-  if (shadow_->start(std::move(job)))
-    window_ = std::move(w);
+  const bool stepping = !faulted_ && (!paused_ || step_request_) && perturbations_.empty();
+  if (accuracy_.update(simulator_->state(), stepping, parameters_.step, parameters_.accuracy_window,
+                       parameters_.publish_rate, simulator_->model().numParticles(), scene_,
+                       clock_base_))
+    snapshot_due_ = true;
 }
 
 bool BehindMonitor::update(double lag)

@@ -421,13 +421,13 @@ TEST(SimulationRunner, AppliedForcesActOnTheirStepsExactly)
   // first step after the change
   EXPECT_EQ(pushes, 2u * (11u * 4u + 1u));
   // until cleared; the most at once; bad requests name the field and change nothing
-  for (std::size_t k = 0; k < SimulationRunner::MAX_APPLIED_FORCES; ++k)
+  for (std::size_t k = 0; k < Perturbations::MAX_APPLIED_FORCES; ++k)
     ASSERT_TRUE(runner.applyForce(0, Vec3(0.0, 0.0, 1e-3), 0.0).success);
   EXPECT_FALSE(runner.applyForce(0, Vec3::Zero(), 0.0).success);
   EXPECT_EQ(runner.applyForce(1, Vec3::Zero(), 0.0).field, "particle");
   EXPECT_EQ(runner.applyForce(0, Vec3(0.0, NAN, 0.0), 0.0).field, "force.y");
   EXPECT_EQ(runner.applyForce(0, Vec3::Zero(), -1.0).field, "duration");
-  EXPECT_EQ(runner.snapshot()->applied_forces, SimulationRunner::MAX_APPLIED_FORCES);
+  EXPECT_EQ(runner.snapshot()->applied_forces, Perturbations::MAX_APPLIED_FORCES);
   const RunnerReply cleared = runner.clearForces();
   EXPECT_NE(cleared.message.find("cleared 1000"), std::string::npos) << cleared.message;
   EXPECT_EQ(runner.snapshot()->applied_forces, 0u);

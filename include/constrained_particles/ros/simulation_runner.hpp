@@ -7,7 +7,9 @@
 #pragma once
 
 #include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/ros/accuracy_monitor.hpp"
 #include "constrained_particles/ros/parameters.hpp"
+#include "constrained_particles/ros/perturbations.hpp"
 #include "constrained_particles/ros/shadow_reference.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
@@ -39,28 +41,6 @@ struct RunnerReply
   /// Batches of steps that ended between queueing and applying the request: at most 1, the one
   /// under way (a request waits for no more than one batch).
   std::uint64_t batches_waited = 0;
-};
-
-/// The live method's error over one window against the shadow reference (~accuracy).
-struct AccuracyReport
-{
-  std::uint64_t serial = 0;  ///< one more per report, from 1
-  double stamp = 0;          ///< Snapshot::stamp at the window's end [s]
-  double window_start = 0;   ///< sim time [s]
-  double window = 0;         ///< length: whole live steps [s]
-  std::string integrator;    ///< the live method over the window
-  Stabilization stabilization = Stabilization::Projection;
-  double dt = 0;                            ///< [s]
-  std::vector<double> sample_times;         ///< [s]
-  std::vector<double> position_errors;      ///< max_i |p_live - p_ref| at each sample time [m]
-  double position_error = 0;                ///< at the window's end [m]
-  double error_growth_rate = 0;             ///< position_error / window [m/s]
-  double live_cpu_per_sim_second = 0;       ///< live stepping's thread CPU [s/s]
-  double reference_cpu_per_sim_second = 0;  ///< the shadow's [s/s]
-  std::uint64_t windows = 0;                ///< measured since start
-  std::uint64_t skipped = 0;                ///< not measured: the shadow was still busy
-  std::uint64_t abandoned =
-      0;  ///< cut short by a reset, scene change, teleport, fault, reconfigure
 };
 
 /// Everything publishing needs, taken after a batch or a request; never changed afterwards.
@@ -137,19 +117,15 @@ public:
   /// state, constraint error over ~max_constraint_error, a dopri5 step forced at its guards): a
   /// fault keeps every good chunk.
   static constexpr double CHECK_WALL_TIME = 0.002;  // [s]
+  /// Shortest wall time between the starts of two paced batches: steps due sooner wait for the
+  /// next batch, so a small scene at a high real-time factor takes them together instead of
+  /// waking for each (a batch's fixed cost, its fault check and rate window, is paid once per
+  /// period, not per step). A ~step request runs at once.
+  static constexpr double BATCH_PERIOD = 0.001;  // [s]
   /// Forward jump of Snapshot::stamp at each reset, scene change, teleport or fault [s].
   static constexpr double TIME_JUMP = 1e-3;
   /// Window over which the achieved real-time factor and the lag are measured [s].
   static constexpr double RATE_WINDOW = 1.0;
-  /// A dragged particle is pulled by a critically damped target spring of frequency
-  /// w = min(DRAG_FREQUENCY, DRAG_STEP_LIMIT / dt): k = m w^2, c = 2 m w. w dt <= 0.2 keeps every
-  /// explicit integrator stable on the spring alone (the stability estimate sees it too). A
-  /// heavy particle's w is lowered so that k and c stay inside limits::STIFFNESS and
-  /// limits::DAMPING (it is pulled more slowly).
-  static constexpr double DRAG_FREQUENCY = 10.0;  // [rad/s]
-  static constexpr double DRAG_STEP_LIMIT = 0.2;  // [1]
-  /// Most forces ~apply_force may have acting at once.
-  static constexpr std::size_t MAX_APPLIED_FORCES = 1000;
 
   /// Who reads statistics: each gets the merged statistics of every step since it last read.
   enum class Reader
@@ -203,16 +179,16 @@ public:
   /// the dt in force now (at least one), or until clearForces() if `duration` is 0 [s]:
   /// an external force the step evaluates only while it acts (Simulator::setPerturbations).
   /// Refused naming `particle`, `force.x` .. or `duration` and the valid range; at most
-  /// MAX_APPLIED_FORCES at once. A reset or scene change ends them all.
+  /// Perturbations::MAX_APPLIED_FORCES at once. A reset or scene change ends them all.
   RunnerReply applyForce(long particle, const Vec3& force, double duration);
   /// Ends every force applyForce started (the reply says how many).
   RunnerReply clearForces();
   /// Pulls `particle` towards `target` [m] with a critically damped target spring (see
-  /// DRAG_FREQUENCY) from the next batch until release(); a later call moves the target. Not
-  /// waited for: a mouse sends these at its own rate, and the runner reads the newest once per
-  /// batch. `scene_serial` is the Snapshot::scene_serial the caller's particle index belongs to
-  /// (0: the current scene); an update for another scene, a particle out of range or a target
-  /// outside limits::COORDINATE is dropped. A reset or scene change releases every particle.
+  /// Perturbations::DRAG_FREQUENCY) from the next batch until release(); a later call moves the
+  /// target. Not waited for: a mouse sends these at its own rate, and the runner reads the newest
+  /// once per batch. `scene_serial` is the Snapshot::scene_serial the caller's particle index
+  /// belongs to (0: the current scene); an update for another scene, a particle out of range or a
+  /// target outside limits::COORDINATE is dropped. A reset or scene change releases every particle.
   void drag(std::uint64_t scene_serial, int particle, const Vec3& target);
   /// Ends the pull on `particle` (-1: on every particle). Not waited for.
   void release(std::uint64_t scene_serial, int particle);
@@ -255,6 +231,8 @@ private:
   std::string faultIn(const State& state, const StepStatistics& chunk) const;
   /// faultIn's reason before it says whether the energy budget's fallback had the run.
   std::string checkFault(const State& state, const StepStatistics& chunk) const;
+  /// The checks of the state itself (finite, within ~max_constraint_error): why not, or empty.
+  std::string checkState(const State& state) const;
   /// Stops stepping, puts back `good` and records why.
   void fault(const std::string& reason, const State& good);
   /// Ends a running ~step early (nothing if none runs).
@@ -269,27 +247,10 @@ private:
   void reanchor();
   void updateRate(Clock::time_point now);
   void makeSnapshot();
-  /// Live accuracy: compares the samples both sides have, reports a finished window and opens the
-  /// next one (never waiting for the shadow).
+  /// Live accuracy (AccuracyMonitor::update) after a batch; a finished report makes a snapshot.
   void updateAccuracy();
-  /// Ends the open window unmeasured (the state or settings changed under it).
+  /// Ends the open accuracy window unmeasured (the state or settings changed under it).
   void abandonWindow();
-  /// Windows skipped so far, with those passing now while the shadow is behind.
-  std::uint64_t skippedWindows() const;
-
-  /// One live accuracy window: its sample steps and what was measured at them so far.
-  struct AccuracyWindow
-  {
-    double start_time = 0;
-    std::uint64_t start_steps = 0;
-    std::vector<std::uint64_t> sample_steps;  // absolute step counts
-    std::vector<double> sample_times;         // nominal: start + steps dt [s]
-    std::vector<Points> live;                 // live positions at each sample, until compared
-    std::vector<double> errors;
-    int recorded = 0, compared = 0;
-    double live_cpu = 0;  // [s]
-    StepSettings settings;
-  };
 
   // owned by the physics thread once started (the constructor and stop() before it)
   NodeParameters parameters_;
@@ -307,33 +268,13 @@ private:
   double clock_base_ = 0;                          // Snapshot::stamp - sim time [s]
   double step_time_ = 0, step_time_estimate_ = 0;  // [s] per step: last batch, last chunk
   int last_chunk_ = 1;                             // steps in the last chunk
+  Clock::time_point last_batch_start_;             // of the last paced batch that stepped
   Clock::time_point anchor_wall_, window_wall_, last_snapshot_wall_;
   double anchor_sim_ = 0, window_sim_ = 0, window_dropped_ = 0, achieved_rtf_ = 0;
   BehindMonitor behind_monitor_;
-  RegionSpec region_;  // sceneRegion of the current scene
-  struct AppliedForce
-  {
-    ExternalForce force;
-    std::uint64_t end_step = 0;  // State::steps at which it stops acting; 0: until cleared
-  };
-  std::vector<AppliedForce> applied_;
-  std::map<int, Vec3> drags_;  // particle -> target [m]
-  struct DragUpdate
-  {
-    std::uint64_t scene_serial = 0;
-    int particle = 0;
-    Vec3 target = Vec3::Zero();
-    bool release = false;
-  };
-  std::mutex drag_mutex_;  // guards drag_inbox_ (any thread posts, the physics thread takes)
-  std::vector<DragUpdate> drag_inbox_;
-  std::atomic<bool> drag_inbox_dirty_{ false };
-  std::optional<AccuracyWindow> window_;
-  std::unique_ptr<ShadowReference> shadow_;  // made when ~accuracy_window is first on
-  std::shared_ptr<const AccuracyReport> accuracy_;
-  std::shared_ptr<const Points> reference_now_;  // the shadow at the current state, if compared
-  std::uint64_t windows_ = 0, skipped_windows_ = 0, abandoned_windows_ = 0;
-  double waiting_since_ = -1.0;  // sim time a window was due while the shadow was busy [s]
+  RegionSpec region_;            // sceneRegion of the current scene
+  Perturbations perturbations_;  // pushes and drags (perturbations.hpp)
+  AccuracyMonitor accuracy_;     // live accuracy windows (accuracy_monitor.hpp)
   bool behind_ = false, window_valid_ = false, snapshot_due_ = true;
 
   mutable std::mutex queue_mutex_;  // guards the queue and the wake-up

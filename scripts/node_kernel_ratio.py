@@ -1,0 +1,170 @@
+#!/usr/bin/python3
+"""The node's own step cost against the minimum-work kernel (issue 33, item 7), in the same minutes.
+
+For each size n, starts the simulator node on its own roscore with the peer chain (the `chain`
+scene, n particles, links of 0.1 m, 0.1 kg, pinned, released along +x; rk4 + projection at
+dt = 1 ms, every step check at the node's defaults) at --real-time-factor, then --rounds times:
+reads ~state.step_time (wall time per step over each batch, runner included) for --seconds while
+it runs; pauses it (~pause) and runs the kernel alone for --seconds
+(`bench_kernel --kernel-time n S`, bench/kernel_ratio.cpp, wall time per step too); resumes it.
+Prints per n the medians and the median of the rounds' ratios (node / kernel).
+Usage: node_kernel_ratio.py [--sizes N ...] [--seconds S] [--rounds R] [--real-time-factor F]
+                            [--workspace DIR] [--kernel PATH]
+Exit status: 0; 2 if a node died or never published, or no workspace, kernel or roscore.
+"""
+import argparse
+import os
+import shlex
+import statistics
+import subprocess
+import sys
+import threading
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+# the roscore, workspace and process handling node_rates.py already does (one copy)
+from node_rates import (machine, private_master, run, shut_down, start_roscore,  # noqa: E402
+                        stop, tail, wait_for_master)
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+NODE_NAME = "simulator"
+
+
+def parse_args():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 1000])
+    p.add_argument("--seconds", type=float, default=3.0, help="each node and kernel window [s]")
+    p.add_argument("--rounds", type=int, default=5, help="node/kernel window pairs per size")
+    p.add_argument("--warmup", type=float, default=3.0, help="after the first ~state [s]")
+    p.add_argument("--real-time-factor", type=float, default=100.0,
+                   help="the node's ~real_time_factor (100, the largest, steps as fast as it can "
+                        "at n = 1,000)")
+    p.add_argument("--workspace", default=os.path.join(ROOT, "build", "ws"))
+    p.add_argument("--kernel", default=None,
+                   help="bench_kernel (default: the workspace's, built by scripts/bench.sh)")
+    p.add_argument("--start-timeout", type=float, default=60.0)
+    a = p.parse_args()
+    if a.rounds < 1 or a.seconds <= 0 or any(n < 2 for n in a.sizes):
+        p.error("--rounds and --seconds must be positive, --sizes at least 2")
+    return a
+
+
+class StepTimes:
+    """~state.step_time of running states, written from rospy's receive thread."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.values = []
+        self.seen = 0
+
+    def on_state(self, msg):
+        with self.lock:
+            self.seen += 1
+            if msg.status == msg.STATUS_RUNNING and msg.step_time > 0.0:
+                self.values.append(msg.step_time)
+
+    def take(self):
+        with self.lock:
+            values, self.values = self.values, []
+            return values
+
+
+def kernel_step_time(kernel, n, seconds):
+    out = subprocess.run([kernel, "--kernel-time", str(n), f"{seconds:g}"], check=True,
+                         stdout=subprocess.PIPE, text=True).stdout
+    # "kernel n = 10: 7.037068e-07 s/step (...)"
+    return float(out.split(":", 1)[1].split()[0])
+
+
+def measure_size(n, args, env, times, log_dir):
+    import rospy
+    from std_srvs.srv import Empty
+
+    node = os.path.join(args.workspace, "devel", "lib", "constrained_particles", "simulator_node")
+    cmd = [node, f"__name:={NODE_NAME}", "_scenario:=chain", f"_chain/num_particles:={n}",
+           "_chain/link_length:=0.1", "_chain/particle_mass:=0.1", f"_max_particles:={n}",
+           f"_real_time_factor:={args.real_time_factor:g}", "_integrator:=rk4", "_stabilization:=projection",
+           "_dt:=0.001", "_accuracy_window:=0"]
+    log_path = os.path.join(log_dir, f"node_{n}.log")
+    with open(log_path, "w") as log:
+        proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT,
+                                stdin=subprocess.DEVNULL, start_new_session=True)
+    try:
+        deadline = time.monotonic() + args.start_timeout
+        while not times.take():
+            if proc.poll() is not None:
+                raise RuntimeError(f"node died (exit {proc.returncode}):\n{tail(log_path)}")
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"no running ~state within {args.start_timeout:g} s:\n"
+                                   f"{tail(log_path)}")
+            time.sleep(0.1)
+        pause = rospy.ServiceProxy(f"/{NODE_NAME}/pause", Empty)
+        unpause = rospy.ServiceProxy(f"/{NODE_NAME}/unpause", Empty)
+        time.sleep(args.warmup)
+        rounds = []
+        for _ in range(args.rounds):
+            times.take()
+            time.sleep(args.seconds)
+            node_values = times.take()
+            if proc.poll() is not None or not node_values:
+                raise RuntimeError(f"node died or stopped publishing:\n{tail(log_path)}")
+            pause()
+            kernel = kernel_step_time(args.kernel, n, args.seconds)
+            unpause()
+            node_time = statistics.median(node_values)
+            rounds.append((node_time, kernel, node_time / kernel))
+        return rounds
+    finally:
+        stop(proc)
+
+
+def main():
+    args = parse_args()
+    args.workspace = os.path.abspath(args.workspace)
+    if args.kernel is None:
+        args.kernel = os.path.join(args.workspace, "devel", "lib", "constrained_particles",
+                                   "bench_kernel")
+    if not os.access(args.kernel, os.X_OK):
+        raise RuntimeError(f"{args.kernel} not found: build it with CP_BUILD_BENCH=ON "
+                           "(scripts/bench.sh --kernel does) or pass --kernel")
+    port, master_uri, env, log_dir = private_master(args.workspace, "node_kernel_ratio")
+    roscore = None
+    failed = False
+    try:
+        roscore = start_roscore(port, env, log_dir)
+        failed = True  # until the master answers: keep the logs
+        wait_for_master(roscore, port, master_uri, log_dir, "/node_kernel_ratio")
+        failed = False
+        import rospy
+        from constrained_particles.msg import SimState
+
+        rospy.init_node("node_kernel_ratio", anonymous=True, disable_signals=True)
+        times = StepTimes()
+        rospy.Subscriber(f"/{NODE_NAME}/state", SimState, times.on_state, queue_size=None)
+        print("| n | node step_time [us] | kernel [us] | node / kernel (median of rounds) "
+              "| range |")
+        print("|---:|---:|---:|---:|---|")
+        for n in args.sizes:
+            print(f"measuring n = {n:,} ...", file=sys.stderr, flush=True)
+            try:
+                rounds = measure_size(n, args, env, times, log_dir)
+            except RuntimeError as e:
+                failed = True
+                print(f"n = {n}: {e}", file=sys.stderr)
+                continue
+            node = statistics.median(r[0] for r in rounds)
+            kernel = statistics.median(r[1] for r in rounds)
+            ratios = [r[2] for r in rounds]
+            print(f"| {n:,} | {node * 1e6:.3g} | {kernel * 1e6:.3g} | "
+                  f"{statistics.median(ratios):.2f} | {min(ratios):.2f} to {max(ratios):.2f} |",
+                  flush=True)
+        print(f"\n{args.rounds} rounds of {args.seconds:g} s node, {args.seconds:g} s kernel per "
+              f"size; machine: {machine()}; command: "
+              f"{shlex.join(['scripts/node_kernel_ratio.py'] + sys.argv[1:])}")
+        return 2 if failed else 0
+    finally:
+        shut_down(roscore, log_dir, failed, "node_kernel_ratio")
+
+
+if __name__ == "__main__":
+    run(main, "node_kernel_ratio", (RuntimeError, subprocess.CalledProcessError))

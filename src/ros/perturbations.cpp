@@ -1,0 +1,141 @@
+#include "constrained_particles/ros/perturbations.hpp"
+
+#include "constrained_particles/core/limits.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace constrained_particles
+{
+Perturbations::Outcome Perturbations::apply(long particle, const Vec3& force, double duration,
+                                            int num_particles, std::uint64_t steps, double time,
+                                            double dt, const std::string& scene)
+{
+  if (particle < 0 || particle >= num_particles)
+    throw InvalidInput("particle", "= " + std::to_string(particle) + ", must be in [0, " +
+                                       std::to_string(num_particles - 1) + "] (scene '" + scene +
+                                       "' has " + std::to_string(num_particles) + " particles)");
+  requireInRange("force", force, limits::FORCE);
+  requireInRange("duration", duration, limits::APPLIED_FORCE_DURATION);
+  if (applied_.size() >= MAX_APPLIED_FORCES)
+    return { false, "applied forces: " + std::to_string(applied_.size()) +
+                        " act already, the most at once; call ~clear_forces" };
+  // the steps that begin within `duration`: counted in steps, so round-off in the summed time
+  // cannot add or drop one (a duration within 1e-9 dt of N dt counts as N steps)
+  const auto count =
+      static_cast<std::uint64_t>(std::max(1.0, std::ceil(std::min(duration / dt, 1e15) - 1e-9)));
+  applied_.push_back(AppliedForce{ ExternalForce{ static_cast<int>(particle), force },
+                                   duration > 0.0 ? steps + count : 0 });
+  return { true, "force applied to particle " + std::to_string(particle) +
+                     (duration > 0.0
+                          ? " for " + std::to_string(count) + " steps (" + formatValue(duration) +
+                                " s) from t = " + formatValue(time) + " s"
+                          : std::string(" until ~clear_forces")) +
+                     " (" + std::to_string(applied_.size()) + " acting)" };
+}
+
+std::size_t Perturbations::clearApplied()
+{
+  const std::size_t count = applied_.size();
+  applied_.clear();
+  return count;
+}
+
+void Perturbations::clearAll()
+{
+  applied_.clear();
+  drags_.clear();
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  queue_.clear();
+  queued_ = false;
+}
+
+bool Perturbations::expire(std::uint64_t steps, std::uint64_t limit, std::uint64_t& next)
+{
+  const std::size_t before = applied_.size();
+  applied_.erase(
+      std::remove_if(applied_.begin(), applied_.end(),
+                     [&](const AppliedForce& a) { return a.end_step != 0 && a.end_step <= steps; }),
+      applied_.end());
+  next = limit;
+  for (const AppliedForce& a : applied_)
+    if (a.end_step != 0)
+      next = std::min(next, a.end_step - steps);
+  return applied_.size() != before;
+}
+
+void Perturbations::queue(const DragUpdate& update)
+{
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  queue_.push_back(update);
+  queued_ = true;
+}
+
+void Perturbations::queueDrag(std::uint64_t scene_serial, int particle, const Vec3& target)
+{
+  queue(DragUpdate{ scene_serial, particle, target, false });
+}
+
+void Perturbations::queueRelease(std::uint64_t scene_serial, int particle)
+{
+  queue(DragUpdate{ scene_serial, particle, Vec3::Zero(), true });
+}
+
+Perturbations::DragChange Perturbations::takeQueued(std::uint64_t scene_serial, int num_particles)
+{
+  if (!queued_)
+    return DragChange::None;
+  std::vector<DragUpdate> updates;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    updates.swap(queue_);
+    queued_ = false;
+  }
+  const std::size_t before = drags_.size();
+  bool changed = false;
+  for (const DragUpdate& u : updates)
+  {
+    // made for another scene (a marker rviz still held across a reset): not this one's particle
+    if (u.scene_serial != scene_serial && u.scene_serial != 0)
+      continue;
+    if (u.release)
+    {
+      changed |= u.particle < 0 ? !drags_.empty() : drags_.count(u.particle) > 0;
+      if (u.particle < 0)
+        drags_.clear();
+      else
+        drags_.erase(u.particle);
+    }
+    else if (u.particle >= 0 && u.particle < num_particles &&
+             limits::COORDINATE.contains(u.target.x()) &&
+             limits::COORDINATE.contains(u.target.y()) && limits::COORDINATE.contains(u.target.z()))
+    {
+      drags_[u.particle] = u.target;
+      changed = true;
+    }
+  }
+  if (!changed)
+    return DragChange::None;
+  return drags_.size() != before ? DragChange::Grabbed : DragChange::Targets;
+}
+
+std::vector<Force> Perturbations::forces(const std::vector<double>& masses, double dt) const
+{
+  std::vector<Force> forces;
+  forces.reserve(applied_.size() + drags_.size());
+  for (const AppliedForce& applied : applied_)
+    forces.push_back(applied.force);
+  for (const auto& [particle, target] : drags_)
+  {
+    const double m = masses[particle];
+    // critically damped (c = 2 m w) within the ranges a target spring takes: a heavy particle
+    // is pulled more slowly rather than refused
+    const double w =
+        std::min({ DRAG_FREQUENCY, DRAG_STEP_LIMIT / dt, limits::DAMPING.high / (2.0 * m),
+                   std::sqrt(limits::STIFFNESS.high / m) });
+    forces.push_back(TargetSpringForce{ particle, target, m * w * w, 2.0 * m * w });
+  }
+  return forces;
+}
+
+}  // namespace constrained_particles
