@@ -1,4 +1,5 @@
 #include "constrained_particles/ros/simulator_node.hpp"
+#include "constrained_particles/ros/state_message.hpp"
 
 #include "constrained_particles/Accuracy.h"
 #include "constrained_particles/SceneView.h"
@@ -395,73 +396,22 @@ void SimulatorNode::publish()
     SimState msg;
     msg.header = header;
     msg.scenario = snap->scene->name;
-    msg.sim_time = snap->state.time;
-    msg.steps = snap->state.steps;
     msg.positions = toPointMsgs(snap->state.positions);
     msg.velocities = toVectorMsgs(snap->state.velocities);
     msg.constraint_forces = toVectorMsgs(snap->constraint_forces);
     msg.multipliers.assign(snap->multipliers.data(),
                            snap->multipliers.data() + snap->multipliers.size());
-    msg.max_position_error = snap->diagnostics.max_position_error;
-    msg.max_velocity_error = snap->diagnostics.max_velocity_error;
-    msg.kinetic_energy = snap->diagnostics.kinetic_energy;
-    msg.potential_energy = snap->diagnostics.potential_energy;
-    msg.total_energy = snap->diagnostics.totalEnergy();
-    const EnergyLedger& ledger = snap->ledger;
-    msg.energy_t0 = ledger.t0;
-    msg.energy_scale = ledger.scale;
-    msg.energy_work_in = ledger.work_in;
-    msg.energy_dissipated = ledger.dissipated;
-    msg.energy_residual = ledger.residual();
+    msg.steps = snap->state.steps;
+    fillSnapshotFields(*snap, msg);
+    fillStatistics(statistics, msg);
     msg.energy_fallback = !snap->energy_fallback.empty();
     msg.forward_path = forwardPathName(snap->forward_path.path);
     msg.forward_path_reason = snap->forward_path.reason;
-    msg.step_time = snap->step_time;
-    msg.real_time_factor = snap->real_time_factor;
     msg.behind = snap->behind;
     msg.status = snap->faulted  ? SimState::STATUS_FAULT
                  : snap->paused ? SimState::STATUS_PAUSED
                                 : SimState::STATUS_RUNNING;
-    msg.status_message = snap->faulted    ? snap->fault_reason
-                         : snap->stepping ? "paused, running a ~step"
-                         : snap->paused   ? "paused"
-                         : snap->behind   ? "behind: cannot keep up with the real-time factor; "
-                                            "sim time slowed"
-                                          : "";
-    msg.interval_steps = static_cast<std::uint32_t>(statistics.steps);
-    msg.factorizations = static_cast<std::uint32_t>(statistics.solve.factorizations);
-    msg.reused_factorizations = static_cast<std::uint32_t>(statistics.solve.reused_factorizations);
-    msg.singular_solves = static_cast<std::uint32_t>(statistics.solve.singular_count);
-    msg.min_pivot_ratio = statistics.solve.min_pivot_ratio;
-    msg.solve_fallbacks = static_cast<std::uint32_t>(statistics.solve.fallbacks);
-    msg.projections = static_cast<std::uint32_t>(statistics.projection.projections);
-    msg.projection_iterations = static_cast<std::uint32_t>(statistics.projection.iterations);
-    msg.max_projection_iterations =
-        static_cast<std::uint32_t>(statistics.projection.max_iterations);
-    msg.projections_converged = statistics.projection.converged;
-    msg.internal_steps = static_cast<std::uint32_t>(statistics.internal_steps);
-    msg.rejected_internal_steps = static_cast<std::uint32_t>(statistics.rejected_internal_steps);
-    msg.forced_internal_steps = static_cast<std::uint32_t>(statistics.forced_internal_steps);
-    msg.substeps = static_cast<std::uint32_t>(statistics.substeps);
-    msg.max_substeps_per_step = static_cast<std::uint32_t>(statistics.max_substeps);
-    msg.rejected_steps = static_cast<std::uint32_t>(statistics.rejected_steps);
-    msg.stiff_steps = static_cast<std::uint32_t>(statistics.stiff_steps);
-    for (int k = 0; k < NUM_STEP_CHECKS; ++k)
-      if (statistics.rejections[k] > 0)
-      {
-        msg.rejection_checks.push_back(stepCheckName(static_cast<StepCheck>(k)));
-        msg.rejection_counts.push_back(static_cast<std::uint32_t>(statistics.rejections[k]));
-      }
-    // an estimate overflows only in degenerate geometry: shown as the largest double, not inf
-    msg.max_frequency = std::isfinite(statistics.max_frequency)
-                            ? statistics.max_frequency
-                            : std::numeric_limits<double>::max();
-    forEachEffectCount(statistics.effects,
-                       [&msg](const char* name, std::uint64_t count)
-                       {
-                         msg.effect_names.push_back(name);
-                         msg.effect_counts.push_back(count);
-                       });
+    msg.status_message = statusText(*snap);
     if (snap->accuracy)
     {
       msg.accuracy_window_end = snap->accuracy->window_start + snap->accuracy->window;
@@ -854,13 +804,11 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
                  : (snap->behind || singular || unconverged || waiting_for_clock || fallback)
                      ? diagnostic_msgs::DiagnosticStatus::WARN
                      : diagnostic_msgs::DiagnosticStatus::OK;
-  std::string message = snap->faulted  ? snap->fault_reason
-                        : snap->paused ? (snap->stepping ? "paused, running a ~step" : "paused")
-                                       : "running";
+  std::string message = statusText(*snap);
+  if (message.empty())
+    message = "running";
   if (!snap->faulted)
   {
-    if (snap->behind)
-      message += "; behind: cannot keep up with the real-time factor, sim time slowed";
     if (singular)
       message += "; " + std::to_string(statistics.solve.singular_count) +
                  " singular solves (regularised) in the last second";
@@ -884,53 +832,15 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   add("forward path",
       std::string(forwardPathName(snap->forward_path.path)) + ": " + snap->forward_path.reason);
   add("particles", std::to_string(snap->model->numParticles()));
-  add("sim_time [s]", formatValue(snap->state.time));
   add("steps", std::to_string(snap->state.steps));
-  add("max_position_error [m]", formatValue(snap->diagnostics.max_position_error));
-  add("max_velocity_error [m/s]", formatValue(snap->diagnostics.max_velocity_error));
+  addSnapshotFields(*snap, add);
   add("fault limit: max_constraint_error [m]", formatValue(p.max_constraint_error));
-  add("total_energy [J]", formatValue(snap->diagnostics.totalEnergy()));
-  add("energy ledger since t [s]", formatValue(snap->ledger.t0));
-  add("energy work in [J]", formatValue(snap->ledger.work_in));
-  add("energy dissipated [J]", formatValue(snap->ledger.dissipated));
-  add("energy residual [J]", formatValue(snap->ledger.residual()));
-  add("energy scale [J]", formatValue(snap->ledger.scale));
-  add("step_time [s]", formatValue(snap->step_time));
-  add("real_time_factor achieved", formatValue(snap->real_time_factor));
   add("real_time_factor wanted", formatValue(p.real_time_factor));
   add("integrator", p.step.integrator);
   add("stabilization", stabilizationName(p.step.stabilization));
-  add("steps in the last second", std::to_string(statistics.steps));
-  add("factorizations", std::to_string(statistics.solve.factorizations));
-  add("reused factorizations", std::to_string(statistics.solve.reused_factorizations));
-  add("singular solves", std::to_string(statistics.solve.singular_count));
-  add("min pivot ratio", formatValue(statistics.solve.min_pivot_ratio));
-  add("solve fallbacks", std::to_string(statistics.solve.fallbacks));
-  add("projections", std::to_string(statistics.projection.projections));
-  add("projection iterations", std::to_string(statistics.projection.iterations));
-  add("projections converged", statistics.projection.converged ? "yes" : "no");
-  add("internal steps", std::to_string(statistics.internal_steps));
-  add("rejected internal steps", std::to_string(statistics.rejected_internal_steps));
   add("max_substeps", std::to_string(p.step.max_substeps));
   add("energy_budget", formatValue(p.step.energy_budget));
-  add("sub-steps", std::to_string(statistics.substeps));
-  add("most sub-steps per step", std::to_string(statistics.max_substeps));
-  add("steps taken by fast_projection (stiff fallback)", std::to_string(statistics.stiff_steps));
-  std::string rejections;
-  for (int k = 0; k < NUM_STEP_CHECKS; ++k)
-    if (statistics.rejections[k] > 0)
-      rejections += (rejections.empty() ? "" : " ") +
-                    std::string(stepCheckName(static_cast<StepCheck>(k))) + ":" +
-                    std::to_string(statistics.rejections[k]);
-  add("steps retaken, by check", rejections.empty() ? "-" : rejections);
-  add("max_frequency estimate [rad/s]", formatValue(statistics.max_frequency));
-  std::string effects;
-  forEachEffectCount(statistics.effects,
-                     [&effects](const char* name, std::uint64_t count) {
-                       effects += (effects.empty() ? "" : " ") + std::string(name) + ":" +
-                                  std::to_string(count);
-                     });
-  add("effect evaluations", effects.empty() ? "-" : effects);
+  addStatistics(statistics, add);
   diagnostic_msgs::DiagnosticArray array;
   array.header.stamp = ros::Time::now();
   array.status.push_back(status);
@@ -940,13 +850,14 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
 void SimulatorNode::statusCallback(const ros::WallTimerEvent&)
 {
   const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
+  // the fault's reason is logged once in full (diagnosticsCallback): here only what to do
+  const std::string status = statusText(*snap);
+  const std::string tag = snap->faulted    ? "  [FAULT: call ~reset]"
+                          : status.empty() ? ""
+                                           : "  [" + status + "]";
   ROS_INFO("t = %8.3f s  energy = %.6f J  max error = %.2e m  step = %.1f us%s", snap->state.time,
            snap->diagnostics.totalEnergy(), snap->diagnostics.max_position_error,
-           1e6 * snap->step_time,
-           snap->faulted  ? "  [FAULT: call ~reset]"
-           : snap->paused ? "  [paused]"
-           : snap->behind ? "  [behind: sim time slowed]"
-                          : "");
+           1e6 * snap->step_time, tag.c_str());
 }
 
 }  // namespace constrained_particles

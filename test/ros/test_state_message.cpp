@@ -1,0 +1,140 @@
+// ~state and /diagnostics from one table (state_message.hpp): every figure reaches its SimState
+// field and its /diagnostics key with the same value, each key once, and the status reads the
+// same everywhere.
+#include "constrained_particles/ros/state_message.hpp"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <string>
+
+namespace constrained_particles
+{
+namespace
+{
+std::map<std::string, std::string> collect(const std::function<void(const AddKeyValue&)>& fill)
+{
+  std::map<std::string, std::string> entries;
+  fill(
+      [&entries](const std::string& key, const std::string& value)
+      {
+        EXPECT_EQ(entries.count(key), 0u) << "key written twice: " << key;
+        entries[key] = value;
+      });
+  return entries;
+}
+
+TEST(StateMessage, TheSnapshotsFiguresReachBothFieldAndKey)
+{
+  Snapshot snap;
+  snap.state.time = 1.25;
+  snap.diagnostics.max_position_error = 2e-9;
+  snap.diagnostics.max_velocity_error = 3e-8;
+  snap.diagnostics.kinetic_energy = 4.5;
+  snap.diagnostics.potential_energy = -1.5;
+  snap.ledger.t0 = 0.5;
+  snap.ledger.scale = 7.0;
+  snap.ledger.work_in = 0.25;
+  snap.ledger.dissipated = 0.125;
+  snap.ledger.kinetic = 4.5;
+  snap.ledger.potential = -1.5;
+  snap.ledger.initial_energy = 3.0;
+  snap.step_time = 1e-6;
+  snap.real_time_factor = 0.75;
+  SimState msg;
+  fillSnapshotFields(snap, msg);
+  EXPECT_EQ(msg.sim_time, 1.25);
+  EXPECT_EQ(msg.max_position_error, 2e-9);
+  EXPECT_EQ(msg.max_velocity_error, 3e-8);
+  EXPECT_EQ(msg.kinetic_energy, 4.5);
+  EXPECT_EQ(msg.potential_energy, -1.5);
+  EXPECT_EQ(msg.total_energy, 3.0);
+  EXPECT_EQ(msg.energy_t0, 0.5);
+  EXPECT_EQ(msg.energy_scale, 7.0);
+  EXPECT_EQ(msg.energy_work_in, 0.25);
+  EXPECT_EQ(msg.energy_dissipated, 0.125);
+  EXPECT_EQ(msg.energy_residual, snap.ledger.residual());
+  EXPECT_EQ(msg.step_time, 1e-6);
+  EXPECT_EQ(msg.real_time_factor, 0.75);
+  const auto entries = collect([&](const AddKeyValue& add) { addSnapshotFields(snap, add); });
+  EXPECT_EQ(entries.at("sim_time [s]"), formatValue(1.25));
+  EXPECT_EQ(entries.at("total_energy [J]"), formatValue(3.0));
+  EXPECT_EQ(entries.at("energy residual [J]"), formatValue(snap.ledger.residual()));
+  EXPECT_EQ(entries.at("real_time_factor achieved"), formatValue(0.75));
+  EXPECT_EQ(entries.size(), 13u);
+}
+
+TEST(StateMessage, EveryStatisticReachesItsFieldAndKey)
+{
+  StepStatistics s;
+  s.steps = 1;
+  s.solve.factorizations = 2;
+  s.solve.reused_factorizations = 3;
+  s.solve.singular_count = 4;
+  s.solve.fallbacks = 5;
+  s.projection.projections = 6;
+  s.projection.iterations = 7;
+  s.projection.max_iterations = 8;
+  s.internal_steps = 9;
+  s.rejected_internal_steps = 10;
+  s.forced_internal_steps = 11;
+  s.substeps = 12;
+  s.max_substeps = 13;
+  s.rejected_steps = 14;
+  s.stiff_steps = 15;
+  s.solve.min_pivot_ratio = 0.5;
+  s.max_frequency = std::numeric_limits<double>::infinity();
+  s.projection.converged = false;
+  s.rejections[static_cast<int>(StepCheck::EnergyRise)] = 2;
+  SimState msg;
+  fillStatistics(s, msg);
+  const std::uint32_t counts[] = { msg.interval_steps,
+                                   msg.factorizations,
+                                   msg.reused_factorizations,
+                                   msg.singular_solves,
+                                   msg.solve_fallbacks,
+                                   msg.projections,
+                                   msg.projection_iterations,
+                                   msg.max_projection_iterations,
+                                   msg.internal_steps,
+                                   msg.rejected_internal_steps,
+                                   msg.forced_internal_steps,
+                                   msg.substeps,
+                                   msg.max_substeps_per_step,
+                                   msg.rejected_steps,
+                                   msg.stiff_steps };
+  for (std::uint32_t k = 0; k < 15; ++k)
+    EXPECT_EQ(counts[k], k + 1) << "count field " << k;
+  EXPECT_EQ(msg.min_pivot_ratio, 0.5);
+  // never inf on a topic
+  EXPECT_EQ(msg.max_frequency, std::numeric_limits<double>::max());
+  EXPECT_FALSE(msg.projections_converged);
+  ASSERT_EQ(msg.rejection_checks.size(), 1u);
+  EXPECT_EQ(msg.rejection_checks[0], stepCheckName(StepCheck::EnergyRise));
+  EXPECT_EQ(msg.rejection_counts[0], 2u);
+  const auto entries = collect([&](const AddKeyValue& add) { addStatistics(s, add); });
+  EXPECT_EQ(entries.at("steps in the interval"), "1");
+  EXPECT_EQ(entries.at("steps taken by fast_projection (stiff fallback)"), "15");
+  EXPECT_EQ(entries.at("projections converged"), "no");
+  EXPECT_EQ(entries.at("steps retaken, by check"),
+            std::string(stepCheckName(StepCheck::EnergyRise)) + ":2");
+  EXPECT_EQ(entries.size(), 15u + 2u + 3u);
+}
+
+TEST(StateMessage, OneStatusWordingForEveryReader)
+{
+  Snapshot snap;
+  EXPECT_EQ(statusText(snap), "");
+  snap.behind = true;
+  EXPECT_NE(statusText(snap).find("behind"), std::string::npos);
+  snap.paused = true;
+  EXPECT_EQ(statusText(snap), "paused");
+  snap.stepping = true;
+  EXPECT_EQ(statusText(snap), "paused, running a ~step");
+  snap.faulted = true;
+  snap.fault_reason = "the state became non-finite";
+  EXPECT_EQ(statusText(snap), "the state became non-finite");
+}
+
+}  // namespace
+}  // namespace constrained_particles
