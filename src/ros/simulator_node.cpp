@@ -1,4 +1,5 @@
 #include "constrained_particles/ros/simulator_node.hpp"
+#include "constrained_particles/ros/reconfigure_mapping.hpp"
 #include "constrained_particles/ros/state_message.hpp"
 
 #include "constrained_particles/Accuracy.h"
@@ -27,32 +28,6 @@ namespace constrained_particles
 {
 namespace
 {
-SimulatorConfig configFrom(const NodeParameters& p, const SceneDescription& scene)
-{
-  // value-initialised: the generated group copy (c.groups) has fields, bool ones included, that
-  // no constructor sets, and copying an unset bool is undefined (UBSan stops the node on it)
-  SimulatorConfig c{};
-  c.dt = p.step.dt;
-  c.real_time_factor = p.real_time_factor;
-  c.publish_rate = p.publish_rate;
-  c.integrator = p.step.integrator;
-  c.stabilization = stabilizationName(p.step.stabilization);
-  c.baumgarte_frequency = p.step.baumgarte_frequency;
-  c.baumgarte_damping_ratio = p.step.baumgarte_damping_ratio;
-  c.adaptive_tolerance = p.step.adaptive_tolerance;
-  c.max_substeps = p.step.max_substeps;
-  c.energy_budget = p.step.energy_budget;
-  c.accuracy_window = p.accuracy_window;
-  c.tf_frames = p.tf_frames;
-  c.interactive = p.interactive;
-  const Vec3 gravity = sceneGravity(scene);
-  c.gravity_x = gravity.x();
-  c.gravity_y = gravity.y();
-  c.gravity_z = gravity.z();
-  c.damping = sceneDamping(scene);
-  return c;
-}
-
 template <typename Response>
 bool refuse(Response& response, const std::string& message)
 {
@@ -721,47 +696,7 @@ bool SimulatorNode::reconfigureCallback(const SimulatorConfig& shown,
   // by value: the runner may still hold the edit if this call gives up at shutdown
   const RunnerReply reply = runner_->reconfigure(
       [shown, requested](NodeParameters& candidate, const SceneDescription& scene)
-      {
-        // only what the request changed (NaN never equals itself: it is taken, then refused)
-        auto changed = [](const auto& a, const auto& b) { return !(a == b); };
-        const SimulatorConfig& r = requested;
-        if (changed(r.dt, shown.dt))
-          candidate.step.dt = r.dt;
-        if (changed(r.integrator, shown.integrator))
-          candidate.step.integrator = findIntegrator(r.integrator).name;
-        if (changed(r.stabilization, shown.stabilization))
-          candidate.step.stabilization = parseStabilization(r.stabilization);
-        if (changed(r.baumgarte_frequency, shown.baumgarte_frequency))
-          candidate.step.baumgarte_frequency = r.baumgarte_frequency;
-        if (changed(r.baumgarte_damping_ratio, shown.baumgarte_damping_ratio))
-          candidate.step.baumgarte_damping_ratio = r.baumgarte_damping_ratio;
-        if (changed(r.adaptive_tolerance, shown.adaptive_tolerance))
-          candidate.step.adaptive_tolerance = r.adaptive_tolerance;
-        if (changed(r.max_substeps, shown.max_substeps))
-          candidate.step.max_substeps = r.max_substeps;
-        if (changed(r.energy_budget, shown.energy_budget))
-          candidate.step.energy_budget = r.energy_budget;
-        if (changed(r.real_time_factor, shown.real_time_factor))
-          candidate.real_time_factor = r.real_time_factor;
-        if (changed(r.publish_rate, shown.publish_rate))
-          candidate.publish_rate = r.publish_rate;
-        if (changed(r.accuracy_window, shown.accuracy_window))
-          candidate.accuracy_window = r.accuracy_window;
-        if (changed(r.tf_frames, shown.tf_frames))
-          candidate.tf_frames = r.tf_frames;
-        if (changed(r.interactive, shown.interactive))
-          candidate.interactive = r.interactive;
-        if (changed(r.damping, shown.damping))
-          candidate.overrides.damping = r.damping;
-        Vec3 gravity = candidate.overrides.gravity.value_or(sceneGravity(scene));
-        const Vec3 asked(r.gravity_x, r.gravity_y, r.gravity_z);
-        const Vec3 seen(shown.gravity_x, shown.gravity_y, shown.gravity_z);
-        for (int k = 0; k < 3; ++k)
-          if (changed(asked[k], seen[k]))
-            gravity[k] = asked[k];
-        if (changed(gravity, sceneGravity(scene)))
-          candidate.overrides.gravity = gravity;
-      });
+      { applyChangedFields(shown, requested, scene, candidate); });
   if (!reply.success)
   {
     // named as dynparam names it: "~gravity.z" is gravity_z there, "~dt" is dt
