@@ -231,12 +231,17 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     if (!method.holds_constraints && settings_.stabilization == Stabilization::Projection)
     {
       // projectStep imposes the eliminated motion at `end` on both, before it reads either
-      projectStep(model, data, constrained_particles::forwardPath(model, settings_), end,
-                  x.positions, x.velocities, settings_.projection_tolerance,
-                  settings_.projection_max_iterations);
+      data.control.end_position_error =
+          projectStep(model, data, constrained_particles::forwardPath(model, settings_), end,
+                      x.positions, x.velocities, settings_.projection_tolerance,
+                      settings_.projection_max_iterations)
+              .max_position_error;
     }
     else
+    {
       imposeEliminated(model, data, end, &x.positions, &x.velocities);
+      data.control.end_position_error = -1.0;
+    }
     x.time = end;
     // one sweep for the finiteness and energy checks (the same values as three)
     const StepCheckSums sums =
@@ -524,6 +529,7 @@ void Simulator::acceptStep(const StepPlan& plan, const StepOutcome& outcome, Ste
   StepControl& control = data_->control;
   ++data_->state.steps;
   ++total.steps;
+  total.end_position_error = control.end_position_error;
   total.substeps += plan.substeps;
   total.max_substeps = std::max(total.max_substeps, plan.substeps);
   control.singular = outcome.singular;

@@ -69,6 +69,8 @@ void StepStatistics::merge(const StepStatistics& later)
     failed_check = later.failed_check;
   max_frequency = std::max(max_frequency, later.max_frequency);
   effects.add(later.effects);
+  if (later.steps > 0)  // the later batch's end is the merged one's
+    end_position_error = later.end_position_error;
 }
 
 const char* stepCheckName(StepCheck check)

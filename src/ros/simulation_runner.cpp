@@ -629,7 +629,7 @@ std::string SimulationRunner::checkFault(const State& state, const StepStatistic
   const StepSettings& step = parameters_.step;
   // the wording only where a check failed: this runs after every chunk
   if (chunk.failed_check == StepCheck::None)
-    return checkState(state);
+    return checkState(state, chunk);
   const std::string split =
       step.max_substeps > 1
           ? " even in ~max_substeps = " + std::to_string(step.max_substeps) + " sub-steps"
@@ -674,15 +674,18 @@ std::string SimulationRunner::checkFault(const State& state, const StepStatistic
     default:
       break;
   }
-  return checkState(state);
+  return checkState(state, chunk);
 }
 
-std::string SimulationRunner::checkState(const State& state) const
+std::string SimulationRunner::checkState(const State& state, const StepStatistics& chunk) const
 {
   if (!isFinite(state))
     return "the state became non-finite between t = " + formatValue(last_good_.time) +
            " s and t = " + formatValue(state.time) + " s";
-  const double error = simulator_->diagnostics().max_position_error;
+  // the step's own measure where its projection took one: no rows evaluated again per chunk
+  const double error = chunk.end_position_error >= 0.0
+                           ? chunk.end_position_error
+                           : simulator_->diagnostics().max_position_error;
   if (!(error <= parameters_.max_constraint_error))
     return "the constraint error reached " + formatValue(error) +
            " m at t = " + formatValue(state.time) +

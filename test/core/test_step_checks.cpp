@@ -210,3 +210,31 @@ TEST(StepCheckSums, TheKeptGravitySumIsTheSweptOne)
   damped.step(2);
   EXPECT_FALSE(damped.data().applied_forces_are_gravity);
 }
+
+// The step leaves the violation its last projection measured (StepStatistics::
+// end_position_error), so a reader need not evaluate every row again: the same figure as
+// diagnostics() on either path; -1 where no projection measured it.
+TEST(StepCheckSums, TheStepLeavesTheViolationItsProjectionMeasured)
+{
+  const Scene chain = constrained_particles::testing::pinnedChain(std::vector<double>(8, 0.1), 0.1);
+  const State start = constrained_particles::testing::horizontalStart(8);
+  for (const StagePaths paths : { StagePaths::Specialized, StagePaths::Generic })
+  {
+    StepSettings settings;
+    settings.projection_tolerance = 1e-4;  // loose: the error left is not 0
+    Simulator simulator(chain, start, settings, SolveMethod::Automatic, paths);
+    const StepStatistics statistics = simulator.step(50);
+    const double measured = simulator.diagnostics().max_position_error;
+    EXPECT_GT(measured, 0.0);
+    EXPECT_NEAR(statistics.end_position_error, measured, 1e-15 + 1e-12 * measured);
+  }
+  for (const char* integrator : { "rk4", "velocity_verlet" })
+  {
+    StepSettings settings;
+    settings.integrator = integrator;
+    if (std::string(integrator) == "rk4")
+      settings.stabilization = Stabilization::Baumgarte;
+    Simulator simulator(chain, start, settings);
+    EXPECT_EQ(simulator.step(10).end_position_error, -1.0) << integrator;
+  }
+}

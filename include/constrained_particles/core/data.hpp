@@ -58,7 +58,10 @@ struct StepControl
   /// The state the step being taken started from: its time only where no step is retaken
   /// (max_substeps = 1), the whole state otherwise.
   State start;
-  Eigen::VectorXd stiffness;         ///< the stability estimate's workspace (n) [N/m]
+  Eigen::VectorXd stiffness;  ///< the stability estimate's workspace (n) [N/m]
+  /// The largest violation at the last sub-step's end as its projection measured it [m]; -1
+  /// where no projection ran (another stabilisation, an integrator holding the constraints)
+  double end_position_error = -1.0;
   int rejection_substeps = 1;        ///< sub-steps the last rejection asked for; relaxes back
   int accepted_since_rejection = 0;  ///< steps accepted since it was last changed
   bool singular = false;             ///< the last accepted step had a singular solve

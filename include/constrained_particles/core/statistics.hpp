@@ -191,6 +191,11 @@ struct StepStatistics
   StepCheck failed_check = StepCheck::None;
   double max_frequency = 0;  ///< largest estimated omega_max [rad/s] (stability.hpp)
   EffectCounters effects;    ///< evaluations during the batch
+  /// The largest constraint violation at the batch's final state, as the last accepted step's
+  /// projection measured it [m] (what diagnostics() would find, without evaluating the rows
+  /// again); -1 where no projection measured it (another stabilisation, an integrator that
+  /// holds the constraints itself, no step accepted)
+  double end_position_error = -1.0;
 
   /// Takes in the statistics of a later batch, as if both had been one.
   void merge(const StepStatistics& later);

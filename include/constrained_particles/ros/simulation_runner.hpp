@@ -232,7 +232,7 @@ private:
   /// faultIn's reason before it says whether the energy budget's fallback had the run.
   std::string checkFault(const State& state, const StepStatistics& chunk) const;
   /// The checks of the state itself (finite, within ~max_constraint_error): why not, or empty.
-  std::string checkState(const State& state) const;
+  std::string checkState(const State& state, const StepStatistics& chunk) const;
   /// Stops stepping, puts back `good` and records why.
   void fault(const std::string& reason, const State& good);
   /// Ends a running ~step early (nothing if none runs).
