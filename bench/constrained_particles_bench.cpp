@@ -567,11 +567,11 @@ int scenes(const std::string& out, bool quick)
                            !findIntegrator(settings.integrator).holds_constraints;
     const Model& model = simulator.model();
     // a tree of links takes the fused tree stages (Model::fusedTree()); another tree solved by
-    // rows (Model::treeRows()) the generic stages with its own solve
+    // rows (Model::solvesTreeByRows()) the generic stages with its own solve
     const char* stages = evaluated && model.fusedChain() ? "fused"
                          : evaluated && model.fusedTree()
                              ? "fused tree"
-                             : (model.treeRows() ? "tree rows" : "generic");
+                             : (model.solvesTreeByRows() ? "tree rows" : "generic");
     // counts of exactly 100 further steps
     Simulator counted(built.scene, built.initial_state, settings, d.solver.solve_method);
     const EffectCounters before = counted.effectCounters();

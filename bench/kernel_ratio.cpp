@@ -8,10 +8,11 @@
 // fused chain stages, StagePaths::Generic) and at the node's default step settings (c/k: the
 // stability estimate, sub-step retakes and energy budget on). Writes kernel.csv into --out.
 // Usage: bench_kernel [--quick] [--out DIR]   (scripts/bench.sh --kernel runs it into docs/bench)
-//        bench_kernel --profile engine|generic|checked|kernel N STEPS   (steps only, for callgrind:
-//        twice with different STEPS and divide the difference in instructions by N times that in
-//        STEPS) bench_kernel --kernel-time N SECONDS   (the kernel's median wall time per step, for
-//        scripts/node_kernel_ratio.py)
+//        bench_kernel --profile engine|generic|checked|kernel N STEPS
+//          (steps only, for callgrind: twice with different STEPS and divide the difference in
+//          instructions by N times that in STEPS)
+//        bench_kernel --kernel-time N SECONDS
+//          (the kernel's median wall time per step, for scripts/node_kernel_ratio.py)
 #include "bench_common.hpp"
 #include "minimum_kernel.hpp"
 
@@ -124,6 +125,12 @@ int profile(const std::string& which, int n, int steps)
 // ~state.step_time, which is wall time too).
 int kernelTime(int n, double seconds)
 {
+  if (n < 2 || !(seconds > 0.0))
+  {
+    std::cerr << "--kernel-time takes N >= 2 particles and SECONDS > 0, not " << n << " and "
+              << seconds << "\n";
+    return 2;
+  }
   bench::PeerChain chain;
   chain.n = n;
   Pair pair = makePair(chain);

@@ -8,8 +8,8 @@ reads ~state.step_time (wall time per step over each batch, runner included) for
 it runs; pauses it (~pause) and runs the kernel alone for --seconds
 (`bench_kernel --kernel-time n S`, bench/kernel_ratio.cpp, wall time per step too); resumes it.
 Prints per n the medians and the median of the rounds' ratios (node / kernel).
-Usage: node_kernel_ratio.py [--sizes N ...] [--seconds S] [--rounds R] [--real-time-factor F]
-                            [--workspace DIR] [--kernel PATH]
+Usage: node_kernel_ratio.py [--sizes N ...] [--seconds S] [--rounds R] [--warmup S]
+                            [--real-time-factor F] [--workspace DIR] [--kernel PATH]
 Exit status: 0; 2 if a node died or never published, or no workspace, kernel or roscore.
 """
 import argparse
@@ -109,7 +109,10 @@ def measure_size(n, args, env, times, log_dir):
             if proc.poll() is not None or not node_values:
                 raise RuntimeError(f"node died or stopped publishing:\n{tail(log_path)}")
             pause()
-            kernel = kernel_step_time(args.kernel, n, args.seconds)
+            try:
+                kernel = kernel_step_time(args.kernel, n, args.seconds)
+            except subprocess.CalledProcessError as e:
+                raise RuntimeError(f"{args.kernel} failed (exit {e.returncode})")
             unpause()
             node_time = statistics.median(node_values)
             rounds.append((node_time, kernel, node_time / kernel))
@@ -167,4 +170,4 @@ def main():
 
 
 if __name__ == "__main__":
-    run(main, "node_kernel_ratio", (RuntimeError, subprocess.CalledProcessError))
+    run(main, "node_kernel_ratio")

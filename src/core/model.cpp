@@ -72,7 +72,7 @@ const char* forwardPathName(ForwardPath path)
 
 namespace
 {
-// Model::treeRows()'s structure: few rows on every free particle.
+// Model::solvesTreeByRows()'s structure: few rows on every free particle.
 bool fitsTreeRows(const Model& model)
 {
   const auto& start = model.incidenceStart();
@@ -120,8 +120,8 @@ void sweepSpans(const std::vector<Row>& rows, int n, std::vector<int>& lowest,
     }
 }
 
-// Model::treeRows()'s elimination order and cliques (its docs and TreeClique's): returns the
-// scalars the cliques' triangles take.
+// Model::solvesTreeByRows()'s elimination order and cliques (its docs and TreeClique's): returns
+// the scalars the cliques' triangles take.
 int planTreeElimination(const Model& model, std::vector<int>& order,
                         std::vector<TreePlace>& eliminated_in, std::vector<TreeClique>& cliques)
 {
@@ -186,7 +186,7 @@ int planTreeElimination(const Model& model, std::vector<int>& order,
     const int d = start[p + 1] - start[p];
     if (d < 2)
       continue;
-    assert(d <= TREE_ROWS_PER_PARTICLE);  // Model::treeRows()
+    assert(d <= TREE_ROWS_PER_PARTICLE);  // Model::solvesTreeByRows()
     TreeClique clique;
     clique.particle = p;
     clique.size = d;
@@ -211,13 +211,13 @@ int planTreeElimination(const Model& model, std::vector<int>& order,
 }
 
 // The fused tree stages' links (Model::fusedTree()) in treeOrder(), or none unless every row of
-// a treeRows() model is a link between particles not both held; `unlinked` gets the particles no
-// link touches.
+// a solvesTreeByRows() model is a link between particles not both held; `unlinked` gets the
+// particles no link touches.
 std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlinked,
                                     std::string& why_not)
 {
   const int m = model.numRows();
-  if (!model.treeRows() || m < 1)
+  if (!model.solvesTreeByRows() || m < 1)
     return {};
   const bool only_links = rowsOnlyOfKinds<LinkConstraint>(model);
   const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
@@ -447,7 +447,7 @@ PathChoice choosePathOf(const Model& model, StagePaths paths, const std::string&
     return { ForwardPath::Generic, "no constraint rows to solve" };
   if (model.solveMethod() == SolveMethod::Tridiagonal)
     return { ForwardPath::Generic, "a chain, but " + chain_why_not };
-  if (model.solveMethod() == SolveMethod::Tree && !model.treeRows())
+  if (model.solveMethod() == SolveMethod::Tree && !model.solvesTreeByRows())
     return { ForwardPath::Generic,
              "a tree with more than " + std::to_string(Model::TREE_ROWS_PER_PARTICLE) +
                  " rows on one particle (its solve eliminates particles, not rows)" };

@@ -55,7 +55,7 @@ void addEliminatedReactions(const Model& model, Data& data);
 /// diagonal and violation in data.rows), counters and report as the generic stages; a singular
 /// pivot hands the stage to them. At data.state.positions and the time its last fused projection
 /// factorised at (FusedWorkspace::factorization) it solves with that factorisation, counted as
-/// reused; every call clears that flag. Eliminated motion already imposed.
+/// reused; every call uses or discards it (used once). Eliminated motion already imposed.
 SolveReport chainForward(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, Points& accelerations);
 

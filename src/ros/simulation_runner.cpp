@@ -534,6 +534,7 @@ bool SimulationRunner::runBatch()
   }
   last_good_ = simulator_->state();
   std::uint64_t taken = 0;
+  bool out_of_time = false;  // the batch ran out of wall time with steps still due
   StepStatistics batch;
   while (taken < wanted && !faulted_)
   {
@@ -569,13 +570,18 @@ bool SimulationRunner::runBatch()
       last_good_ = simulator_->state();
       if (accuracy_.record(simulator_->state()))
       {
-        // the batch ends on a sample: its snapshot can carry the reference beside it
+        // the batch ends on a sample: its snapshot can carry the reference beside it; the
+        // steps still due are no loss, and the next batch takes them without waiting a period
         snapshot_due_ = true;
+        last_batch_start_ = Clock::time_point{};
         break;
       }
     }
     if (seconds(Clock::now() - start) >= BATCH_WALL_TIME || stopping_)
+    {
+      out_of_time = !stopping_;
       break;
+    }
   }
   // the last step's forces, once per batch (after a fault, fault() took them at the good state)
   if (!faulted_)
@@ -603,7 +609,7 @@ bool SimulationRunner::runBatch()
       finishStep(false, fault_reason_ + " (" + std::to_string(step_request_->taken) + " of " +
                             std::to_string(step_request_->wanted) + " steps kept)");
   }
-  else if (!faulted_ && taken < wanted)
+  else if (!faulted_ && out_of_time && taken < wanted)
   {
     // behind wall time: slow sim time down instead of building a backlog, and count the loss
     window_dropped_ += static_cast<double>(wanted - taken) * dt;

@@ -52,7 +52,7 @@ const RealField<Snapshot> SNAPSHOT_FIELDS[] = {
 };
 
 const CountField COUNT_FIELDS[] = {
-  { &SimState::interval_steps, "steps in the interval",
+  { &SimState::interval_steps, "steps in the last second",
     [](const StepStatistics& s) -> long { return s.steps; } },
   { &SimState::factorizations, "factorizations",
     [](const StepStatistics& s) -> long { return s.solve.factorizations; } },

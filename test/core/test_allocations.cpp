@@ -229,7 +229,7 @@ TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
   scenes.emplace_back("star of six", starOfSix());
   int checked = 0;
   // every tree path is covered: the fused stages (Model::fusedTree()), the generic stages with the
-  // solve by rows (Model::treeRows()), and with the solve by particles
+  // solve by rows (Model::solvesTreeByRows()), and with the solve by particles
   int fused = 0, by_rows = 0, by_particles = 0;
   for (const auto& [name, built] : scenes)
     for (const IntegratorInfo* integrator : integratorTable())
@@ -240,9 +240,9 @@ TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
                             settingsOf(integrator->name, stabilization));
         const SolveMethod method = simulator.model().solveMethod();
         if (method == SolveMethod::Tree)
-          (simulator.model().fusedTree()  ? fused
-           : simulator.model().treeRows() ? by_rows
-                                          : by_particles) += 1;
+          (simulator.model().fusedTree()          ? fused
+           : simulator.model().solvesTreeByRows() ? by_rows
+                                                  : by_particles) += 1;
         ASSERT_TRUE(method == SolveMethod::Single || method == SolveMethod::Tridiagonal ||
                     method == SolveMethod::Tree)
             << name;
@@ -290,7 +290,7 @@ TEST(Allocations, SparseStepsAllocateTheSameEveryStep)
     {
       const bool fallback = std::string(name) != "zigzag_chain";
       // the fallback is the particle elimination's (tree.cpp), which the generic paths keep; the
-      // row elimination (Model::treeRows()) needs none
+      // row elimination (Model::solvesTreeByRows()) needs none
       Simulator simulator(
           built.scene, built.initial_state, settingsOf(integrator->name, Stabilization::Projection),
           SolveMethod::Automatic, fallback ? StagePaths::Generic : StagePaths::Specialized);

@@ -59,7 +59,7 @@ struct Solved
 {
   Eigen::VectorXd multipliers;
   SolveReport report;
-  bool tree_rows = false;  // the tree solve eliminated rows (Model::treeRows())
+  bool tree_rows = false;  // the tree solve eliminated rows (Model::solvesTreeByRows())
 };
 
 Solved solve(const Scene& scene, SolveMethod method, const Points& p, const Points& v,
@@ -71,7 +71,7 @@ Solved solve(const Scene& scene, SolveMethod method, const Points& p, const Poin
   Solved s;
   s.report = computeAccelerations(model, data, p, v, a);
   s.multipliers = data.multipliers;
-  s.tree_rows = model.treeRows();
+  s.tree_rows = model.solvesTreeByRows();
   return s;
 }
 
@@ -259,8 +259,8 @@ TEST(SolveSelection, TreeSolveHandlesLargeStarsAndStaysFiniteWhenSingular)
   }
 }
 
-// The row elimination (Model::treeRows()) is taken where every free particle has at most four
-// rows and every row at most two free particles, on the specialised paths only; it solves what
+// The row elimination (Model::solvesTreeByRows()) is taken where every free particle has at most
+// four rows and every row at most two free particles, on the specialised paths only; it solves what
 // the particle elimination solves, singular systems (regularised alike) included.
 TEST(SolveSelection, TheTreeEliminatesRowsWhereParticlesHaveFewRows)
 {
@@ -285,9 +285,10 @@ TEST(SolveSelection, TheTreeEliminatesRowsWhereParticlesHaveFewRows)
   };
   Points p, v;
   Scene tree = binaryTree(63, p, v);
-  EXPECT_TRUE(Model::compile(tree).treeRows());
-  EXPECT_FALSE(Model::compile(tree, SolveMethod::Automatic, StagePaths::Generic).treeRows());
-  EXPECT_FALSE(Model::compile(tree, SolveMethod::Sparse).treeRows());
+  EXPECT_TRUE(Model::compile(tree).solvesTreeByRows());
+  EXPECT_FALSE(
+      Model::compile(tree, SolveMethod::Automatic, StagePaths::Generic).solvesTreeByRows());
+  EXPECT_FALSE(Model::compile(tree, SolveMethod::Sparse).solvesTreeByRows());
   const Solved rows = solve(tree, SolveMethod::Tree, p, v);
   const Solved particles = solve(tree, SolveMethod::Tree, p, v, StagePaths::Generic);
   ASSERT_TRUE(rows.tree_rows);
@@ -301,10 +302,10 @@ TEST(SolveSelection, TheTreeEliminatesRowsWhereParticlesHaveFewRows)
   tree.surfaces = { makeSurface(SurfaceType::Plane, { 0.0, 0.0, 0.0 }) };
   tree.constraints.push_back(SurfaceConstraint{ 1, 0 });
   tree.constraints.push_back(SurfaceConstraint{ 2, 0 });
-  EXPECT_TRUE(Model::compile(tree).treeRows());
+  EXPECT_TRUE(Model::compile(tree).solvesTreeByRows());
   // a fifth row on particle 1: its particles' elimination again
   tree.constraints.push_back(PointOnPlaneConstraint{ 1, Vec3(p.col(1)), Vec3(1.0, 0.0, 0.0) });
-  EXPECT_FALSE(Model::compile(tree).treeRows());
+  EXPECT_FALSE(Model::compile(tree).solvesTreeByRows());
   // singular: particle 2's link to the pinned root along a line with a second pinned particle
   Scene taut;
   taut.masses = { 1.0, 1.0, 1.0, 1.0 };

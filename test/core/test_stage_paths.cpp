@@ -46,13 +46,13 @@ bool expectSameMotion(const Scene& scene, const State& start, const StepSettings
   Simulator generic(scene, start, settings, method, StagePaths::Generic);
   EXPECT_FALSE(generic.model().fusedChain()) << what;
   EXPECT_FALSE(generic.model().fusedTree()) << what;
-  // the tree solve in row space (Model::treeRows()) sums in another order than the particle
+  // the tree solve in row space (Model::solvesTreeByRows()) sums in another order than the particle
   // elimination: the same motion to rounding (1e-12 m and 1e-11 m/s, plus as much again per metre
   // moved: a tree falling freely for a second is 5 m away), pivot ratios of another
   // matrix, and no sparse fallback where the particle elimination breaks down
-  const bool exact = !fused.model().treeRows();
+  const bool exact = !fused.model().solvesTreeByRows();
   long generic_fallbacks = 0;
-  EXPECT_FALSE(generic.model().treeRows()) << what;
+  EXPECT_FALSE(generic.model().solvesTreeByRows()) << what;
   // the motion's size, so that agreement means the same motion and not two chains at rest
   double moved = 0.0;
   long reused = 0;
@@ -205,8 +205,8 @@ TEST(StagePaths, EveryShippedSceneMovesTheSameBothWays)
 
 // Random trees with at most three children a particle, some particles on a plane, the root
 // pinned or free: the fused tree stages (Model::fusedTree(), trees of links) and the row
-// elimination (Model::treeRows()) move them as the particle elimination does, to 1e-12 over 1,000
-// steps, with the same counters.
+// elimination (Model::solvesTreeByRows()) move them as the particle elimination does, to 1e-12 over
+// 1,000 steps, with the same counters.
 TEST(StagePaths, RandomTreesMoveTheSameBothWays)
 {
   std::mt19937 random(20261203);
@@ -264,7 +264,7 @@ TEST(StagePaths, RandomTreesMoveTheSameBothWays)
     settings.dt = 1e-3;
     const std::string what = "random tree " + std::to_string(c) + " (" + settings.integrator + ")";
     const Simulator probe(scene, start, settings);
-    EXPECT_TRUE(probe.model().treeRows()) << what;
+    EXPECT_TRUE(probe.model().solvesTreeByRows()) << what;
     EXPECT_EQ(probe.model().fusedTree(), scene.surfaces.empty()) << what;
     ++(probe.model().fusedTree() ? fused : solved_by_rows);
     double moved = 0.0;
@@ -294,7 +294,7 @@ TEST(StagePaths, RandomTreesMoveTheSameBothWays)
   Simulator by_rows(taut, start, settings);
   Simulator by_particles(taut, start, settings, SolveMethod::Automatic, StagePaths::Generic);
   ASSERT_TRUE(by_rows.model().fusedTree());  // its singular pivots go to the solve by rows
-  ASSERT_FALSE(by_particles.model().treeRows());
+  ASSERT_FALSE(by_particles.model().solvesTreeByRows());
   long singular_rows = 0, singular_particles = 0;
   for (int done = 0; done < 1000; done += 100)
   {
@@ -733,7 +733,7 @@ ProjectionReport expectSameProjection(const Scene& scene, const State& start, do
   const Model fused_model = Model::compile(scene);
   const Model generic_model = Model::compile(scene, SolveMethod::Automatic, StagePaths::Generic);
   EXPECT_TRUE(fused_model.fusedChain() || fused_model.fusedTree()) << what;
-  EXPECT_FALSE(generic_model.fusedChain() || generic_model.treeRows()) << what;
+  EXPECT_FALSE(generic_model.fusedChain() || generic_model.solvesTreeByRows()) << what;
   Data fused(fused_model), generic(generic_model);
   for (Data* data : { &fused, &generic })
   {

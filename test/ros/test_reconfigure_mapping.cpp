@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <iterator>
 #include <cmath>
 #include <set>
 
@@ -76,6 +77,49 @@ TEST(ReconfigureMapping, AChangedValueReachesItsFieldAndNothingElseMoves)
   applyChangedFields(shown, shown, scene, untouched);
   EXPECT_EQ(untouched.step.dt, 0.005);
   EXPECT_FALSE(untouched.overrides.gravity.has_value());
+}
+
+// One field at a time: each reaches its own field and no other.
+TEST(ReconfigureMapping, EachFieldAloneReachesOnlyItself)
+{
+  const SceneDescription scene = chainScene();
+  const NodeParameters before;
+  const SimulatorConfig shown = configFrom(before, scene);
+  struct Case
+  {
+    const char* name;
+    void (*change)(NodeParameters&);
+  };
+  const Case cases[] = {
+    { "dt", [](NodeParameters& p) { p.step.dt = 0.003; } },
+    { "integrator", [](NodeParameters& p) { p.step.integrator = "dopri5"; } },
+    { "stabilization", [](NodeParameters& p) { p.step.stabilization = Stabilization::None; } },
+    { "baumgarte_frequency", [](NodeParameters& p) { p.step.baumgarte_frequency = 3.0; } },
+    { "baumgarte_damping_ratio", [](NodeParameters& p) { p.step.baumgarte_damping_ratio = 0.7; } },
+    { "adaptive_tolerance", [](NodeParameters& p) { p.step.adaptive_tolerance = 1e-5; } },
+    { "max_substeps", [](NodeParameters& p) { p.step.max_substeps = 8; } },
+    { "energy_budget", [](NodeParameters& p) { p.step.energy_budget = 0.2; } },
+    { "real_time_factor", [](NodeParameters& p) { p.real_time_factor = 3.0; } },
+    { "publish_rate", [](NodeParameters& p) { p.publish_rate = 12.0; } },
+    { "accuracy_window", [](NodeParameters& p) { p.accuracy_window = 2.0; } },
+    { "tf_frames", [](NodeParameters& p) { p.tf_frames = 7; } },
+    { "interactive", [](NodeParameters& p) { p.interactive = !p.interactive; } },
+  };
+  EXPECT_EQ(std::size(cases), reconfigurableFields().size());
+  for (const Case& c : cases)
+  {
+    NodeParameters expected = before;
+    c.change(expected);
+    NodeParameters candidate = before;
+    applyChangedFields(shown, configFrom(expected, scene), scene, candidate);
+    EXPECT_EQ(candidate.step, expected.step) << c.name;
+    EXPECT_EQ(candidate.real_time_factor, expected.real_time_factor) << c.name;
+    EXPECT_EQ(candidate.publish_rate, expected.publish_rate) << c.name;
+    EXPECT_EQ(candidate.accuracy_window, expected.accuracy_window) << c.name;
+    EXPECT_EQ(candidate.tf_frames, expected.tf_frames) << c.name;
+    EXPECT_EQ(candidate.interactive, expected.interactive) << c.name;
+    EXPECT_FALSE(candidate.overrides.gravity.has_value()) << c.name;
+  }
 }
 
 TEST(ReconfigureMapping, AnUnknownIntegratorIsRefusedNamingTheField)

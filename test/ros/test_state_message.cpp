@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <map>
 #include <string>
 
@@ -113,12 +114,21 @@ TEST(StateMessage, EveryStatisticReachesItsFieldAndKey)
   EXPECT_EQ(msg.rejection_checks[0], stepCheckName(StepCheck::EnergyRise));
   EXPECT_EQ(msg.rejection_counts[0], 2u);
   const auto entries = collect([&](const AddKeyValue& add) { addStatistics(s, add); });
-  EXPECT_EQ(entries.at("steps in the interval"), "1");
+  EXPECT_EQ(entries.at("steps in the last second"), "1");
   EXPECT_EQ(entries.at("steps taken by fast_projection (stiff fallback)"), "15");
   EXPECT_EQ(entries.at("projections converged"), "no");
   EXPECT_EQ(entries.at("steps retaken, by check"),
             std::string(stepCheckName(StepCheck::EnergyRise)) + ":2");
   EXPECT_EQ(entries.size(), 15u + 2u + 3u);
+}
+
+TEST(StateMessage, ACountBeyondSimStatesRangeIsSaturatedNotWrapped)
+{
+  StepStatistics s;
+  s.steps = (1L << 32) + 5;
+  SimState msg;
+  fillStatistics(s, msg);
+  EXPECT_EQ(msg.interval_steps, std::numeric_limits<std::uint32_t>::max());
 }
 
 TEST(StateMessage, OneStatusWordingForEveryReader)

@@ -189,10 +189,10 @@ public:
   /// Rows at the last evaluated stage; after a fused chain's forward stage or projection
   /// (chain_stages.cpp) only a surface row's C, Jdot v, diagonal and violation, and (after a
   /// projection) max_violation are of that stage (the fused stages keep their Jacobian in
-  /// chain_jacobian or tree_jacobian; a fused tree's forward stage writes none of the rows, its
-  /// projection max_violation only); the rest
-  /// is of the last evaluation that stored it (a generic stage or projection, SHAKE, a generic
-  /// fallback). Read what a fused stage did not store through evaluateRowRecords.
+  /// fused.chain_jacobian or fused.tree_jacobian; a fused tree's forward stage writes none of the
+  /// rows, its projection max_violation only); the rest is of the last evaluation that stored it (a
+  /// generic stage or projection, SHAKE, a generic fallback). Read what a fused stage did not store
+  /// through evaluateRowRecords.
   RowData rows;
   RowData trial_rows;     ///< rows at SHAKE's trial positions
   Points applied_forces;  ///< f at the last stage [N] (3 x n)
@@ -217,7 +217,7 @@ public:
   std::vector<ImposedMotion> imposed;  ///< each eliminated record's motion at the stage's time (e)
   Eigen::VectorXd multipliers;         ///< lambda (m), then each eliminated reaction [N] (3 e)
   /// Right-hand side, then solution, of a solve (m); the fused projections solve in place in
-  /// it and chain_velocity_rhs, so after one it holds the last check's forward-substituted C
+  /// it and fused.velocity_rhs, so after one it holds the last check's forward-substituted C
   /// (the fused tree stages by place in Model::treeOrder(), not by row).
   Eigen::VectorXd rhs;
   /// The fused stages' own buffers (ForwardPath::FusedChain, FusedTree): their Jacobian layout

@@ -24,7 +24,8 @@ enum class FieldKind
   Surface,    ///< an index into Scene::surfaces (a name in scene files)
   Vector,     ///< three doubles, each inside the range
   Direction,  ///< three doubles, each inside the range, not all zero
-  Name,       ///< one of a table of names (an integrator, a stabilisation), or a flag
+  Name,       ///< a name: one of a table (an integrator, a stabilisation), a frame, a path
+  Flag,       ///< true or false
 };
 
 /// One field of an effect record: `record.*member`.

@@ -3,8 +3,11 @@
 /// "Which path a scene takes").
 #pragma once
 
+#include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/core/model.hpp"
 #include "constrained_particles/core/settings.hpp"
+
+#include <string>
 
 namespace constrained_particles
 {
@@ -17,15 +20,24 @@ inline ForwardPath forwardPath(const Model& model, const StepSettings& settings)
                                                             : model.path().path;
 }
 
-/// forwardPath() with its reason, for the start-up log, ~state and /diagnostics.
+/// The path the steps take, with its reason, for the start-up log, ~state and /diagnostics:
+/// forwardPath(), but generic for an integrator that holds the constraints itself (velocity
+/// Verlet, fast projection: SHAKE/RATTLE or a projection on the generic rows; only the forces
+/// reported once per batch take forwardPath()).
 inline PathChoice choosePath(const Model& model, const StepSettings& settings)
 {
-  if (forwardPath(model, settings) == model.path().path)
+  if (model.path().path == ForwardPath::Generic)
     return model.path();
-  return { ForwardPath::Generic,
-           "stabilization = baumgarte: its bias needs the generic rows' "
-           "J v and C (else " +
-               std::string(forwardPathName(model.path().path)) + ": " + model.path().reason + ")" };
+  const std::string otherwise = " (else " + std::string(forwardPathName(model.path().path)) + ": " +
+                                model.path().reason + ")";
+  if (findIntegrator(settings.integrator).holds_constraints)
+    return { ForwardPath::Generic, "integrator = " + settings.integrator +
+                                       " holds the constraints itself, on the generic rows" +
+                                       otherwise };
+  if (forwardPath(model, settings) == ForwardPath::Generic)
+    return { ForwardPath::Generic,
+             "stabilization = baumgarte: its bias needs the generic rows' J v and C" + otherwise };
+  return model.path();
 }
 
 }  // namespace constrained_particles

@@ -24,7 +24,7 @@ enum class SolveMethod
   Single,       ///< one row: the closed form lambda = b / (J W J^T), no matrix
   Tree,         ///< O(n) block elimination of the particle-row graph, leaves first, when it
                 ///< has no cycle (branched chains, stars, several chains); Baraff 1996. Where
-                ///< every particle has few rows, LDL^T of J W J^T's rows (Model::treeRows())
+         ///< every particle has few rows, LDL^T of J W J^T's rows (Model::solvesTreeByRows())
 };
 
 /// Number of SolveMethod values.
@@ -135,7 +135,7 @@ struct ChainRow
 static_assert(sizeof(ChainRow) <= 56, "ChainRow's fields are ordered to pack into 56 bytes");
 
 /// Rows on one free particle beyond which the dense block of those rows (d^2 / 2 entries) costs
-/// more than the particle elimination's 3 x 3 inverse (Model::treeRows()).
+/// more than the particle elimination's 3 x 3 inverse (Model::solvesTreeByRows()).
 constexpr int TREE_ROWS_PER_PARTICLE = 4;
 
 /// The rows on one free particle with two or more rows, in a tree's elimination order
@@ -310,27 +310,27 @@ public:
   /// saddle-point matrix's particles (tree.cpp): StagePaths::Specialized and at most
   /// TREE_ROWS_PER_PARTICLE rows on any free particle. Both solve the same system (a singular
   /// one regularised alike); their rounding, and the pivot ratios they report, differ.
-  bool treeRows() const
+  bool solvesTreeByRows() const
   {
     return tree_rows_;
   }
-  /// treeRows(): every row, each after the rows below it (rooted at a free particle of each
+  /// solvesTreeByRows(): every row, each after the rows below it (rooted at a free particle of each
   /// tree, breadth-first, reversed); rows touching no free particle last. m.
   const std::vector<int>& treeOrder() const
   {
     return tree_order_;
   }
-  /// treeRows(): per place in treeOrder(), the clique the row is eliminated in. m.
+  /// solvesTreeByRows(): per place in treeOrder(), the clique the row is eliminated in. m.
   const std::vector<TreePlace>& treeEliminatedIn() const
   {
     return tree_eliminated_in_;
   }
-  /// treeRows(): one clique per free particle with two or more rows.
+  /// solvesTreeByRows(): one clique per free particle with two or more rows.
   const std::vector<TreeClique>& treeCliques() const
   {
     return tree_cliques_;
   }
-  /// treeRows(): the scalars the cliques' packed triangles take.
+  /// solvesTreeByRows(): the scalars the cliques' packed triangles take.
   int treeCliqueEntries() const
   {
     return tree_clique_entries_;
@@ -341,7 +341,7 @@ public:
   {
     return path_;
   }
-  /// True if path() is ForwardPath::FusedTree: treeRows() and every row a link.
+  /// True if path() is ForwardPath::FusedTree: solvesTreeByRows() and every row a link.
   bool fusedTree() const
   {
     return path_.path == ForwardPath::FusedTree;
@@ -409,7 +409,7 @@ private:
   std::vector<RowIncidence> incidence_;
   SolveMethod method_ = SolveMethod::None;
   bool tree_rows_ = false;
-  std::vector<int> tree_order_;  // treeRows(): the elimination order and its cliques
+  std::vector<int> tree_order_;  // solvesTreeByRows(): the elimination order and its cliques
   std::vector<TreePlace> tree_eliminated_in_;
   std::vector<TreeClique> tree_cliques_;
   int tree_clique_entries_ = 0;

@@ -84,10 +84,15 @@ public:
   {
     return *model_;
   }
-  /// The stage path the steps take under the current settings, and why (forward_path.hpp).
+  /// The stage path the steps take under the current settings, and why (forward_path.hpp); the
+  /// energy budget's fallback, while it holds the run, is the stiff-safe method's.
   PathChoice forwardPath() const
   {
-    return choosePath(*model_, settings_);
+    if (!data_->control.budget_fallback)
+      return choosePath(*model_, settings_);
+    StepSettings fallback = settings_;
+    fallback.integrator = STIFF_FALLBACK;
+    return choosePath(*model_, fallback);
   }
   /// Rows, forces, multipliers and buffers of the last evaluation (after the fused chain stages
   /// only part of `rows` is of it: Data::rows says which).

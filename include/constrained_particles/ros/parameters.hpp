@@ -88,9 +88,9 @@ struct NodeParameters
               "parent frame of every particle frame"),
         field("frame_prefix", &NodeParameters::frame_prefix, FieldKind::Name, nullptr,
               "child frames are <frame_prefix><i>"),
-        field("publish_clock", &NodeParameters::publish_clock, FieldKind::Name, nullptr,
+        field("publish_clock", &NodeParameters::publish_clock, FieldKind::Flag, nullptr,
               "publish /clock from sim time"),
-        field("interactive", &NodeParameters::interactive, FieldKind::Name, nullptr,
+        field("interactive", &NodeParameters::interactive, FieldKind::Flag, nullptr,
               "grab-and-drag interactive markers on ~grab"));
   }
 };

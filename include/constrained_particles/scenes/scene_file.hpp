@@ -63,9 +63,9 @@ struct ChainSpec
               "every particle's initial velocity"),
         field("angular_velocity", &ChainSpec::angular_velocity, FieldKind::Vector,
               &limits::ANGULAR_VELOCITY, "spin about the chain's centre, unpinned chains"),
-        field("pin_first", &ChainSpec::pin_first, FieldKind::Name, nullptr,
+        field("pin_first", &ChainSpec::pin_first, FieldKind::Flag, nullptr,
               "pin the first particle where it starts"),
-        field("pin_last", &ChainSpec::pin_last, FieldKind::Name, nullptr,
+        field("pin_last", &ChainSpec::pin_last, FieldKind::Flag, nullptr,
               "pin the last particle where it starts"),
         field("surface", &ChainSpec::surface, FieldKind::Surface, nullptr,
               "the first particle slides on this surface"));

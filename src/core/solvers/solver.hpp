@@ -104,7 +104,7 @@ std::unique_ptr<ConstraintSolver> makeSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeSingleRowSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeTridiagonalSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeTreeSolver(const Model& model);
-/// The tree solve in row space (tree_rows.cpp) if Model::treeRows(), else nullptr.
+/// The tree solve in row space (tree_rows.cpp) if Model::solvesTreeByRows(), else nullptr.
 std::unique_ptr<ConstraintSolver> makeTreeRowSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeSparseSolver(const Model& model);
 std::unique_ptr<ConstraintSolver> makeDenseSolver(const Model& model);

@@ -5,9 +5,9 @@
 // (they share that particle). So there is no fill, and a particle with d rows costs O(d^2)
 // scalars, where tree.cpp inverts a 3 x 3 block per particle (the same elimination on the
 // saddle-point matrix, which stays O(n) on a star too: this one takes over only while every
-// particle has at most four rows, and only on StagePaths::Specialized: Model::treeRows()). J W J^T
-// is positive semi-definite, so pivots without pivoting only shrink towards zero, which is how
-// singular systems show (as in tridiagonal.cpp, its one-parent special case).
+// particle has at most four rows, and only on StagePaths::Specialized: Model::solvesTreeByRows()).
+// J W J^T is positive semi-definite, so pivots without pivoting only shrink towards zero, which is
+// how singular systems show (as in tridiagonal.cpp, its one-parent special case).
 #include "solver.hpp"
 
 #include <vector>
@@ -157,7 +157,7 @@ void TreeRowSolver::solveInPlace(Eigen::VectorXd& b) const
 
 std::unique_ptr<ConstraintSolver> makeTreeRowSolver(const Model& model)
 {
-  if (!model.treeRows())
+  if (!model.solvesTreeByRows())
     return nullptr;
   return std::make_unique<TreeRowSolver>(model);
 }
