@@ -4,9 +4,10 @@
 For each size n, starts the simulator node on its own roscore with the peer chain (the `chain`
 scene, n particles, links of 0.1 m, 0.1 kg, pinned, released along +x; rk4 + projection at
 dt = 1 ms, every step check at the node's defaults) at --real-time-factor, then --rounds times:
-reads ~state.step_time (wall time per step over each batch, runner included) for --seconds while
-it runs; pauses it (~pause) and runs the kernel alone for --seconds
-(`bench_kernel --kernel-time n S`, bench/kernel_ratio.cpp, wall time per step too); resumes it.
+reads ~state.step_time (wall time per step over each batch, runner included; from /diagnostics,
+which carries it once a second and costs the node nothing to read) for --seconds while it runs;
+pauses it (~pause) and runs the kernel alone for --seconds (`bench_kernel --kernel-time n S`,
+bench/kernel_ratio.cpp, wall time per step too); resumes it.
 Prints per n the medians and the median of the rounds' ratios (node / kernel).
 Usage: node_kernel_ratio.py [--sizes N ...] [--seconds S] [--rounds R] [--warmup S]
                             [--real-time-factor F] [--workspace DIR] [--kernel PATH]
@@ -33,7 +34,7 @@ NODE_NAME = "simulator"
 def parse_args():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 1000])
-    p.add_argument("--seconds", type=float, default=3.0, help="each node and kernel window [s]")
+    p.add_argument("--seconds", type=float, default=5.0, help="each node and kernel window [s]")
     p.add_argument("--rounds", type=int, default=5, help="node/kernel window pairs per size")
     p.add_argument("--warmup", type=float, default=3.0, help="after the first ~state [s]")
     p.add_argument("--real-time-factor", type=float, default=100.0,
@@ -50,18 +51,26 @@ def parse_args():
 
 
 class StepTimes:
-    """~state.step_time of running states, written from rospy's receive thread."""
+    """~state.step_time as /diagnostics carries it (1 Hz, a few hundred bytes: reading ~state
+    would deserialise every position 30 times a second beside the node being measured), from
+    rospy's receive thread; only while the node runs (not paused or faulted)."""
 
     def __init__(self):
         self.lock = threading.Lock()
         self.values = []
-        self.seen = 0
 
-    def on_state(self, msg):
-        with self.lock:
-            self.seen += 1
-            if msg.status == msg.STATUS_RUNNING and msg.step_time > 0.0:
-                self.values.append(msg.step_time)
+    def on_diagnostics(self, msg):
+        for status in msg.status:
+            if status.name != f"/{NODE_NAME}: physics" or status.message.startswith("paused"):
+                continue
+            values = {kv.key: kv.value for kv in status.values}
+            try:
+                step_time = float(values["step_time [s]"])
+            except (KeyError, ValueError):
+                continue
+            if step_time > 0.0 and status.level < status.ERROR:
+                with self.lock:
+                    self.values.append(step_time)
 
     def take(self):
         with self.lock:
@@ -139,11 +148,11 @@ def main():
         wait_for_master(roscore, port, master_uri, log_dir, "/node_kernel_ratio")
         failed = False
         import rospy
-        from constrained_particles.msg import SimState
+        from diagnostic_msgs.msg import DiagnosticArray
 
         rospy.init_node("node_kernel_ratio", anonymous=True, disable_signals=True)
         times = StepTimes()
-        rospy.Subscriber(f"/{NODE_NAME}/state", SimState, times.on_state, queue_size=None)
+        rospy.Subscriber("/diagnostics", DiagnosticArray, times.on_diagnostics, queue_size=None)
         print("| n | node step_time [us] | kernel [us] | node / kernel (median of rounds) "
               "| range |")
         print("|---:|---:|---:|---:|---|")
