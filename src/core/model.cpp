@@ -378,24 +378,19 @@ std::vector<ChainRow> findChainRows(const Model& model, std::vector<int>& unlink
     const int r = block_row[block];
     return surface_of[r] >= 0 || block == row_start[r] ? 1.0 : -1.0;
   };
-  const auto& start = model.incidenceStart();
-  const auto& incidence = model.incidence();
-  for (int i = 0; i < model.numParticles(); ++i)
-    if (start[i + 1] - start[i] == 2)
+  for (const SharedParticle& shared : sharedParticles(model))
+  {
+    ChainRow& row = rows[shared.later.row];
+    if (row.coupling >= 0)
     {
-      RowIncidence a = incidence[start[i]], b = incidence[start[i] + 1];
-      if (a.row > b.row)
-        std::swap(a, b);
-      ChainRow& row = rows[b.row];
-      if (row.coupling >= 0)
-      {
-        why_not = "two links between the same two particles (the generic solve sums them)";
-        return {};
-      }
-      row.coupling = i;
-      // multiplying by -1 is exact, so the signs give the same sum
-      row.w_coupling_signed = sign(a.block) * sign(b.block) * w[i];
+      why_not = "two links between the same two particles (the generic solve sums them)";
+      return {};
     }
+    row.coupling = shared.particle;
+    // multiplying by -1 is exact, so the signs give the same sum
+    row.w_coupling_signed =
+        sign(shared.earlier.block) * sign(shared.later.block) * w[shared.particle];
+  }
   std::vector<int> lowest, highest;
   sweepSpans(rows, model.numParticles(), lowest, highest);
   for (int k = 0; k < m; ++k)
@@ -612,6 +607,22 @@ void Model::addToKindTable(const Constraint& constraint, int index, int first_ro
             .push_back(KindRecord<Kind>{ record, index, first_row, first_block });
       },
       constraint);
+}
+
+std::vector<SharedParticle> sharedParticles(const Model& model)
+{
+  std::vector<SharedParticle> shared;
+  const auto& start = model.incidenceStart();
+  const auto& incidence = model.incidence();
+  for (int i = 0; i < model.numParticles(); ++i)
+    if (start[i + 1] - start[i] == 2)
+    {
+      RowIncidence a = incidence[start[i]], b = incidence[start[i] + 1];
+      if (a.row > b.row)
+        std::swap(a, b);
+      shared.push_back(SharedParticle{ i, a, b });
+    }
+  return shared;
 }
 
 bool isTridiagonal(const Model& model)

@@ -24,7 +24,7 @@ enum class SolveMethod
   Single,       ///< one row: the closed form lambda = b / (J W J^T), no matrix
   Tree,         ///< O(n) block elimination of the particle-row graph, leaves first, when it
                 ///< has no cycle (branched chains, stars, several chains); Baraff 1996. Where
-         ///< every particle has few rows, LDL^T of J W J^T's rows (Model::solvesTreeByRows())
+  ///< every particle has few rows, LDL^T of J W J^T's rows (Model::solvesTreeByRows())
 };
 
 /// Number of SolveMethod values.
@@ -421,6 +421,16 @@ private:
   std::vector<int> chain_surface_records_;
   PathChoice path_;
 };
+
+/// A free particle exactly two rows touch (in a chain, what couples a row to the next): the
+/// particle and its touches by the earlier and the later row.
+struct SharedParticle
+{
+  int particle;
+  RowIncidence earlier, later;
+};
+/// Every free particle exactly two rows touch, in particle order (Model::incidence()).
+std::vector<SharedParticle> sharedParticles(const Model& model);
 
 /// True if rows touching each free particle are at most two and adjacent, so J W J^T is
 /// tridiagonal in row order.

@@ -20,16 +20,9 @@ public:
     inverse_pivots_.setZero(m);
     lower_.setZero(std::max(m - 1, 0));
     // a free particle shared by rows r and r + 1 couples them
-    const auto& start = model.incidenceStart();
-    const auto& incidence = model.incidence();
-    for (int i = 0; i < model.numParticles(); ++i)
-      if (start[i + 1] - start[i] == 2)
-      {
-        RowIncidence a = incidence[start[i]], b = incidence[start[i] + 1];
-        if (a.row > b.row)
-          std::swap(a, b);
-        couplings_.push_back(Coupling{ i, a.row, a.block, b.block });
-      }
+    for (const SharedParticle& shared : sharedParticles(model))
+      couplings_.push_back(Coupling{ shared.particle, shared.earlier.row, shared.earlier.block,
+                                     shared.later.block });
     std::stable_sort(couplings_.begin(), couplings_.end(),
                      [](const Coupling& x, const Coupling& y) { return x.upper < y.upper; });
     // rows k - 1 and k share couplings_[coupling_start_[k - 1] .. coupling_start_[k])
