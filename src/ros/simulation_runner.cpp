@@ -33,32 +33,18 @@ RunnerReply accepted(const std::string& message)
   return reply;
 }
 
-/// @throws InvalidInput naming `field` if `scene` has more particles than `max_particles`
-void requireAtMost(const SceneDescription& scene, int max_particles, const std::string& field)
-{
-  if (scene.numParticles() > max_particles)
-    throw InvalidInput(field,
-                       "gives scene '" + scene.name + "' " + std::to_string(scene.numParticles()) +
-                           " particles, over ~max_particles = " + std::to_string(max_particles));
-}
-
 }  // namespace
 
 SimulationRunner::SimulationRunner(const NodeParameters& parameters, const SceneDescription& scene)
-  : parameters_(parameters)
+  : parameters_(parameters), session_(parameters, scene)
 {
-  chosen_step_.values = parameters.step;
-  chosen_step_.given = parameters.step_given;
   // start-up overrides are already in `scene`; kept, a reconfigure would carry them to other scenes
   parameters_.overrides = SceneOverrides{};
-  requireAtMost(scene, parameters_.max_particles, "~scenario");
-  const StepSettings settings = settingsFor(scene);
-  const BuiltScene built = buildScene(scene);
-  simulator_ = std::make_unique<Simulator>(built.scene, built.initial_state, settings,
-                                           scene.solver.solve_method);
-  parameters_.step = settings;
-  scene_ = std::make_shared<const SceneDescription>(scene);
-  region_ = sceneRegion(scene, built.initial_state);
+  const SceneSession::Candidate first = session_.initial();
+  simulator_ = std::make_unique<Simulator>(first.built.scene, first.built.initial_state,
+                                           first.settings, scene.solver.solve_method);
+  parameters_.step = first.settings;
+  session_.adopt(first.description, first.built.initial_state);
   model_copy_ = std::make_shared<const Model>(simulator_->model());
   simulator_->constraintForces(forces_, multipliers_);
   makeSnapshot();
@@ -149,17 +135,8 @@ RunnerReply SimulationRunner::reset(const std::string& scenario)
   return submit(
       [this, scenario]
       {
-        if (scenario.empty())
-        {
-          rebuild(*scene_, parameters_.step);
-        }
-        else
-        {
-          const SceneDescription description =
-              loadSceneFile(resolveScene(scenario, parameters_.scene_directory, "scenario"));
-          rebuild(description, settingsFor(description));
-        }
-        return accepted("reset to scene '" + scene_->name + "' (" +
+        apply(session_.forReset(scenario, parameters_.step));
+        return accepted("reset to scene '" + session_.scene()->name + "' (" +
                         std::to_string(simulator_->model().numParticles()) + " particles, solve " +
                         solveMethodName(simulator_->model().solveMethod()) + "; " +
                         parameters_.step.integrator + " + " +
@@ -174,10 +151,8 @@ RunnerReply SimulationRunner::changeScene(const std::function<void(SceneDescript
   return submit(
       [this, edit, what]
       {
-        SceneDescription changed = *scene_;
-        edit(changed);
-        rebuild(changed, parameters_.step);
-        return accepted(what + "; scene '" + scene_->name + "' reset (" +
+        apply(session_.forChange(edit, parameters_.step));
+        return accepted(what + "; scene '" + session_.scene()->name + "' reset (" +
                         std::to_string(simulator_->model().numParticles()) + " particles)");
       });
 }
@@ -287,39 +262,29 @@ RunnerReply SimulationRunner::reconfigure(
       [this, edit]
       {
         NodeParameters candidate = parameters_;
-        edit(candidate, *scene_);
+        const SceneDescription& scene = *session_.scene();
+        edit(candidate, scene);
         validateNodeParameters(candidate);
         simulator_->setStepSettings(candidate.step);
         // new forces recompile the model (and restart dopri5's step control): only on a change
-        const Vec3 gravity = candidate.overrides.gravity.value_or(sceneGravity(*scene_));
-        const double damping = candidate.overrides.damping.value_or(sceneDamping(*scene_));
-        if (gravity != sceneGravity(*scene_) || damping != sceneDamping(*scene_))
+        if (const std::optional<SceneDescription> changed = session_.withGravityAndDamping(
+                candidate.overrides.gravity.value_or(sceneGravity(scene)),
+                candidate.overrides.damping.value_or(sceneDamping(scene))))
         {
-          SceneDescription changed = *scene_;
-          setGravityAndDamping(changed, gravity, damping);
           try
           {
-            simulator_->setForces(changed.forces);
+            simulator_->setForces(changed->forces);
           }
           catch (const InvalidInput&)
           {
             simulator_->setStepSettings(parameters_.step);
             throw;
           }
-          scene_ = std::make_shared<const SceneDescription>(changed);
+          session_.adoptForces(*changed);
           model_copy_ = std::make_shared<const Model>(simulator_->model());
-          ++scene_serial_;
         }
         // a step setting changed here is the user's choice from now on, for every scene
-        forEachField<StepSettings>(
-            [&](const auto& spec)
-            {
-              if (candidate.step.*(spec.member) != parameters_.step.*(spec.member) &&
-                  std::find(chosen_step_.given.begin(), chosen_step_.given.end(), spec.name) ==
-                      chosen_step_.given.end())
-                chosen_step_.given.push_back(spec.name);
-            });
-        chosen_step_.values = candidate.step;
+        session_.chooseStep(parameters_.step, candidate.step);
         // gravity and damping are now the current scene's (kept by ~reset ''): not overrides that
         // a later reconfigure would bring back into another scene
         candidate.overrides.gravity.reset();
@@ -342,9 +307,9 @@ RunnerReply SimulationRunner::applyForce(long particle, const Vec3& force, doubl
       [this, particle, force, duration]
       {
         const State& now = simulator_->state();
-        const Perturbations::Outcome outcome =
-            perturbations_.apply(particle, force, duration, simulator_->model().numParticles(),
-                                 now.steps, now.time, simulator_->stepSettings().dt, scene_->name);
+        const Perturbations::Outcome outcome = perturbations_.apply(
+            particle, force, duration, simulator_->model().numParticles(), now.steps, now.time,
+            simulator_->stepSettings().dt, session_.scene()->name);
         if (!outcome.accepted)
           return refused(outcome.message);
         updatePerturbations();
@@ -385,7 +350,7 @@ void SimulationRunner::release(std::uint64_t scene_serial, int particle)
 void SimulationRunner::applyDragInbox()
 {
   const Perturbations::DragChange change =
-      perturbations_.takeQueued(scene_serial_, simulator_->model().numParticles());
+      perturbations_.takeQueued(session_.serial(), simulator_->model().numParticles());
   if (change == Perturbations::DragChange::None)
     return;
   updatePerturbations();
@@ -733,17 +698,16 @@ void SimulationRunner::finishStep(bool success, const std::string& message)
   promise->set_value(reply);
 }
 
-void SimulationRunner::rebuild(const SceneDescription& description, const StepSettings& settings)
+void SimulationRunner::apply(const SceneSession::Candidate& candidate)
 {
-  requireAtMost(description, parameters_.max_particles, "num_particles");
-  const BuiltScene built = buildScene(description);
   const double time_before = simulator_->state().time;
   // settings first: if the scene is refused, put them back
   const StepSettings saved = simulator_->stepSettings();
-  simulator_->setStepSettings(settings);
+  simulator_->setStepSettings(candidate.settings);
   try
   {
-    simulator_->setScene(built.scene, built.initial_state, description.solver.solve_method);
+    simulator_->setScene(candidate.built.scene, candidate.built.initial_state,
+                         candidate.description.solver.solve_method);
   }
   catch (const InvalidInput&)
   {
@@ -753,15 +717,13 @@ void SimulationRunner::rebuild(const SceneDescription& description, const StepSe
   abandonWindow();
   // the new Data holds no perturbations: pushes and drags end with the scene they acted on
   perturbations_.clearAll();
-  region_ = sceneRegion(description, built.initial_state);
+  session_.adopt(candidate.description, candidate.built.initial_state);
   // the clock runs on across the reset: stamps never go back (see Snapshot::stamp)
   clock_base_ += time_before + TIME_JUMP;
-  parameters_.step = settings;
-  scene_ = std::make_shared<const SceneDescription>(description);
+  parameters_.step = candidate.settings;
   faulted_ = false;
   fault_reason_.clear();
   model_copy_ = std::make_shared<const Model>(simulator_->model());
-  ++scene_serial_;
   simulator_->constraintForces(forces_, multipliers_);
   step_time_estimate_ = 0;
   last_chunk_ = 1;
@@ -769,12 +731,6 @@ void SimulationRunner::rebuild(const SceneDescription& description, const StepSe
   reanchor();
   // last: its snapshot must show the new scene whole (model, forces, frames and clock together)
   interruptStep("a reset or scene change");
-}
-
-StepSettings SimulationRunner::settingsFor(const SceneDescription& scene) const
-{
-  // defaults, then the scene's own, then the user's: nothing carries over from the last scene
-  return chosen_step_.applyTo(scene.solver.applyTo(StepSettings{}));
 }
 
 void SimulationRunner::reanchor()
@@ -807,9 +763,9 @@ void SimulationRunner::makeSnapshot()
 {
   auto s = std::make_shared<Snapshot>();
   s->serial = ++snapshot_serial_;
-  s->scene_serial = scene_serial_;
+  s->scene_serial = session_.serial();
   s->model = model_copy_;
-  s->scene = scene_;
+  s->scene = session_.scene();
   s->parameters = parameters_;
   s->state = simulator_->state();
   s->constraint_forces = forces_;
@@ -838,7 +794,7 @@ void SimulationRunner::makeSnapshot()
   s->reference_positions = accuracy_.referenceNow();
   s->skipped_windows =
       accuracy_.skippedWindows(simulator_->state().time, parameters_.accuracy_window);
-  s->region = region_;
+  s->region = session_.region();
   s->applied_forces = static_cast<std::uint32_t>(perturbations_.appliedCount());
   s->dragged_particles = static_cast<std::uint32_t>(perturbations_.draggedCount());
   {
@@ -862,8 +818,8 @@ void SimulationRunner::updateAccuracy()
   // pushed or dragged, the live state follows forces the shadow does not feel: no window opens
   const bool stepping = !faulted_ && (!paused_ || step_request_) && perturbations_.empty();
   if (accuracy_.update(simulator_->state(), stepping, parameters_.step, parameters_.accuracy_window,
-                       parameters_.publish_rate, simulator_->model().numParticles(), scene_,
-                       clock_base_))
+                       parameters_.publish_rate, simulator_->model().numParticles(),
+                       session_.scene(), clock_base_))
     snapshot_due_ = true;
 }
 

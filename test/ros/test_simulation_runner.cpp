@@ -3,6 +3,7 @@
 // statistics handed to each reader once. Deadlines are wall-clock and generous: they bound a
 // wait for something that must happen, they do not time anything.
 #include "constrained_particles/ros/simulation_runner.hpp"
+#include "scene_fixtures.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,18 +18,8 @@ namespace
 {
 using namespace std::chrono_literals;
 
-SceneDescription scene(const std::string& name)
-{
-  return loadSceneFile(std::string(SCENES_DIR) + "/" + name + ".yaml");
-}
-
-NodeParameters parametersFor(const std::string& scenario)
-{
-  NodeParameters p;
-  p.scenario = scenario;
-  p.scene_directory = SCENES_DIR;
-  return p;
-}
+using fixtures::parametersFor;
+using fixtures::scene;
 
 SceneDescription chainOf(int n)
 {

@@ -10,6 +10,7 @@
 #include "constrained_particles/ros/accuracy_monitor.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 #include "constrained_particles/ros/perturbations.hpp"
+#include "constrained_particles/ros/scene_session.hpp"
 #include "constrained_particles/ros/shadow_reference.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
@@ -238,11 +239,9 @@ private:
   /// Ends a running ~step early (nothing if none runs).
   void interruptStep(const std::string& by);
   void finishStep(bool success, const std::string& message);
-  /// Rebuilds from `description` with `settings` (which become current) and resets.
-  /// @throws InvalidInput; nothing changes
-  void rebuild(const SceneDescription& description, const StepSettings& settings);
-  /// The defaults, then the scene's `solver` section, then the step settings the user chose.
-  StepSettings settingsFor(const SceneDescription& scene) const;
+  /// Runs `candidate` (SceneSession) from its start, its settings current.
+  /// @throws InvalidInput if the simulator refuses it; nothing changes
+  void apply(const SceneSession::Candidate& candidate);
   /// Restarts wall-time pacing from the current sim time.
   void reanchor();
   void updateRate(Clock::time_point now);
@@ -254,11 +253,10 @@ private:
 
   // owned by the physics thread once started (the constructor and stop() before it)
   NodeParameters parameters_;
-  SolverSpec chosen_step_;  // the user's step settings: over every scene's own
+  SceneSession session_;  // the scene and the user's step settings (scene_session.hpp)
   std::unique_ptr<Simulator> simulator_;
   std::shared_ptr<const Model> model_copy_;
-  std::shared_ptr<const SceneDescription> scene_;
-  std::uint64_t scene_serial_ = 1, snapshot_serial_ = 0;  // 0: none yet, for readers
+  std::uint64_t snapshot_serial_ = 0;  // 0: none yet, for readers
   bool paused_ = false, faulted_ = false;
   std::string fault_reason_;
   std::optional<StepRequest> step_request_;
@@ -272,7 +270,6 @@ private:
   Clock::time_point anchor_wall_, window_wall_, last_snapshot_wall_;
   double anchor_sim_ = 0, window_sim_ = 0, window_dropped_ = 0, achieved_rtf_ = 0;
   BehindMonitor behind_monitor_;
-  RegionSpec region_;            // sceneRegion of the current scene
   Perturbations perturbations_;  // pushes and drags (perturbations.hpp)
   AccuracyMonitor accuracy_;     // live accuracy windows (accuracy_monitor.hpp)
   bool behind_ = false, window_valid_ = false, snapshot_due_ = true;

@@ -1,0 +1,94 @@
+/// @file scene_session.hpp
+/// @brief The scene a node runs and the step settings its user chose over every scene's own:
+/// what ~reset, ~set_surface, ~set_chain and a gravity or damping reconfigure start from. It
+/// checks a scene request whole (scene file, particle limit, the scene's own build) before anything
+/// changes, and hands the runner a candidate to apply; the runner makes it current only once the
+/// simulator took it. Needs no ROS master.
+#pragma once
+
+#include "constrained_particles/ros/parameters.hpp"
+#include "constrained_particles/scenes/scene_file.hpp"
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace constrained_particles
+{
+/// One session of scenes on one node.
+class SceneSession
+{
+public:
+  /// A scene ready to run, not yet current: its description, the settings it runs under and
+  /// its compiled form.
+  struct Candidate
+  {
+    SceneDescription description;
+    StepSettings settings;
+    BuiltScene built;
+  };
+
+  /// Starts with `scene` (start-up overrides already in it; adopt it once the simulator took
+  /// initial()) and the step settings the user gave (parameters.step, parameters.step_given).
+  /// @throws InvalidInput naming `~scenario` if `scene` has over parameters.max_particles
+  SceneSession(const NodeParameters& parameters, const SceneDescription& scene);
+
+  /// The first scene, built, under settingsFor(it).
+  Candidate initial() const;
+  /// ~reset: the current scene under `current` settings (`scenario` empty), else the scene file
+  /// `scenario` (a name in ~scene_directory or a path) under its own settings, the user's over
+  /// them.
+  /// @throws InvalidInput naming `scenario` or the file's field; nothing changes
+  Candidate forReset(const std::string& scenario, const StepSettings& current) const;
+  /// ~set_surface, ~set_chain: the current scene changed by `edit` (which throws InvalidInput to
+  /// refuse), under `current` settings.
+  /// @throws InvalidInput; nothing changes
+  Candidate forChange(const std::function<void(SceneDescription&)>& edit,
+                      const StepSettings& current) const;
+  /// The current scene with `gravity` [m/s^2] and `damping` [1/s] in place of its own, or none
+  /// if both are already the scene's.
+  std::optional<SceneDescription> withGravityAndDamping(const Vec3& gravity, double damping) const;
+
+  /// Makes `description` current, with its region of interest from `initial_state`; one more
+  /// serial (frames and markers are published again).
+  void adopt(const SceneDescription& description, const State& initial_state);
+  /// Makes `description` (the current scene with other forces) current; the region stays.
+  void adoptForces(const SceneDescription& description);
+  /// A reconfigure moved the step settings from `before` to `after`: each field it changed is
+  /// the user's choice from now on, for every scene.
+  void chooseStep(const StepSettings& before, const StepSettings& after);
+
+  /// The defaults, then `scene`'s `solver` section, then the step settings the user chose.
+  StepSettings settingsFor(const SceneDescription& scene) const;
+  /// The current scene (never null).
+  const std::shared_ptr<const SceneDescription>& scene() const
+  {
+    return scene_;
+  }
+  /// One more per scene adopted (Snapshot::scene_serial): 1 for the first.
+  std::uint64_t serial() const
+  {
+    return serial_;
+  }
+  /// sceneRegion of the current scene at its start.
+  const RegionSpec& region() const
+  {
+    return region_;
+  }
+
+private:
+  /// @throws InvalidInput naming `field` if `description` is over ~max_particles
+  void requireAtMost(const SceneDescription& description, const std::string& field) const;
+  Candidate build(const SceneDescription& description, const StepSettings& settings) const;
+
+  int max_particles_;
+  std::string scene_directory_;
+  SolverSpec chosen_step_;  // the user's step settings: over every scene's own
+  std::shared_ptr<const SceneDescription> scene_;
+  std::uint64_t serial_ = 0;  // none adopted yet
+  RegionSpec region_;
+};
+
+}  // namespace constrained_particles

@@ -1,0 +1,117 @@
+// The scene session without a runner: which settings a reset or a scene change runs under, what
+// the user chose carrying over to every scene, and refused requests changing nothing.
+#include "constrained_particles/ros/scene_session.hpp"
+#include "scene_fixtures.hpp"
+
+#include <gtest/gtest.h>
+
+namespace constrained_particles
+{
+namespace
+{
+using fixtures::parametersFor;
+using fixtures::scene;
+
+TEST(SceneSession, TheFirstSceneIsAdoptedWithSerialOneAndItsRegion)
+{
+  SceneSession session(parametersFor("chain"), scene("chain"));
+  EXPECT_EQ(session.serial(), 0u);
+  const SceneSession::Candidate first = session.initial();
+  EXPECT_EQ(first.built.initial_state.positions.cols(), scene("chain").numParticles());
+  session.adopt(first.description, first.built.initial_state);
+  EXPECT_EQ(session.serial(), 1u);
+  EXPECT_EQ(session.scene()->name, "chain");
+  const RegionSpec region = sceneRegion(first.description, first.built.initial_state);
+  EXPECT_EQ(session.region().low, region.low);
+  EXPECT_EQ(session.region().high, region.high);
+}
+
+TEST(SceneSession, AResetToAnotherSceneRunsItsOwnSettingsUnderTheUsersOnly)
+{
+  NodeParameters parameters = parametersFor("chain");
+  parameters.step.dt = 0.004;
+  parameters.step_given = { "dt" };
+  SceneSession session(parameters, scene("chain"));
+  StepSettings current = session.initial().settings;
+  ASSERT_EQ(current.dt, 0.004);
+  current.projection_tolerance = 1e-7;  // in force now, not chosen by the user
+  // pinned_pendulum's file says velocity_verlet; the user's dt stands over its 0.001
+  const SceneSession::Candidate other = session.forReset("pinned_pendulum", current);
+  EXPECT_EQ(other.description.name, "pinned_pendulum");
+  EXPECT_EQ(other.settings.integrator, "velocity_verlet");
+  EXPECT_EQ(other.settings.dt, 0.004);
+  EXPECT_EQ(other.settings.projection_tolerance, StepSettings{}.projection_tolerance);
+  // the current scene again keeps every setting in force
+  const SceneSession::Candidate again = session.forReset("", current);
+  EXPECT_EQ(again.description.name, "chain");
+  EXPECT_EQ(again.settings.projection_tolerance, 1e-7);
+}
+
+TEST(SceneSession, AStepSettingAReconfigureChangedIsTheUsersForEveryScene)
+{
+  SceneSession session(parametersFor("chain"), scene("chain"));
+  const StepSettings before = session.initial().settings;
+  StepSettings after = before;
+  after.integrator = "semi_implicit_euler";
+  session.chooseStep(before, after);
+  EXPECT_EQ(session.settingsFor(scene("pinned_pendulum")).integrator, "semi_implicit_euler");
+  // a field left alone still comes from each scene's own section
+  EXPECT_EQ(session.settingsFor(scene("pinned_pendulum")).dt, 0.001);
+}
+
+TEST(SceneSession, ARefusedRequestNamesItsFieldAndChangesNothing)
+{
+  NodeParameters parameters = parametersFor("chain");
+  parameters.max_particles = scene("chain").numParticles();
+  SceneSession session(parameters, scene("chain"));
+  const SceneSession::Candidate first = session.initial();
+  session.adopt(first.description, first.built.initial_state);
+  ChainChange longer;
+  longer.num_particles = parameters.max_particles + 1;
+  longer.link_length = 0.1;
+  longer.particle_mass = 0.1;
+  try
+  {
+    session.forChange([&](SceneDescription& d) { setChains(d, longer); }, first.settings);
+    FAIL() << "a chain over ~max_particles was accepted";
+  }
+  catch (const InvalidInput& e)
+  {
+    EXPECT_EQ(e.field(), "num_particles");
+    EXPECT_NE(std::string(e.what()).find("~max_particles"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(session.forReset("no_such_scene", first.settings), InvalidInput);
+  EXPECT_EQ(session.serial(), 1u);
+  EXPECT_EQ(session.scene()->numParticles(), parameters.max_particles);
+  SceneDescription over = scene("chain");
+  setChains(over, longer);
+  try
+  {
+    SceneSession refused(parameters, over);
+    FAIL() << "a first scene over ~max_particles was accepted";
+  }
+  catch (const InvalidInput& e)
+  {
+    EXPECT_EQ(e.field(), "~scenario");
+  }
+}
+
+TEST(SceneSession, GravityAndDampingChangeOnlyWhenTheyDiffer)
+{
+  SceneSession session(parametersFor("chain"), scene("chain"));
+  const SceneSession::Candidate first = session.initial();
+  session.adopt(first.description, first.built.initial_state);
+  const Vec3 gravity = sceneGravity(*session.scene());
+  EXPECT_FALSE(session.withGravityAndDamping(gravity, sceneDamping(*session.scene())));
+  const std::optional<SceneDescription> moon =
+      session.withGravityAndDamping(Vec3(0, 0, -1.62), 0.5);
+  ASSERT_TRUE(moon);
+  EXPECT_EQ(sceneGravity(*moon), Vec3(0, 0, -1.62));
+  EXPECT_EQ(sceneDamping(*moon), 0.5);
+  session.adoptForces(*moon);
+  EXPECT_EQ(session.serial(), 2u);
+  EXPECT_EQ(sceneGravity(*session.scene()), Vec3(0, 0, -1.62));
+}
+
+}  // namespace
+}  // namespace constrained_particles
