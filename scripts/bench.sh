@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # What accuracy costs: runs every benchmark and draws the diagrams into docs/bench/
-# (CSV, PNG and summary.md). Installs the peers (ODE 0.16, MuJoCo 2.2.2) and matplotlib from
+# (CSV, PNG and summary.md), each CSV's stamp (NAME.stamp: command, commit, date) and the
+# generated blocks of docs/*.md (scripts/performance_page.py). Installs the peers (ODE 0.16, MuJoCo 2.2.2) and matplotlib from
 # Debian's packages. Takes about 15 minutes on 2 cores; progress goes to stderr.
 # Usage: scripts/bench.sh [--quick]   (--quick: a small sweep for a smoke test, into build/bench)
 #        scripts/bench.sh --scenes         (only the per-scene and solve-by-structure part, into
@@ -35,18 +36,32 @@ CP_BUILD_BENCH=ON bash "$ROOT/scripts/build.sh" >"$LOG" 2>&1 || { cat "$LOG"; ex
 rm -f "$LOG"
 BIN="$ROOT/build/ws/devel/lib/constrained_particles"
 mkdir -p "$OUT"
+# stamp NAME...: the line scripts/performance_page.py shows over docs/bench/NAME.csv's tables
+HOW="\`bash scripts/bench.sh${1:+ $1}\` at $(/usr/bin/python3 "$ROOT/scripts/performance_page.py" --stamp "$ROOT")"
+stamp() {
+  for name in "$@"; do
+    echo "$HOW" >"$OUT/$name.stamp"
+  done
+  # docs/*.md's generated blocks, from docs/bench only (a --quick run writes elsewhere)
+  if [[ "$OUT" == "$ROOT/docs/bench" ]]; then
+    /usr/bin/python3 "$ROOT/scripts/performance_page.py" "$ROOT"
+  fi
+}
 if ((ONLY_SCENES == 3)); then
   "$BIN/bench_kernel" --out "$OUT" | tee "$OUT/kernel.txt"
+  stamp kernel
   exit 0
 fi
 if ((ONLY_SCENES == 2)); then
   "$BIN/constrained_particles_bench" stability --out "$OUT"
+  stamp stability
   echo "wrote $OUT/stability.csv" >&2
   exit 0
 fi
 if ((ONLY_SCENES)); then
   "$BIN/constrained_particles_bench" scenes --out "$OUT"
   /usr/bin/python3 "$ROOT/scripts/bench_report.py" "$OUT" >/dev/null
+  stamp scenes trees
   echo "wrote $OUT/scenes.csv, $OUT/trees.csv and $OUT/summary.md" >&2
   exit 0
 fi
@@ -67,4 +82,5 @@ for peer in bench_peer_ode bench_peer_mujoco; do
   fi
 done
 /usr/bin/python3 "$ROOT/scripts/bench_report.py" "$OUT"
+stamp work_precision orders scaling scenes trees kernel peers stability
 echo "wrote $OUT" >&2

@@ -12,6 +12,8 @@ import sys
 
 import matplotlib
 
+import performance_page  # the tables docs/ shows, one copy
+
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
@@ -19,17 +21,8 @@ COMMAND = "bash scripts/bench.sh"
 DIVERGED = 1.0  # [m]
 
 
-def read(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
-
-
-def fit_slope(xs, ys):
-    lx = [math.log(x) for x in xs]
-    ly = [math.log(y) for y in ys]
-    n = len(lx)
-    mx, my = sum(lx) / n, sum(ly) / n
-    return sum((a - mx) * (b - my) for a, b in zip(lx, ly)) / sum((a - mx) ** 2 for a in lx)
+read = performance_page.read
+fit_slope = performance_page.fit_slope
 
 
 COLORS = {"explicit_euler": "C0", "semi_implicit_euler": "C1", "midpoint": "C2", "rk4": "C3",
@@ -208,53 +201,23 @@ def main(folder):
 
 
 def scenes_section(out):
-    """Per scene file: effects evaluated per step and step cost; the tree solve against n."""
+    """Per scene file: effects evaluated per step and step cost; the tree solve against n (the
+    tables docs/scenes.md shows, from scripts/performance_page.py)."""
     if not (out / "scenes.csv").exists():
         return []
     lines = ["", "## Scenes: what each evaluates per step, and what a step costs", "",
              "Counts are evaluations per step from the effect counters (RK4 evaluates forces 4 "
-             "times a step; projection adds row evaluations).", "",
-             "| scene | particles | rows | solve | integrator + stabilization | stages | "
-             "us per step | on the generic stages | ratio | forces per step | "
-             "constraints per step |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in read(out / "scenes.csv"):
-        # scenes.csv before the fused-stages columns: shown as unknown
-        stages = r.get("stages") or "-"
-        generic = r.get("generic_seconds_per_step")
-        generic = f"{1e6 * float(generic):.3g}" if generic else "-"
-        ratio = r.get("generic_ratio_median")
-        ratio = f"{float(ratio):.2f}" if ratio else "-"
-        lines.append(f"| {r['scene']} | {r['particles']} | {r['rows']} | {r['solve']} | "
-                     f"{r['integrator']} + {r['stabilization']} | {stages} | "
-                     f"{1e6 * float(r['seconds_per_step']):.3g} | {generic} | {ratio} | "
-                     f"{r['forces_per_step']} | {r['constraints_per_step']} |")
+             "times a step; projection adds row evaluations).", ""] + performance_page.scene_rows(out)
     if not (out / "trees.csv").exists():
         return lines
-    rows = read(out / "trees.csv")
     lines += ["", "## Solve by structure: one constraint-force evaluation against n", "",
               "binary_tree: particle k hangs from (k - 1) / 2, the root pinned; star: every "
               "particle linked to one free hub (J W J^T is dense). tree: as it runs (the binary tree, "
               "all links with at most four on a particle: the fused tree stages, "
               "Model::fusedTree(); the star: the block elimination); tree, blocks: the generic "
               "stages with the block elimination (tree.cpp), which the generic paths and stars "
-              "keep.", "",
-              "| shape | n | tree [us] | tree, blocks [us] | sparse [us] | dense [us] |",
-              "|---|---|---|---|---|---|"]
-    table = {}
-    for r in rows:
-        table.setdefault((r["shape"], int(r["n"])), {})[r["solve"]] = 1e6 * float(r["seconds_per_solve"])
-    for (shape, n), by_solve in sorted(table.items()):
-        cells = [f"{by_solve[s]:.3g}" if s in by_solve else "-"
-                 for s in ("tree", "tree_blocks", "sparse", "dense")]
-        lines.append(f"| {shape} | {n} | " + " | ".join(cells) + " |")
-    lines += ["", "Fitted exponent of the tree solve's time against n (n >= 1,000):", ""]
-    for shape in ("binary_tree", "star"):
-        points = [(int(r["n"]), float(r["seconds_per_solve"])) for r in rows
-                  if r["shape"] == shape and r["solve"] == "tree" and int(r["n"]) >= 1000]
-        if len(points) >= 2:
-            lines.append(f"- {shape}: {fit_slope(*zip(*points)):.2f}")
-    return lines
+              "keep.", ""]
+    return lines + performance_page.tree_rows(out)[0]
 
 
 if __name__ == "__main__":

@@ -1,5 +1,7 @@
 """Checks README.md and docs/*.md: every relative link names a file that exists and, with an
-anchor, a heading in it (GitHub's slugs). Prints one line per problem; exits 1 if there is any.
+anchor, a heading in it (GitHub's slugs); no commit hash stands outside a generated block's stamp
+(a measured figure belongs to the run its block is stamped with, scripts/performance_page.py).
+Prints one line per problem; exits 1 if there is any.
 Run by test/ros/docs.test (fast tier).
 
     python3 scripts/check_docs.py [ROOT]
@@ -10,6 +12,17 @@ import sys
 
 LINK = re.compile(r"\]\(([^)\s]+)\)")
 HEADING = re.compile(r"^(#{1,6}) (.*)$")
+# 7 to 40 hex digits with at least one letter (all digits is a number): a commit hash
+COMMIT = re.compile(r"\b(?=[0-9a-f]*[a-f])[0-9a-f]{7,40}\b")
+GENERATED = re.compile(r"<!-- generated: \w+ -->\n.*?<!-- end generated -->", re.S)
+
+
+def commit_hashes(text):
+    """(line number, hash) of each commit hash outside the generated blocks."""
+    kept = GENERATED.sub(lambda m: "\n" * m.group(0).count("\n"), text)
+    for number, line in enumerate(kept.split("\n"), 1):
+        for found in COMMIT.findall(line):
+            yield number, found
 
 
 def slug(heading):
@@ -61,6 +74,9 @@ def problems(root):
                 out.append(f"{name}: link to {target}: no such file")
             elif anchor and file.suffix == ".md" and anchor not in anchors(file.read_text()):
                 out.append(f"{name}: link to {target}: no heading with that anchor")
+        for number, found in commit_hashes(text):
+            out.append(f"{name}:{number}: commit {found} outside a generated block's stamp: name "
+                       "the run by its block, or the change by what it did")
     return out
 
 

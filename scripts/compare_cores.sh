@@ -2,7 +2,8 @@
 # Step cost of this core against an earlier commit's, in one process (bench/compare_cores.cpp):
 # the earlier core's sources are taken from git, renamed to namespace cp_old, and compiled with
 # this one's into one program, both with the Release flags (-O3 -DNDEBUG). Prints a table;
-# with --csv FILE also writes it. About 2 minutes to build and 1 to run on 2 cores.
+# with --csv FILE also writes it, and its stamp (command, commit, date) beside it as FILE.stamp,
+# which scripts/performance_page.py shows over it. About 2 minutes to build and 1 to run on 2 cores.
 # Usage: scripts/compare_cores.sh [BASE] [--quick] [--csv FILE]
 #   BASE: the commit to compare with (default 6ecca4e, the core before the Model/Data redesign;
 #   7861304 is the core before the fused chain stages)
@@ -59,3 +60,10 @@ g++ "${FLAGS[@]}" "${OLD_API[@]}" -I"$ROOT/include" -I"$OLD/include" \
   "$ROOT/bench/compare_cores.cpp" "${objects[@]}" -o "$OUT/compare_cores"
 echo "comparing $(git -C "$ROOT" rev-parse --short HEAD) (new) with $BASE (old)" >&2
 "$OUT/compare_cores" "$@"
+args=("$@")
+for ((i = 0; i + 1 < ${#args[@]}; ++i)); do
+  if [[ "${args[i]}" == --csv ]]; then
+    echo "\`bash scripts/compare_cores.sh $BASE\` (old: $BASE) at $(python3 \
+      "$ROOT/scripts/performance_page.py" --stamp "$ROOT")" >"${args[i + 1]%.csv}.stamp"
+  fi
+done

@@ -9,8 +9,10 @@ which carries it once a second and costs the node nothing to read) for --seconds
 pauses it (~pause) and runs the kernel alone for --seconds (`bench_kernel --kernel-time n S`,
 bench/kernel_ratio.cpp, wall time per step too); resumes it.
 Prints per n the medians and the median of the rounds' ratios (node / kernel).
+With --csv FILE also writes the table there and its stamp (command, commit, date) beside it as
+FILE with .stamp for .csv, which scripts/performance_page.py shows over it.
 Usage: node_kernel_ratio.py [--sizes N ...] [--seconds S] [--rounds R] [--warmup S]
-                            [--real-time-factor F] [--workspace DIR] [--kernel PATH]
+                            [--real-time-factor F] [--workspace DIR] [--kernel PATH] [--csv FILE]
 Exit status: 0; 2 if a node died or never published, or no workspace, kernel or roscore.
 """
 import argparse
@@ -26,6 +28,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 # the roscore, workspace and process handling node_rates.py already does (one copy)
 from node_rates import (machine, private_master, run, shut_down, start_roscore,  # noqa: E402
                         stop, tail, wait_for_master)
+from performance_page import stamp  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NODE_NAME = "simulator"
@@ -44,6 +47,7 @@ def parse_args():
     p.add_argument("--kernel", default=None,
                    help="bench_kernel (default: the workspace's, built by scripts/bench.sh)")
     p.add_argument("--start-timeout", type=float, default=60.0)
+    p.add_argument("--csv", default=None, help="also write the table here (and its stamp)")
     a = p.parse_args()
     if a.rounds < 1 or a.seconds <= 0 or any(n < 2 for n in a.sizes):
         p.error("--rounds and --seconds must be positive, --sizes at least 2")
@@ -130,6 +134,15 @@ def measure_size(n, args, env, times, log_dir):
         stop(proc)
 
 
+def write_csv(path, table, how):
+    with open(path, "w") as f:
+        f.write("n,node_s_per_step,kernel_s_per_step,ratio_median,ratio_min,ratio_max\n")
+        for n, node, kernel, median, low, high in table:
+            f.write(f"{n},{node:.6e},{kernel:.6e},{median:.4f},{low:.4f},{high:.4f}\n")
+    with open(os.path.splitext(path)[0] + ".stamp", "w") as f:
+        f.write(f"`scripts/node_kernel_ratio.py` at {stamp(ROOT)}: {how}\n")
+
+
 def main():
     args = parse_args()
     args.workspace = os.path.abspath(args.workspace)
@@ -153,6 +166,7 @@ def main():
         rospy.init_node("node_kernel_ratio", anonymous=True, disable_signals=True)
         times = StepTimes()
         rospy.Subscriber("/diagnostics", DiagnosticArray, times.on_diagnostics, queue_size=None)
+        table = []
         print("| n | node step_time [us] | kernel [us] | node / kernel (median of rounds) "
               "| range |")
         print("|---:|---:|---:|---:|---|")
@@ -167,12 +181,15 @@ def main():
             node = statistics.median(r[0] for r in rounds)
             kernel = statistics.median(r[1] for r in rounds)
             ratios = [r[2] for r in rounds]
+            table.append((n, node, kernel, statistics.median(ratios), min(ratios), max(ratios)))
             print(f"| {n:,} | {node * 1e6:.3g} | {kernel * 1e6:.3g} | "
                   f"{statistics.median(ratios):.2f} | {min(ratios):.2f} to {max(ratios):.2f} |",
                   flush=True)
+        command = shlex.join(['scripts/node_kernel_ratio.py'] + sys.argv[1:])
         print(f"\n{args.rounds} rounds of {args.seconds:g} s node, {args.seconds:g} s kernel per "
-              f"size; machine: {machine()}; command: "
-              f"{shlex.join(['scripts/node_kernel_ratio.py'] + sys.argv[1:])}")
+              f"size; machine: {machine()}; command: {command}")
+        if args.csv and table:
+            write_csv(args.csv, table, f"{args.rounds} rounds of {args.seconds:g} s, {command}")
         return 2 if failed else 0
     finally:
         shut_down(roscore, log_dir, failed, "node_kernel_ratio")

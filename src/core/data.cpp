@@ -42,9 +42,9 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   fused.chain_jacobian.assign(model.fusedChain() ? model.numRows() : 0, Vec3::Zero());
   fused.tree_jacobian.setZero(3, model.fusedTree() ? model.numRows() : 0);
   fused.clique_lower.assign(model.fusedTree() ? model.treeCliqueEntries() : 0, 0.0);
-  for (Points* buffer :
-       { &stages.a1, &stages.a2, &stages.sum_p, &stages.sum_v, &stages.p_stage, &stages.v_stage,
-         &stages.p_start, &stages.correction, &stages.change, &stages.p_unprojected, &stages.zero })
+  for (Points* buffer : { &stages.a_stage, &stages.a_midpoint, &stages.sum_p, &stages.sum_v,
+                          &stages.p_stage, &stages.v_stage, &stages.p_start, &stages.correction,
+                          &stages.change, &stages.p_unprojected, &stages.zero })
     buffer->setZero(3, n);
   statistics.solve.method = model.solveMethod();
   control.start = state;

@@ -39,8 +39,10 @@ struct RowData
 /// Stage buffers of the integrators, by name, each 3 x n.
 struct StageBuffers
 {
-  Points a1;       ///< accelerations of stage 1 [m/s^2] (RK4: of stages 2 to 4; stage 1's in sum_v)
-  Points a2;       ///< accelerations of stage 2 [m/s^2]
+  /// accelerations of the stage being evaluated [m/s^2] (RK4: of stages 2 to 4, stage 1's go
+  /// straight into sum_v; the Euler methods, midpoint's first stage, dopri5's right-hand side)
+  Points a_stage;
+  Points a_midpoint;  ///< midpoint's second-stage accelerations [m/s^2] (its first are a_stage)
   Points sum_p;    ///< RK4's running weighted sum v1 + 2 v2 + 2 v3 of its stages' velocities [m/s]
   Points sum_v;    ///< RK4's running weighted sum a1 + 2 a2 + 2 a3 of its accelerations [m/s^2]
   Points p_stage;  ///< positions of the stage being evaluated [m]

@@ -32,9 +32,9 @@ void step(const Model& model, Data& data, const StepSettings& settings)
   {
     s.p_stage = Eigen::Map<const Points>(in.data(), 3, n);
     s.v_stage = Eigen::Map<const Points>(in.data() + 3 * n, 3, n);
-    forward(model, data, settings, t, s.p_stage, s.v_stage, s.a1);
+    forward(model, data, settings, t, s.p_stage, s.v_stage, s.a_stage);
     Eigen::Map<Points>(dydt.data(), 3, n) = s.v_stage;
-    Eigen::Map<Points>(dydt.data() + 3 * n, 3, n) = s.a1;
+    Eigen::Map<Points>(dydt.data() + 3 * n, 3, n) = s.a_stage;
   };
   // the state may have been projected since the last step: its stored derivative is stale
   workspace->stepper.reset();

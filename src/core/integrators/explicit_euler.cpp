@@ -10,7 +10,7 @@ namespace
 void step(const Model& model, Data& data, const StepSettings& settings)
 {
   State& x = data.state;
-  Points& a = data.stages.a1;
+  Points& a = data.stages.a_stage;
   forward(model, data, settings, x.time, x.positions, x.velocities, a);
   x.positions += settings.dt * x.velocities;
   x.velocities += settings.dt * a;

@@ -12,12 +12,12 @@ void step(const Model& model, Data& data, const StepSettings& settings)
   State& x = data.state;
   StageBuffers& s = data.stages;
   const double dt = settings.dt;
-  forward(model, data, settings, x.time, x.positions, x.velocities, s.a1);
+  forward(model, data, settings, x.time, x.positions, x.velocities, s.a_stage);
   s.p_stage = x.positions + 0.5 * dt * x.velocities;
-  s.v_stage = x.velocities + 0.5 * dt * s.a1;
-  forward(model, data, settings, x.time + 0.5 * dt, s.p_stage, s.v_stage, s.a2);
+  s.v_stage = x.velocities + 0.5 * dt * s.a_stage;
+  forward(model, data, settings, x.time + 0.5 * dt, s.p_stage, s.v_stage, s.a_midpoint);
   x.positions += dt * s.v_stage;
-  x.velocities += dt * s.a2;
+  x.velocities += dt * s.a_midpoint;
   ++data.statistics.internal_steps;
 }
 

@@ -68,14 +68,15 @@ void step(const Model& model, Data& data, const StepSettings& settings)
   // stage before left
   forward(model, data, settings, t, x.positions, x.velocities, s.sum_v);
   afterFirst(size, 0.5 * dt, p, v, s.sum_v.data(), s.p_stage.data(), s.v_stage.data());
-  forward(model, data, settings, t + 0.5 * dt, s.p_stage, s.v_stage, s.a1);
-  afterMiddle(size, 0.5 * dt, true, p, v, s.a1.data(), s.p_stage.data(), s.v_stage.data(),
+  forward(model, data, settings, t + 0.5 * dt, s.p_stage, s.v_stage, s.a_stage);
+  afterMiddle(size, 0.5 * dt, true, p, v, s.a_stage.data(), s.p_stage.data(), s.v_stage.data(),
               s.sum_p.data(), s.sum_v.data());
-  forward(model, data, settings, t + 0.5 * dt, s.p_stage, s.v_stage, s.a1);
-  afterMiddle(size, dt, false, p, v, s.a1.data(), s.p_stage.data(), s.v_stage.data(),
+  forward(model, data, settings, t + 0.5 * dt, s.p_stage, s.v_stage, s.a_stage);
+  afterMiddle(size, dt, false, p, v, s.a_stage.data(), s.p_stage.data(), s.v_stage.data(),
               s.sum_p.data(), s.sum_v.data());
-  forward(model, data, settings, t + dt, s.p_stage, s.v_stage, s.a1);
-  afterLast(size, dt / 6.0, p, v, s.v_stage.data(), s.a1.data(), s.sum_p.data(), s.sum_v.data());
+  forward(model, data, settings, t + dt, s.p_stage, s.v_stage, s.a_stage);
+  afterLast(size, dt / 6.0, p, v, s.v_stage.data(), s.a_stage.data(), s.sum_p.data(),
+            s.sum_v.data());
   ++data.statistics.internal_steps;
 }
 

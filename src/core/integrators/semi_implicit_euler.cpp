@@ -20,7 +20,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
 {
   State& x = data.state;
   StageBuffers& s = data.stages;
-  Points& a = s.a1;
+  Points& a = s.a_stage;
   forward(model, data, settings, x.time, x.positions, x.velocities, a);
   x.velocities += settings.dt * a;
   if (settings.stabilization != Stabilization::Projection || model.numRows() == 0)

@@ -1,0 +1,362 @@
+"""Fills the generated blocks of docs/*.md (docs/performance.md's, docs/scenes.md's) from the
+files in docs/bench/.
+
+A block is the text between `<!-- generated: NAME -->` and `<!-- end generated -->`; everything
+else on the page is hand-written and holds no measured figure and no commit hash
+(scripts/check_docs.py checks the hashes). Each block starts with the stamp of the run its files
+come from: the line the command that wrote its CSV left beside it (`<name>.stamp`: the command,
+the commit and the date; `bash scripts/bench.sh`, `scripts/compare_cores.sh --csv`,
+`scripts/node_kernel_ratio.py --csv`).
+
+    python3 scripts/performance_page.py [ROOT]     (bench_report.py calls it after a full run)
+    python3 scripts/performance_page.py --stamp [ROOT]   (prints the stamp the scripts write)
+
+A block whose files are missing says which command writes them; a block name with no generator
+stops it with the page as it was.
+"""
+import csv
+import math
+import pathlib
+import re
+import sys
+
+BLOCK = re.compile(r"(<!-- generated: (\w+) -->\n)(.*?)(<!-- end generated -->)", re.S)
+
+
+def stamp(root):
+    """'commit abc1234, 2026-12-05' for the tree at `root` ('+ uncommitted changes' if dirty):
+    the one place a commit hash may stand on the page."""
+    import subprocess
+    import datetime
+
+    def git(*args):
+        return subprocess.run(["git", "-C", str(root), *args], stdout=subprocess.PIPE,
+                              stderr=subprocess.DEVNULL, text=True).stdout.strip()
+
+    commit = git("rev-parse", "--short", "HEAD") or "unknown"
+    dirty = " + uncommitted changes" if git("status", "--porcelain", "--untracked-files=no") else ""
+    return f"commit {commit}{dirty}, {datetime.date.today().isoformat()}"
+
+
+def read(path):
+    with open(path, newline="") as f:
+        return [r for r in csv.DictReader(f)]
+
+
+def fit_slope(xs, ys):
+    lx, ly = [math.log(x) for x in xs], [math.log(y) for y in ys]
+    mx, my = sum(lx) / len(lx), sum(ly) / len(ly)
+    return sum((a - mx) * (b - my) for a, b in zip(lx, ly)) / sum((a - mx) ** 2 for a in lx)
+
+
+def us(seconds):
+    """A time [s] in the unit that reads best: 0.85 us, 62 us, 8.3 ms, 17 s."""
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("us", 1e-6)):
+        if seconds >= scale or unit == "us":
+            value = seconds / scale
+            return f"{value:.3g} {unit}"
+
+
+def stamp_line(text):
+    return f"_{text.strip()}_\n\n"
+
+
+def stamp_of(bench, stem):
+    """The stamp the command that wrote `<stem>.csv` left beside it as `<stem>.stamp`: the
+    command, and the commit and date it ran at."""
+    return (bench / f"{stem}.stamp").read_text().strip()
+
+
+def orders_block(bench):
+    rows = [r for r in read(bench / "orders.csv") if r["scenario"] == "bead_bowl"]
+    table = {}
+    for r in rows:
+        observed = r["observed_order"]
+        table.setdefault((r["integrator"], r["theoretical_order"]), {})[r["stabilization"]] = (
+            f"{float(observed):.2f}" if observed != "nan" else "n/a")
+    lines = ["| integrator | theory | none | Baumgarte | projection | its own projection |",
+             "|---|---|---|---|---|---|"]
+    for (integrator, theory), by in table.items():
+        cells = [by.get(s, "") for s in ("none", "baumgarte", "projection", "rattle")]
+        lines.append(f"| {integrator} | {theory} | " + " | ".join(cells) + " |")
+    return stamp_line(f"From {stamp_of(bench, 'orders')} (`docs/bench/orders.csv`).") + "\n".join(lines) + "\n"
+
+
+def best(rows, scenario, target):
+    found = [r for r in rows if r["scenario"] == scenario and r["finite"] == "1"
+             and math.isfinite(float(r["error_m"])) and float(r["error_m"]) <= target]
+    return min(found, key=lambda r: float(r["cpu_s_per_sim_s"])) if found else None
+
+
+def method_of(r):
+    if r["integrator"] == "dopri5":
+        return f"dopri5, tolerance {float(r['tolerance']):g}"
+    if r["integrator"] in ("velocity_verlet", "fast_projection"):
+        return f"{r['integrator']}, dt = {float(r['dt']) * 1e3:g} ms"
+    return f"{r['integrator']} + {r['stabilization']}, dt = {float(r['dt']) * 1e3:g} ms"
+
+
+def headline_block(bench):
+    scaling = read(bench / "scaling.csv")
+    by = {(r["integrator"], r["solve"], int(r["n"])): float(r["seconds_per_step"]) for r in scaling}
+    lines = ["| figure | value | file |", "|---|---|---|"]
+    for integrator, label in (("semi_implicit_euler", "semi-implicit Euler"), ("rk4", "RK4")):
+        t = by.get((integrator, "tridiagonal", 100000))
+        if t:
+            lines.append(f"| chain of 100,000, {label} + projection, O(n) solve | {us(t)} per step = "
+                         f"**{1e5 / t / 1e6:.1f} million particle-steps/s** | `scaling.csv` |")
+    for integrator, label in (("semi_implicit_euler", "semi-implicit Euler"), ("rk4", "RK4")):
+        t = by.get((integrator, "tridiagonal", 1000))
+        if t:
+            lines.append(f"| same, {label}, n = 1,000 (fits in cache) | {us(t)} per step = "
+                         f"{1e3 / t / 1e6:.1f} million particle-steps/s | `scaling.csv` |")
+    for (integrator, solve) in sorted({(k[0], k[1]) for k in by}):
+        points = sorted((n, t) for (i, s, n), t in by.items()
+                        if (i, s) == (integrator, solve) and 1000 <= n <= 100000)
+        if len(points) >= 2:
+            lines.append(f"| fitted exponent of time per step against n, {integrator}, {solve} "
+                         f"solve, n = {points[0][0]:,} ... {points[-1][0]:,} | "
+                         f"**{fit_slope(*zip(*points)):.2f}** | `scaling.csv` |")
+    dense, fast = by.get(("semi_implicit_euler", "dense", 1000)), by.get(
+        ("semi_implicit_euler", "tridiagonal", 1000))
+    if dense and fast:
+        lines.append(f"| dense solve at n = 1,000 (for comparison) | {us(dense)} per step, "
+                     f"{dense / fast:,.0f}x the O(n) solve | `scaling.csv` |")
+    wp = read(bench / "work_precision.csv")
+    for scenario, target, label in (("bead_bowl", 1e-6, "the bead orbit"),
+                                    ("chain_100", 1e-9, "the 100-particle chain")):
+        r = best(wp, scenario, target)
+        if r:
+            lines.append(f"| cheapest run to {target:g} m on {label} | {method_of(r)}: "
+                         f"{us(float(r['cpu_s_per_sim_s']))} CPU per simulated second | "
+                         f"`work_precision.csv` |")
+    return stamp_line(f"From {stamp_of(bench, 'scaling')}.") + "\n".join(lines) + "\n"
+
+
+PEER_LABELS = {
+    "rk4+projection": "**constrained_particles, RK4 + projection**",
+    "rk4+projection_tol_1e-13": "constrained_particles, RK4 + projection to 1e-13 m",
+    "velocity_verlet": "constrained_particles, velocity Verlet",
+    "semi_implicit_euler+projection": "constrained_particles, semi-implicit Euler + projection",
+    "quickstep_gazebo_defaults": "ODE, QuickStep (Gazebo's settings)",
+    "worldstep_direct": "ODE, dWorldStep",
+    "nested_ball_joints_rk4": "MuJoCo, ball joints, RK4",
+}
+
+
+def peers_block(bench):
+    rows = read(bench / "peers.csv")
+    lines = ["| n | engine, method | time per step | max link error | finite over the run | note |",
+             "|---|---|---|---|---|---|"]
+    order = list(PEER_LABELS)
+    rows.sort(key=lambda r: (int(r["n"]), order.index(r["method"]) if r["method"] in order else 99))
+    for r in rows:
+        finite = r["finite"] == "1"
+        error = f"{float(r['link_error_max_m']):.2g} m" if finite else "-"
+        diverged_at = int(r["steps_run"]) * float(r["dt"])
+        held = "yes" if finite else f"no: diverged at t = {diverged_at:.2f} s"
+        label = PEER_LABELS.get(r["method"], r["engine"] + ", " + r["method"])
+        lines.append(f"| {r['n']} | {label} | {us(float(r['time_per_step_s']))} | {error} | "
+                     f"{held} | {r['note']} |")
+    # the comparisons the prose draws, from the same rows
+    ours = {int(r["n"]): r for r in rows if r["method"] == "rk4+projection"}
+    tight = {int(r["n"]): r for r in rows if r["method"] == "rk4+projection_tol_1e-13"}
+    summary = []
+    for engine, methods in (("ODE", ("quickstep_gazebo_defaults", "worldstep_direct")),
+                            ("MuJoCo", ("nested_ball_joints_rk4",))):
+        ratios = [float(r["time_per_step_s"]) / float(ours[int(r["n"])]["time_per_step_s"])
+                  for r in rows if r["method"] in methods and int(r["n"]) in ours]
+        if ratios:
+            summary.append(f"RK4 + projection's step is {min(ratios):.3g}x to {max(ratios):.3g}x "
+                           f"faster than {engine}'s over the sizes and methods")
+    extra = [float(tight[n]["time_per_step_s"]) / float(ours[n]["time_per_step_s"]) - 1
+             for n in sorted(tight) if n in ours]
+    if extra:
+        summary.append(f"projection to 1e-13 m costs {100 * min(extra):+.0f} % to "
+                       f"{100 * max(extra):+.0f} % time per step over 1e-10 m")
+    text = stamp_line(f"From {stamp_of(bench, 'peers')} (`docs/bench/peers.csv`; all three engines "
+                      "timed in the same run).") + "\n".join(lines) + "\n"
+    if summary:
+        text += "\nIn this run: " + "; ".join(summary) + ".\n"
+    return text
+
+
+def cores_block(bench):
+    path = bench / "cores.csv"
+    stamp = stamp_of(bench, 'cores')
+    lines = ["| workload | method | old [us/step] | new [us/step] | new / old | positions differ [m] |",
+             "|---|---|---|---|---|---|"]
+    for r in read(path):
+        lines.append(f"| {r['workload']} | {r['integrator']} | "
+                     f"{1e6 * float(r['old_seconds_per_step']):.3g} | "
+                     f"{1e6 * float(r['new_seconds_per_step']):.3g} | {float(r['ratio']):.2f} | "
+                     f"{float(r['max_position_difference_m']):.2g} |")
+    return stamp_line(f"From {stamp} (`docs/bench/cores.csv`).") + "\n".join(lines) + "\n"
+
+
+def kernel_block(bench):
+    rows = read(bench / "kernel.csv")
+    lines = ["| n | positions differ after 1 s [m] | engine [us/step] | kernel [us/step] | "
+             "generic [us/step] | checked [us/step] | e/k (range of rounds) | g/k | c/k |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        checked = r.get("checked_s_per_step")
+        checked_time = f"{1e6 * float(checked):.3g}" if checked else "-"
+        checked_ratio = f"{float(r['checked_ratio_median']):.2f}" if checked else "-"
+        lines.append(
+            f"| {int(r['n']):,} | {float(r['max_position_difference_m']):.2g} | "
+            f"{1e6 * float(r['engine_s_per_step']):.3g} | {1e6 * float(r['kernel_s_per_step']):.3g} | "
+            f"{1e6 * float(r['generic_s_per_step']):.3g} | {checked_time} | "
+            f"{float(r['ratio_median']):.2f} ({float(r['ratio_min']):.2f} to "
+            f"{float(r['ratio_max']):.2f}) | {float(r['generic_ratio_median']):.2f} | {checked_ratio} |")
+    return stamp_line(f"From {stamp_of(bench, 'kernel')} (`docs/bench/kernel.csv`).") + "\n".join(lines) + "\n"
+
+
+def node_kernel_block(bench):
+    rows = read(bench / "node_kernel.csv")
+    stamp = stamp_of(bench, 'node_kernel')
+    lines = ["| n | node `step_time` [us] | kernel [us] | node / kernel (median; range of rounds) |",
+             "|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {int(r['n']):,} | {1e6 * float(r['node_s_per_step']):.3g} | "
+                     f"{1e6 * float(r['kernel_s_per_step']):.3g} | {float(r['ratio_median']):.2f} "
+                     f"({float(r['ratio_min']):.2f} to {float(r['ratio_max']):.2f}) |")
+    return stamp_line(f"From {stamp} (`docs/bench/node_kernel.csv`).") + "\n".join(lines) + "\n"
+
+
+def instructions_block(bench):
+    text = (bench / "kernel_instructions.txt").read_text().strip().split("\n")
+    stamps = [line[2:] for line in text if line.startswith("# ")]
+    counts = [line for line in text if not line.startswith("#")]
+    return (stamp_line("From " + "; ".join(stamps) + " (`docs/bench/kernel_instructions.txt`).") +
+            "\n".join(f"- {line}" for line in counts) + "\n")
+
+
+def scene_rows(bench):
+    """The per-scene table's lines (docs/bench/scenes.csv)."""
+    lines = ["| scene | particles | rows | solve | integrator + stabilization | stages | "
+             "us per step | on the generic stages | ratio | forces per step | "
+             "constraints per step |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in read(bench / "scenes.csv"):
+        generic = r.get("generic_seconds_per_step")
+        generic = f"{1e6 * float(generic):.3g}" if generic else "-"
+        ratio = r.get("generic_ratio_median")
+        ratio = f"{float(ratio):.2f}" if ratio else "-"
+        lines.append(f"| {r['scene']} | {r['particles']} | {r['rows']} | {r['solve']} | "
+                     f"{r['integrator']} + {r['stabilization']} | {r.get('stages') or '-'} | "
+                     f"{1e6 * float(r['seconds_per_step']):.3g} | {generic} | {ratio} | "
+                     f"{r['forces_per_step']} | {r['constraints_per_step']} |")
+    return lines
+
+
+def tree_rows(bench):
+    """The solve-by-structure table's lines and the fitted exponents (docs/bench/trees.csv)."""
+    rows = read(bench / "trees.csv")
+    table = {}
+    for r in rows:
+        table.setdefault((r["shape"], int(r["n"])), {})[r["solve"]] = 1e6 * float(r["seconds_per_solve"])
+    lines = ["| shape | n | tree [us] | tree, blocks [us] | sparse [us] | dense [us] |",
+             "|---|---|---|---|---|---|"]
+    for (shape, n), by_solve in sorted(table.items()):
+        cells = [f"{by_solve[s]:.3g}" if s in by_solve else "-"
+                 for s in ("tree", "tree_blocks", "sparse", "dense")]
+        lines.append(f"| {shape} | {n} | " + " | ".join(cells) + " |")
+    lines += ["", "Fitted exponent of the tree solve's time against n (n >= 1,000):", ""]
+    for shape in ("binary_tree", "star"):
+        points = [(int(r["n"]), float(r["seconds_per_solve"])) for r in rows
+                  if r["shape"] == shape and r["solve"] == "tree" and int(r["n"]) >= 1000]
+        if len(points) >= 2:
+            lines.append(f"- {shape}: {fit_slope(*zip(*points)):.2f}")
+    return lines, table
+
+
+def scenes_block(bench):
+    lines = scene_rows(bench)
+    ratios = {r["stages"]: [] for r in read(bench / "scenes.csv")}
+    for r in read(bench / "scenes.csv"):
+        if r.get("generic_ratio_median"):
+            ratios[r["stages"]].append(float(r["generic_ratio_median"]))
+    spans = [f"{stages} {min(v):.2f} to {max(v):.2f}" for stages, v in ratios.items() if v]
+    return (stamp_line(f"From {stamp_of(bench, 'scenes')} (`docs/bench/scenes.csv`).") + "\n".join(lines) +
+            "\n\nRatio to the generic stages, by stages: " + "; ".join(spans) + ".\n")
+
+
+def trees_block(bench):
+    lines, table = tree_rows(bench)
+    fused = [f"{by['tree'] / by['tree_blocks']:.2f} (n = {n:,})" for (shape, n), by in sorted(table.items())
+             if shape == "binary_tree" and "tree" in by and "tree_blocks" in by]
+    text = stamp_line(f"From {stamp_of(bench, 'trees')} (`docs/bench/trees.csv`).") + "\n".join(lines) + "\n"
+    if fused:
+        text += ("\nOn the binary tree the fused tree stages take " + ", ".join(fused) +
+                 " of the block elimination's time.\n")
+    return text
+
+
+STABILITY_METHODS = {"rk4 unsplit": "`rk4`, `max_substeps: 1`", "rk4 + sub-steps": "`rk4` (default)"}
+
+
+def stability_block(bench):
+    """The fine chains' cost of staying stable (docs/bench/stability.csv), for docs/stability.md."""
+    rows = read(bench / "stability.csv")
+    lines = ["| n | method | sim time reached [s] | CPU s per sim s | x unsplit `rk4` | "
+             "sub-steps per step | retaken | max constraint error [m] | energy change [J] |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        method = STABILITY_METHODS.get(r["method"], f"`{r['method']}`")
+        if r["method"].startswith("fast_projection"):
+            method = f"`fast_projection`, dt {float(r['dt_s']) * 1e3:g} ms"
+        failed = r["failed_check"] != "none"
+        reached = r["sim_seconds_reached"] + (f" (stopped: {r['failed_check']})" if failed else "")
+        lines.append(
+            f"| {int(r['n']):,} | {method} | {reached} | {float(r['cpu_s_per_sim_s']):.3g} | "
+            f"{float(r['cost_ratio_to_unsplit_rk4']):.2f} | {float(r['substeps_per_step']):.3g} | "
+            f"{r['rejected_steps']} | "
+            f"{'-' if failed else format(float(r['max_constraint_error_m']), '.2g')} | "
+            f"{'-' if failed else format(float(r['energy_change_J']), '+.3g')} |")
+    return stamp_line(f"From {stamp_of(bench, 'stability')} (`docs/bench/stability.csv`).") + "\n".join(lines) + "\n"
+
+
+# the command that writes each block's files
+NOT_MEASURED = {"cores": "`bash scripts/bench.sh --cores BASE`",
+                "node_kernel": "`scripts/node_kernel_ratio.py --csv docs/bench/node_kernel.csv`",
+                "instructions": "`bash scripts/kernel_instructions.sh`"}
+BLOCKS = {"stability": stability_block, "scenes": scenes_block, "trees": trees_block, "orders": orders_block, "headline": headline_block, "peers": peers_block,
+          "cores": cores_block, "kernel": kernel_block, "node_kernel": node_kernel_block,
+          "instructions": instructions_block}
+
+
+def fill(root):
+    """Fills the blocks of every page in docs/."""
+    root = pathlib.Path(root)
+    for page in sorted((root / "docs").glob("*.md")):
+        fill_page(page, root / "docs" / "bench")
+
+
+def fill_page(page, bench):
+    text = page.read_text()
+
+    def replace(match):
+        name = match.group(2)
+        if name not in BLOCKS:
+            raise SystemExit(f"performance_page.py: {page.name}: no block named '{name}'")
+        try:
+            body = BLOCKS[name](bench)
+        except OSError as e:  # its command has not run here (or its files were removed)
+            print(f"performance_page.py: {page.name}: block '{name}' not measured: {e}",
+                  file=sys.stderr)
+            how = NOT_MEASURED.get(name, "`bash scripts/bench.sh`")
+            body = stamp_line(f"Not measured yet: {how} writes its files.")
+        return match.group(1) + body + match.group(4)
+
+    filled = BLOCK.sub(replace, text)
+    if filled != text:
+        page.write_text(filled)
+    return filled
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1] == "--stamp":  # for the shell scripts
+        print(stamp(sys.argv[2] if len(sys.argv) > 2 else "."))
+        raise SystemExit(0)
+    fill(sys.argv[1] if len(sys.argv) > 1 else pathlib.Path(__file__).resolve().parent.parent)
