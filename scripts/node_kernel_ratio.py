@@ -3,11 +3,16 @@
 
 For each size n, starts the simulator node on its own roscore with the peer chain (the `chain`
 scene, n particles, links of 0.1 m, 0.1 kg, pinned, released along +x; rk4 + projection at
-dt = 1 ms, every step check at the node's defaults) at --real-time-factor, then --rounds times:
-reads ~state.step_time (wall time per step over each batch, runner included; from /diagnostics,
-which carries it once a second and costs the node nothing to read) for --seconds while it runs;
-pauses it (~pause) and runs the kernel alone for --seconds (`bench_kernel --kernel-time n S`,
-bench/kernel_ratio.cpp, wall time per step too); resumes it.
+dt = 1 ms, every step check at the node's defaults), then --rounds times: reads ~state.step_time
+(wall time per step over each batch, runner included; from /diagnostics, which carries it once a
+second and costs the node nothing to read) for --seconds while the node steps, then runs the
+kernel alone for --seconds (`bench_kernel --kernel-time n S`, bench/kernel_ratio.cpp, wall time
+per step too) while the node is paused.
+How the node steps (--drive): `step` (default) pauses it and asks ~step for steps in batches back
+to back, which the runner takes chunk by chunk with its fault checks, pacing and snapshots: the
+step's cost through the node, hot as the kernel's; `rate` lets it run at --real-time-factor,
+where a small scene sleeps most of each millisecond between its batches and the wake-ups (cold
+caches, a slower clock) show in its step time.
 Prints per n the medians and the median of the rounds' ratios (node / kernel).
 With --csv FILE also writes the table there and its stamp (command, commit, date) beside it as
 FILE with .stamp for .csv, which scripts/performance_page.py shows over it.
@@ -32,6 +37,7 @@ from performance_page import stamp  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NODE_NAME = "simulator"
+MAX_STEPS_PER_CALL = 1000000  # limits::STEPS_PER_CALL's upper end
 
 
 def parse_args():
@@ -48,6 +54,8 @@ def parse_args():
                    help="bench_kernel (default: the workspace's, built by scripts/bench.sh)")
     p.add_argument("--start-timeout", type=float, default=60.0)
     p.add_argument("--csv", default=None, help="also write the table here (and its stamp)")
+    p.add_argument("--drive", choices=("step", "rate"), default="step",
+                   help="step: paused, ~step back to back (default); rate: at --real-time-factor")
     a = p.parse_args()
     if a.rounds < 1 or a.seconds <= 0 or any(n < 2 for n in a.sizes):
         p.error("--rounds and --seconds must be positive, --sizes at least 2")
@@ -65,7 +73,8 @@ class StepTimes:
 
     def on_diagnostics(self, msg):
         for status in msg.status:
-            if status.name != f"/{NODE_NAME}: physics" or status.message.startswith("paused"):
+            # paused and idle: no steps (a running ~step reads 'paused, running a ~step')
+            if status.name != f"/{NODE_NAME}: physics" or status.message == "paused":
                 continue
             values = {kv.key: kv.value for kv in status.values}
             try:
@@ -91,6 +100,7 @@ def kernel_step_time(kernel, n, seconds):
 
 def measure_size(n, args, env, times, log_dir):
     import rospy
+    from constrained_particles.srv import Step
     from std_srvs.srv import Empty
 
     node = os.path.join(args.workspace, "devel", "lib", "constrained_particles", "simulator_node")
@@ -113,15 +123,24 @@ def measure_size(n, args, env, times, log_dir):
             time.sleep(0.1)
         pause = rospy.ServiceProxy(f"/{NODE_NAME}/pause", Empty)
         unpause = rospy.ServiceProxy(f"/{NODE_NAME}/unpause", Empty)
+        step = rospy.ServiceProxy(f"/{NODE_NAME}/step", Step)
         time.sleep(args.warmup)
         rounds = []
         for _ in range(args.rounds):
+            stepping = None
+            if args.drive == "step":
+                pause()
+                # ~step answers when its steps are done or a ~pause stops it: on its own thread
+                stepping = threading.Thread(target=step, args=(MAX_STEPS_PER_CALL,), daemon=True)
+                stepping.start()
             times.take()
             time.sleep(args.seconds)
             node_values = times.take()
             if proc.poll() is not None or not node_values:
                 raise RuntimeError(f"node died or stopped publishing:\n{tail(log_path)}")
-            pause()
+            pause()  # ends a running ~step at its next batch
+            if stepping:
+                stepping.join(timeout=args.start_timeout)
             try:
                 kernel = kernel_step_time(args.kernel, n, args.seconds)
             except subprocess.CalledProcessError as e:
@@ -189,7 +208,8 @@ def main():
         print(f"\n{args.rounds} rounds of {args.seconds:g} s node, {args.seconds:g} s kernel per "
               f"size; machine: {machine()}; command: {command}")
         if args.csv and table:
-            write_csv(args.csv, table, f"{args.rounds} rounds of {args.seconds:g} s, {command}")
+            write_csv(args.csv, table, f"{args.rounds} rounds of {args.seconds:g} s, node driven "
+                      f"by {args.drive}, {command}")
         return 2 if failed else 0
     finally:
         shut_down(roscore, log_dir, failed, "node_kernel_ratio")

@@ -9,7 +9,6 @@
 #include "constrained_particles/core/stability.hpp"
 
 #include <algorithm>
-#include <optional>
 #include <string>
 
 namespace constrained_particles
@@ -476,14 +475,14 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
     outcome.singular = attempt.solve.singular || attempt.projection.singular;
     // merged once the budget has passed the step; a driven anchor's power is its reaction's at
     // the step's end, from every stage there, which leaves data.statistics to the evaluation
-    // (the attempt's kept aside first: a copy only in driven scenes)
-    std::optional<StepStatistics> kept;
+    // (the attempt's kept aside first: a copy only in driven scenes, into a member, as a local
+    // optional of this size cost every step its construction)
     if (driven_)
     {
-      kept = attempt;
+      driven_attempt_ = attempt;
       evaluateCurrentState(total);
     }
-    const StepStatistics& taken = kept ? *kept : attempt;
+    const StepStatistics& taken = driven_ ? driven_attempt_ : attempt;
     outcome.end_energies = conservative_ && outcome.failed == StepCheck::None;
     outcome.ledger_before = data.ledger;
     bookStep(settings_.dt, outcome.end_energies);

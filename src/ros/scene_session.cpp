@@ -36,6 +36,31 @@ SceneSession::Candidate SceneSession::forChange(const std::function<void(SceneDe
   return build(changed, current);
 }
 
+SceneSession::Candidate SceneSession::forSurface(const std::string& type,
+                                                 const std::vector<double>& coefficients,
+                                                 const std::string& expression,
+                                                 const StepSettings& current) const
+{
+  const SurfaceType kind = parseSurfaceType(type, "type");
+  if (kind == SurfaceType::Expression && !coefficients.empty())
+    throw InvalidInput("coefficients", "has " + std::to_string(coefficients.size()) +
+                                           " values, must be empty for type 'expression'");
+  if (kind != SurfaceType::Expression && !expression.empty())
+    throw InvalidInput("expression", "is only for type 'expression' (type is '" + type + "')");
+  const Surface surface = kind == SurfaceType::Expression
+                              ? makeExpressionSurface(expression, "expression")
+                              : makeSurface(kind, coefficients, "coefficients");
+  return forChange([&surface](SceneDescription& scene) { setFirstSurface(scene, surface); },
+                   current);
+}
+
+SceneSession::Candidate SceneSession::forChain(const ChainChange& change,
+                                               const StepSettings& current) const
+{
+  validateChainChange(change, max_particles_, "");
+  return forChange([&change](SceneDescription& scene) { setChains(scene, change); }, current);
+}
+
 std::optional<SceneDescription> SceneSession::withGravityAndDamping(const Vec3& gravity,
                                                                     double damping) const
 {

@@ -145,16 +145,34 @@ RunnerReply SimulationRunner::reset(const std::string& scenario)
       });
 }
 
-RunnerReply SimulationRunner::changeScene(const std::function<void(SceneDescription&)>& edit,
+RunnerReply SimulationRunner::changeScene(const std::function<SceneSession::Candidate()>& make,
                                           const std::string& what)
 {
   return submit(
-      [this, edit, what]
+      [this, make, what]
       {
-        apply(session_.forChange(edit, parameters_.step));
+        apply(make());
         return accepted(what + "; scene '" + session_.scene()->name + "' reset (" +
                         std::to_string(simulator_->model().numParticles()) + " particles)");
       });
+}
+
+RunnerReply SimulationRunner::setSurface(const std::string& type,
+                                         const std::vector<double>& coefficients,
+                                         const std::string& expression)
+{
+  return changeScene(
+      [this, type, coefficients, expression]
+      { return session_.forSurface(type, coefficients, expression, parameters_.step); },
+      "surface set to '" + type + "'");
+}
+
+RunnerReply SimulationRunner::setChain(const ChainChange& change)
+{
+  return changeScene([this, change] { return session_.forChain(change, parameters_.step); },
+                     "chain set to " + std::to_string(change.num_particles) +
+                         " particles, l = " + formatValue(change.link_length) +
+                         " m, m = " + formatValue(change.particle_mass) + " kg");
 }
 
 RunnerReply SimulationRunner::setState(const Points& positions, const Points& velocities)

@@ -495,28 +495,7 @@ bool SimulatorNode::listScenesCallback(ListScenes::Request&, ListScenes::Respons
 
 bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface::Response& response)
 {
-  Surface surface;
-  try
-  {
-    const SurfaceType type = parseSurfaceType(request.type, "type");
-    if (type == SurfaceType::Expression && !request.coefficients.empty())
-      throw InvalidInput("coefficients", "has " + std::to_string(request.coefficients.size()) +
-                                             " values, must be empty for type 'expression'");
-    if (type == SurfaceType::Expression)
-      surface = makeExpressionSurface(request.expression, "expression");
-    else if (!request.expression.empty())
-      throw InvalidInput("expression",
-                         "is only for type 'expression' (type is '" + request.type + "')");
-    else
-      surface = makeSurface(type, request.coefficients, "coefficients");
-  }
-  catch (const InvalidInput& e)
-  {
-    return refuse(response, e.what());
-  }
-  answer(response, runner_->changeScene([surface](SceneDescription& scene)
-                                        { setFirstSurface(scene, surface); },
-                                        "surface set to '" + request.type + "'"));
+  answer(response, runner_->setSurface(request.type, request.coefficients, request.expression));
   if (response.success)
     publishNewScene();
   return true;
@@ -542,19 +521,7 @@ bool SimulatorNode::setChainCallback(SetChain::Request& request, SetChain::Respo
       return refuse(response, "pin_first = " + std::to_string(request.pin_first) +
                                   ", must be 0 (keep), 1 (pin) or 2 (unpin)");
   }
-  try
-  {
-    validateChainChange(chain, parameters_.max_particles, "");
-  }
-  catch (const InvalidInput& e)
-  {
-    return refuse(response, e.what());
-  }
-  answer(response,
-         runner_->changeScene([chain](SceneDescription& scene) { setChains(scene, chain); },
-                              "chain set to " + std::to_string(chain.num_particles) +
-                                  " particles, l = " + formatValue(chain.link_length) +
-                                  " m, m = " + formatValue(chain.particle_mass) + " kg"));
+  answer(response, runner_->setChain(chain));
   if (response.success)
     publishNewScene();
   return true;

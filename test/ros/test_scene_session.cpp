@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <functional>
+
 namespace constrained_particles
 {
 namespace
@@ -94,6 +97,57 @@ TEST(SceneSession, ARefusedRequestNamesItsFieldAndChangesNothing)
   {
     EXPECT_EQ(e.field(), "~scenario");
   }
+}
+
+TEST(SceneSession, SceneRequestsAreCheckedHereNamingTheirField)
+{
+  NodeParameters parameters = parametersFor("surface_chain");
+  parameters.max_particles = 50;
+  SceneSession session(parameters, scene("surface_chain"));
+  const SceneSession::Candidate first = session.initial();
+  session.adopt(first.description, first.built.initial_state);
+  const auto refusedField = [&](const std::function<void()>& request)
+  {
+    try
+    {
+      request();
+    }
+    catch (const InvalidInput& e)
+    {
+      return e.field();
+    }
+    return std::string("(accepted)");
+  };
+  const StepSettings& s = first.settings;
+  EXPECT_EQ(refusedField([&] { session.forSurface("hyperbolic", {}, "", s); }), "type");
+  EXPECT_EQ(refusedField([&] { session.forSurface("expression", { 1.0 }, "x*y", s); }),
+            "coefficients");
+  EXPECT_EQ(refusedField(
+                [&] {
+                  session.forSurface("plane", { 0, 0, 0 }, "x*y", s);
+                }),
+            "expression");
+  EXPECT_EQ(refusedField([&] { session.forSurface("expression", {}, "x*", s); }), "expression");
+  ChainChange chain;
+  chain.num_particles = 51;
+  chain.link_length = 0.1;
+  chain.particle_mass = 0.1;
+  EXPECT_EQ(refusedField([&] { session.forChain(chain, s); }), "num_particles");
+  chain.num_particles = 6;
+  chain.link_length = -1.0;
+  EXPECT_EQ(refusedField([&] { session.forChain(chain, s); }), "link_length");
+  chain.link_length = 0.1;
+  chain.particle_mass = std::nan("");
+  EXPECT_EQ(refusedField([&] { session.forChain(chain, s); }), "particle_mass");
+  EXPECT_EQ(session.serial(), 1u);
+  // and accepted, the candidate carries the change; the current scene is unchanged until adopted
+  chain.particle_mass = 0.2;
+  const SceneSession::Candidate longer = session.forChain(chain, s);
+  EXPECT_EQ(longer.built.initial_state.positions.cols(),
+            first.built.initial_state.positions.cols() - 5 + 6);
+  const SceneSession::Candidate bowl = session.forSurface("expression", {}, "0.5*(x*x+y*y)", s);
+  EXPECT_EQ(bowl.description.surfaces.front().surface.type, SurfaceType::Expression);
+  EXPECT_EQ(session.scene()->numParticles(), first.description.numParticles());
 }
 
 TEST(SceneSession, GravityAndDampingChangeOnlyWhenTheyDiffer)

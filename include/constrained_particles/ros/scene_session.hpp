@@ -1,9 +1,9 @@
 /// @file scene_session.hpp
 /// @brief The scene a node runs and the step settings its user chose over every scene's own:
-/// what ~reset, ~set_surface, ~set_chain and a gravity or damping reconfigure start from. It
-/// checks a scene request whole (scene file, particle limit, the scene's own build) before anything
-/// changes, and hands the runner a candidate to apply; the runner makes it current only once the
-/// simulator took it. Needs no ROS master.
+/// what ~reset, ~set_surface, ~set_chain and a gravity or damping reconfigure start from. Scene
+/// requests are checked here, whole (their fields, the scene file, the particle limit, the scene's
+/// own build), before anything changes, and hands the runner a candidate to apply; the runner makes
+/// it current only once the simulator took it. Needs no ROS master.
 #pragma once
 
 #include "constrained_particles/ros/parameters.hpp"
@@ -14,6 +14,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace constrained_particles
 {
@@ -42,8 +43,19 @@ public:
   /// them.
   /// @throws InvalidInput naming `scenario` or the file's field; nothing changes
   Candidate forReset(const std::string& scenario, const StepSettings& current) const;
-  /// ~set_surface, ~set_chain: the current scene changed by `edit` (which throws InvalidInput to
-  /// refuse), under `current` settings.
+  /// ~set_surface: the current scene with its first surface of `type` (surface.hpp's names) made
+  /// from `coefficients`, or for type 'expression' from the formula `expression`, under
+  /// `current` settings.
+  /// @throws InvalidInput naming `type`, `coefficients` or `expression` and the valid values, or
+  /// the scene's own refusal (no surface); nothing changes
+  Candidate forSurface(const std::string& type, const std::vector<double>& coefficients,
+                       const std::string& expression, const StepSettings& current) const;
+  /// ~set_chain: every chain of the current scene changed by `change`, under `current` settings.
+  /// @throws InvalidInput naming `num_particles`, `link_length` or `particle_mass` and its range
+  /// (limits.hpp, and ~max_particles for the count), or the scene's own refusal (no chain);
+  /// nothing changes
+  Candidate forChain(const ChainChange& change, const StepSettings& current) const;
+  /// The current scene changed by `edit` (which throws InvalidInput to refuse), under `current`.
   /// @throws InvalidInput; nothing changes
   Candidate forChange(const std::function<void(SceneDescription&)>& edit,
                       const StepSettings& current) const;

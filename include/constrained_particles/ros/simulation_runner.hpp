@@ -160,10 +160,13 @@ public:
   /// Back to the start of the current scene (`scenario` empty) or of another scene (a name in
   /// ~scene_directory or a file path), with its own solver settings under the user's.
   RunnerReply reset(const std::string& scenario);
-  /// Changes the current scene's description with `edit` (which throws InvalidInput to refuse)
-  /// and resets to it; `what` starts the reply ("surface set to 'bowl'").
-  RunnerReply changeScene(const std::function<void(SceneDescription&)>& edit,
-                          const std::string& what);
+  /// ~set_surface: the current scene's first surface replaced (SceneSession::forSurface), then a
+  /// reset to it; refused naming the field, with nothing changed.
+  RunnerReply setSurface(const std::string& type, const std::vector<double>& coefficients,
+                         const std::string& expression);
+  /// ~set_chain: every chain of the current scene changed (SceneSession::forChain), then a reset
+  /// to it; refused naming the field and its range, with nothing changed.
+  RunnerReply setChain(const ChainChange& change);
   /// Teleports (projected onto the constraints); time is kept.
   RunnerReply setState(const Points& positions, const Points& velocities);
   RunnerReply pause();
@@ -211,6 +214,9 @@ private:
   };
 
   RunnerReply submit(std::function<RunnerReply()> apply);
+  /// Applies the candidate `make` returns (SceneSession) and answers "`what`; scene ... reset".
+  RunnerReply changeScene(const std::function<SceneSession::Candidate()>& make,
+                          const std::string& what);
   /// Hands the applied forces and drags to the simulator (Simulator::setPerturbations) and ends
   /// the open accuracy window (the shadow does not feel them). Never throws.
   void updatePerturbations();
