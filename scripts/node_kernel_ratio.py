@@ -127,20 +127,30 @@ def measure_size(n, args, env, times, log_dir):
         time.sleep(args.warmup)
         rounds = []
         for _ in range(args.rounds):
-            stepping = None
+            stepping, done = None, threading.Event()
             if args.drive == "step":
                 pause()
-                # ~step answers when its steps are done or a ~pause stops it: on its own thread
-                stepping = threading.Thread(target=step, args=(MAX_STEPS_PER_CALL,), daemon=True)
+
+                def step_until_done():
+                    # one ~step answers when its steps are done or a ~pause stops it: asked
+                    # again at once until the window ends (a small chain takes 10^6 in a second)
+                    while not done.is_set():
+                        step(MAX_STEPS_PER_CALL)
+
+                stepping = threading.Thread(target=step_until_done, daemon=True)
                 stepping.start()
             times.take()
             time.sleep(args.seconds)
             node_values = times.take()
             if proc.poll() is not None or not node_values:
                 raise RuntimeError(f"node died or stopped publishing:\n{tail(log_path)}")
+            done.set()
             pause()  # ends a running ~step at its next batch
-            if stepping:
-                stepping.join(timeout=args.start_timeout)
+            deadline = time.monotonic() + args.start_timeout
+            # a ~step asked just before `done` is ended by the next pause
+            while stepping and stepping.is_alive() and time.monotonic() < deadline:
+                stepping.join(timeout=0.5)
+                pause()
             try:
                 kernel = kernel_step_time(args.kernel, n, args.seconds)
             except subprocess.CalledProcessError as e:

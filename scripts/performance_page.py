@@ -24,8 +24,8 @@ BLOCK = re.compile(r"(<!-- generated: (\w+) -->\n)(.*?)(<!-- end generated -->)"
 
 
 def stamp(root):
-    """'commit abc1234, 2026-12-05' for the tree at `root` ('+ uncommitted changes' if dirty):
-    the one place a commit hash may stand on the page."""
+    """'commit abc1234, 2026-12-05' for the tree at `root` ('+ uncommitted changes' if a tracked
+    file outside docs/ differs from it): the one place a commit hash may stand on the page."""
     import subprocess
     import datetime
 
@@ -34,7 +34,9 @@ def stamp(root):
                               stderr=subprocess.DEVNULL, text=True).stdout.strip()
 
     commit = git("rev-parse", "--short", "HEAD") or "unknown"
-    dirty = " + uncommitted changes" if git("status", "--porcelain", "--untracked-files=no") else ""
+    # docs/ is what the measuring commands write: a change there does not change what is measured
+    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":!docs")
+    dirty = " + uncommitted changes" if changed else ""
     return f"commit {commit}{dirty}, {datetime.date.today().isoformat()}"
 
 
@@ -181,47 +183,51 @@ def peers_block(bench):
     return text
 
 
+def table_block(bench, stem, header, cells):
+    """docs/bench/<stem>.csv as a table under its stamp: `header` the column names, `cells(row)`
+    a row's cells."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(cells(r)) + " |" for r in read(bench / f"{stem}.csv")]
+    return stamp_line(f"From {stamp_of(bench, stem)} (`docs/bench/{stem}.csv`).") + "\n".join(lines) + "\n"
+
+
+def us_of(row, key):
+    """A CSV time [s] as microseconds, 3 digits."""
+    return f"{1e6 * float(row[key]):.3g}"
+
+
 def cores_block(bench):
-    path = bench / "cores.csv"
-    stamp = stamp_of(bench, 'cores')
-    lines = ["| workload | method | old [us/step] | new [us/step] | new / old | positions differ [m] |",
-             "|---|---|---|---|---|---|"]
-    for r in read(path):
-        lines.append(f"| {r['workload']} | {r['integrator']} | "
-                     f"{1e6 * float(r['old_seconds_per_step']):.3g} | "
-                     f"{1e6 * float(r['new_seconds_per_step']):.3g} | {float(r['ratio']):.2f} | "
-                     f"{float(r['max_position_difference_m']):.2g} |")
-    return stamp_line(f"From {stamp} (`docs/bench/cores.csv`).") + "\n".join(lines) + "\n"
+    return table_block(
+        bench, "cores",
+        ["workload", "method", "old [us/step]", "new [us/step]", "new / old", "positions differ [m]"],
+        lambda r: [r["workload"], r["integrator"], us_of(r, "old_seconds_per_step"),
+                   us_of(r, "new_seconds_per_step"), f"{float(r['ratio']):.2f}",
+                   f"{float(r['max_position_difference_m']):.2g}"])
 
 
 def kernel_block(bench):
-    rows = read(bench / "kernel.csv")
-    lines = ["| n | positions differ after 1 s [m] | engine [us/step] | kernel [us/step] | "
-             "generic [us/step] | checked [us/step] | e/k (range of rounds) | g/k | c/k |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        checked = r.get("checked_s_per_step")
-        checked_time = f"{1e6 * float(checked):.3g}" if checked else "-"
-        checked_ratio = f"{float(r['checked_ratio_median']):.2f}" if checked else "-"
-        lines.append(
-            f"| {int(r['n']):,} | {float(r['max_position_difference_m']):.2g} | "
-            f"{1e6 * float(r['engine_s_per_step']):.3g} | {1e6 * float(r['kernel_s_per_step']):.3g} | "
-            f"{1e6 * float(r['generic_s_per_step']):.3g} | {checked_time} | "
-            f"{float(r['ratio_median']):.2f} ({float(r['ratio_min']):.2f} to "
-            f"{float(r['ratio_max']):.2f}) | {float(r['generic_ratio_median']):.2f} | {checked_ratio} |")
-    return stamp_line(f"From {stamp_of(bench, 'kernel')} (`docs/bench/kernel.csv`).") + "\n".join(lines) + "\n"
+    def cells(r):
+        checked = bool(r.get("checked_s_per_step"))
+        return [f"{int(r['n']):,}", f"{float(r['max_position_difference_m']):.2g}",
+                us_of(r, "engine_s_per_step"), us_of(r, "kernel_s_per_step"),
+                us_of(r, "generic_s_per_step"), us_of(r, "checked_s_per_step") if checked else "-",
+                f"{float(r['ratio_median']):.2f} ({float(r['ratio_min']):.2f} to "
+                f"{float(r['ratio_max']):.2f})", f"{float(r['generic_ratio_median']):.2f}",
+                f"{float(r['checked_ratio_median']):.2f}" if checked else "-"]
+
+    return table_block(bench, "kernel",
+                       ["n", "positions differ after 1 s [m]", "engine [us/step]", "kernel [us/step]",
+                        "generic [us/step]", "checked [us/step]", "e/k (range of rounds)", "g/k",
+                        "c/k"], cells)
 
 
 def node_kernel_block(bench):
-    rows = read(bench / "node_kernel.csv")
-    stamp = stamp_of(bench, 'node_kernel')
-    lines = ["| n | node `step_time` [us] | kernel [us] | node / kernel (median; range of rounds) |",
-             "|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {int(r['n']):,} | {1e6 * float(r['node_s_per_step']):.3g} | "
-                     f"{1e6 * float(r['kernel_s_per_step']):.3g} | {float(r['ratio_median']):.2f} "
-                     f"({float(r['ratio_min']):.2f} to {float(r['ratio_max']):.2f}) |")
-    return stamp_line(f"From {stamp} (`docs/bench/node_kernel.csv`).") + "\n".join(lines) + "\n"
+    return table_block(
+        bench, "node_kernel",
+        ["n", "node `step_time` [us]", "kernel [us]", "node / kernel (median; range of rounds)"],
+        lambda r: [f"{int(r['n']):,}", us_of(r, "node_s_per_step"), us_of(r, "kernel_s_per_step"),
+                   f"{float(r['ratio_median']):.2f} ({float(r['ratio_min']):.2f} to "
+                   f"{float(r['ratio_max']):.2f})"])
 
 
 def instructions_block(bench):
