@@ -41,6 +41,13 @@ const char* solveMethodName(SolveMethod method)
   return "unknown";
 }
 
+std::string solveAlgorithmName(const Model& model)
+{
+  if (model.solveMethod() != SolveMethod::Tree)
+    return solveMethodName(model.solveMethod());
+  return model.solvesTreeByRows() ? "tree (by rows)" : "tree (by particles)";
+}
+
 SolveMethod parseSolveMethod(const std::string& name, const std::string& field)
 {
   // none and single are what a structure resolves to, not requests

@@ -138,7 +138,7 @@ RunnerReply SimulationRunner::reset(const std::string& scenario)
         apply(session_.forReset(scenario, parameters_.step));
         return accepted("reset to scene '" + session_.scene()->name + "' (" +
                         std::to_string(simulator_->model().numParticles()) + " particles, solve " +
-                        solveMethodName(simulator_->model().solveMethod()) + "; " +
+                        solveAlgorithmName(simulator_->model()) + "; " +
                         parameters_.step.integrator + " + " +
                         stabilizationName(parameters_.step.stabilization) +
                         ", dt = " + formatValue(parameters_.step.dt) + " s)");

@@ -150,7 +150,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s; frames %s<i> in %s",
            first->scene->name.c_str(), first->model->numParticles(),
            parameters_.step.integrator.c_str(), stabilizationName(parameters_.step.stabilization),
-           parameters_.step.dt, solveMethodName(first->model->solveMethod()),
+           parameters_.step.dt, solveAlgorithmName(*first->model).c_str(),
            parameters_.frame_prefix.c_str(), parameters_.fixed_frame.c_str());
   ROS_INFO("simulator: stages %s: %s", forwardPathName(first->forward_path.path),
            first->forward_path.reason.c_str());
@@ -648,7 +648,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   logged_fallback_ = fallback;
   const NodeParameters& p = snap->parameters;
   add("scenario", snap->scene->name);
-  add("solve", solveMethodName(snap->model->solveMethod()));
+  add("solve", solveAlgorithmName(*snap->model));
   add("forward path",
       std::string(forwardPathName(snap->forward_path.path)) + ": " + snap->forward_path.reason);
   add("particles", std::to_string(snap->model->numParticles()));

@@ -162,6 +162,19 @@ TEST(SolveSelection, ChosenByConstraintStructure)
   for (int k = 1; k < 7; ++k)
     star.constraints.push_back(LinkConstraint{ 0, k, 1.0 });
   EXPECT_EQ(Model::compile(star).solveMethod(), SolveMethod::Tree);
+  // the one choice names the elimination the structure took: a hub under 6 links keeps the
+  // block elimination, one under 3 eliminates its rows; on the generic stages, blocks
+  EXPECT_EQ(solveAlgorithmName(Model::compile(star)), "tree (by particles)");
+  Scene forked;
+  forked.masses.assign(4, 1.0);
+  for (int k = 1; k < 4; ++k)
+    forked.constraints.push_back(LinkConstraint{ 0, k, 1.0 });
+  const Model forked_model = Model::compile(forked);
+  ASSERT_EQ(forked_model.solveMethod(), SolveMethod::Tree);
+  EXPECT_EQ(solveAlgorithmName(forked_model), "tree (by rows)");
+  EXPECT_EQ(solveAlgorithmName(Model::compile(forked, SolveMethod::Automatic, StagePaths::Generic)),
+            "tree (by particles)");
+  EXPECT_EQ(solveAlgorithmName(Model::compile(pinnedChain({ 1.0, 1.0, 1.0 }, 0.5))), "tridiagonal");
   // a ring closes a cycle: sparse; asking for the tree solve is refused
   Scene ring;
   ring.masses.assign(5, 1.0);

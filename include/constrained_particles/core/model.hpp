@@ -33,6 +33,13 @@ constexpr int NUM_SOLVE_METHODS = 7;
 /// Name of a solve method ("tridiagonal", ...).
 const char* solveMethodName(SolveMethod method);
 
+class Model;
+/// The algorithm `model`'s solve runs, by name: solveMethodName(), except that SolveMethod::Tree,
+/// the user's one choice for a forest, names which of its two eliminations the structure took:
+/// "tree (by rows)", LDL^T of J W J^T's rows (Model::solvesTreeByRows()), or "tree (by
+/// particles)", the 3 x 3 block elimination (solvers/tree.cpp). What the node reports.
+std::string solveAlgorithmName(const Model& model);
+
 /// @throws InvalidInput naming `field` and the valid names
 SolveMethod parseSolveMethod(const std::string& name, const std::string& field = "solve_method");
 
