@@ -38,6 +38,12 @@ BIN="$ROOT/build/ws/devel/lib/constrained_particles"
 mkdir -p "$OUT"
 # stamp NAME...: the line scripts/performance_page.py shows over docs/bench/NAME.csv's tables
 HOW="\`bash scripts/bench.sh${1:+ $1}\` at $(/usr/bin/python3 "$ROOT/scripts/performance_page.py" --stamp "$ROOT")"
+# a part that fails leaves its CSVs without a stamp rather than under an older run's
+unstamp() {
+  for name in "$@"; do
+    rm -f "$OUT/$name.stamp"
+  done
+}
 stamp() {
   for name in "$@"; do
     echo "$HOW" >"$OUT/$name.stamp"
@@ -48,17 +54,20 @@ stamp() {
   fi
 }
 if ((ONLY_SCENES == 3)); then
+  unstamp kernel
   "$BIN/bench_kernel" --out "$OUT" | tee "$OUT/kernel.txt"
   stamp kernel
   exit 0
 fi
 if ((ONLY_SCENES == 2)); then
+  unstamp stability
   "$BIN/constrained_particles_bench" stability --out "$OUT"
   stamp stability
   echo "wrote $OUT/stability.csv" >&2
   exit 0
 fi
 if ((ONLY_SCENES)); then
+  unstamp scenes trees
   "$BIN/constrained_particles_bench" scenes --out "$OUT"
   /usr/bin/python3 "$ROOT/scripts/bench_report.py" "$OUT" >/dev/null
   stamp scenes trees
@@ -66,6 +75,9 @@ if ((ONLY_SCENES)); then
   exit 0
 fi
 
+unstamp work_precision orders scaling scenes trees kernel peers stability
+# every peer's rows from this run only: one whose library is missing leaves none behind
+rm -f "$OUT"/peers_*.csv
 "$BIN/constrained_particles_bench" work_precision --out "$OUT" "${QUICK[@]}"
 "$BIN/constrained_particles_bench" scaling --out "$OUT" "${QUICK[@]}"
 "$BIN/constrained_particles_bench" scenes --out "$OUT" "${QUICK[@]}"

@@ -63,7 +63,8 @@ echo "comparing $(git -C "$ROOT" rev-parse --short HEAD) (new) with $BASE (old)"
 args=("$@")
 for ((i = 0; i + 1 < ${#args[@]}; ++i)); do
   if [[ "${args[i]}" == --csv ]]; then
-    echo "\`bash scripts/compare_cores.sh $BASE\` (old: $BASE) at $(python3 \
-      "$ROOT/scripts/performance_page.py" --stamp "$ROOT")" >"${args[i + 1]%.csv}.stamp"
+    echo "\`bash scripts/compare_cores.sh $BASE $*\` (old: $(git -C "$ROOT" rev-parse --short \
+      "$BASE")) at $(python3 "$ROOT/scripts/performance_page.py" --stamp "$ROOT")" \
+      >"${args[i + 1]%.csv}.stamp"
   fi
 done

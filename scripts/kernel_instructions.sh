@@ -22,7 +22,7 @@ count() {  # which steps -> instructions
   grep -o "Collected : [0-9]*" "$TMP/err" | tail -1 | grep -o "[0-9]*$"
 }
 # the stamp scripts/performance_page.py shows over the counts
-echo "# \`bash scripts/kernel_instructions.sh $*\` at $(python3 "$ROOT/scripts/performance_page.py" --stamp "$ROOT")"
+echo "# \`bash scripts/kernel_instructions.sh${*:+ $*}\` at $(python3 "$ROOT/scripts/performance_page.py" --stamp "$ROOT")"
 for who in engine generic kernel; do
   a="$(count "$who" "$S1")"
   b="$(count "$who" "$S2")"

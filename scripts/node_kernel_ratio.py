@@ -217,7 +217,7 @@ def main():
         command = shlex.join(['scripts/node_kernel_ratio.py'] + sys.argv[1:])
         print(f"\n{args.rounds} rounds of {args.seconds:g} s node, {args.seconds:g} s kernel per "
               f"size; machine: {machine()}; command: {command}")
-        if args.csv and table:
+        if args.csv and table and not failed:  # a size that failed: no table to stand for all
             write_csv(args.csv, table, f"{args.rounds} rounds of {args.seconds:g} s, node driven "
                       f"by {args.drive}, {command}")
         return 2 if failed else 0

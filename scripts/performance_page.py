@@ -1,5 +1,5 @@
-"""Fills the generated blocks of docs/*.md (docs/performance.md's, docs/scenes.md's) from the
-files in docs/bench/.
+"""Fills the generated blocks of docs/*.md (docs/performance.md's, scenes.md's, stability.md's)
+from the files in docs/bench/.
 
 A block is the text between `<!-- generated: NAME -->` and `<!-- end generated -->`; everything
 else on the page is hand-written and holds no measured figure and no commit hash
@@ -8,7 +8,7 @@ come from: the line the command that wrote its CSV left beside it (`<name>.stamp
 the commit and the date; `bash scripts/bench.sh`, `scripts/compare_cores.sh --csv`,
 `scripts/node_kernel_ratio.py --csv`).
 
-    python3 scripts/performance_page.py [ROOT]     (bench_report.py calls it after a full run)
+    python3 scripts/performance_page.py [ROOT]     (bench.sh runs it after each part it stamps)
     python3 scripts/performance_page.py --stamp [ROOT]   (prints the stamp the scripts write)
 
 A block whose files are missing says which command writes them; a block name with no generator
@@ -35,7 +35,8 @@ def stamp(root):
 
     commit = git("rev-parse", "--short", "HEAD") or "unknown"
     # docs/ is what the measuring commands write: a change there does not change what is measured
-    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":!docs")
+    # untracked files count too: CMake and compare_cores.sh pick sources up by glob
+    changed = git("status", "--porcelain", "--", ".", ":!docs")
     dirty = " + uncommitted changes" if changed else ""
     return f"commit {commit}{dirty}, {datetime.date.today().isoformat()}"
 
@@ -279,10 +280,10 @@ def tree_rows(bench):
 
 def scenes_block(bench):
     lines = scene_rows(bench)
-    ratios = {r["stages"]: [] for r in read(bench / "scenes.csv")}
+    ratios = {}
     for r in read(bench / "scenes.csv"):
         if r.get("generic_ratio_median"):
-            ratios[r["stages"]].append(float(r["generic_ratio_median"]))
+            ratios.setdefault(r.get("stages") or "-", []).append(float(r["generic_ratio_median"]))
     spans = [f"{stages} {min(v):.2f} to {max(v):.2f}" for stages, v in ratios.items() if v]
     return (stamp_line(f"From {stamp_of(bench, 'scenes')} (`docs/bench/scenes.csv`).") + "\n".join(lines) +
             "\n\nRatio to the generic stages, by stages: " + "; ".join(spans) + ".\n")
@@ -299,7 +300,8 @@ def trees_block(bench):
     return text
 
 
-STABILITY_METHODS = {"rk4 unsplit": "`rk4`, `max_substeps: 1`", "rk4 + sub-steps": "`rk4` (default)"}
+STABILITY_METHODS = {"rk4 unsplit": "`rk4`, `max_substeps: 1`", "rk4 + sub-steps": "`rk4` (default)",
+                     "velocity_verlet + sub-steps": "`velocity_verlet` (default sub-steps)"}
 
 
 def stability_block(bench):
@@ -326,7 +328,8 @@ def stability_block(bench):
 # the command that writes each block's files
 NOT_MEASURED = {"cores": "`bash scripts/bench.sh --cores BASE`",
                 "node_kernel": "`scripts/node_kernel_ratio.py --csv docs/bench/node_kernel.csv`",
-                "instructions": "`bash scripts/kernel_instructions.sh`"}
+                "instructions": "`bash scripts/kernel_instructions.sh > "
+                                "docs/bench/kernel_instructions.txt`"}
 BLOCKS = {"stability": stability_block, "scenes": scenes_block, "trees": trees_block, "orders": orders_block, "headline": headline_block, "peers": peers_block,
           "cores": cores_block, "kernel": kernel_block, "node_kernel": node_kernel_block,
           "instructions": instructions_block}

@@ -280,7 +280,9 @@ RunnerReply SimulationRunner::reconfigure(
       [this, edit]
       {
         NodeParameters candidate = parameters_;
-        const SceneDescription& scene = *session_.scene();
+        // held: adoptForces below replaces the session's scene
+        const std::shared_ptr<const SceneDescription> held = session_.scene();
+        const SceneDescription& scene = *held;
         edit(candidate, scene);
         validateNodeParameters(candidate);
         simulator_->setStepSettings(candidate.step);

@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""README.md and docs/ link to files and headings that exist (docs.test)."""
+"""README.md and docs/ link to files and headings that exist, name no commit outside a generated
+block, and their generated blocks are what docs/bench/ gives now (docs.test)."""
 import os
 import pathlib
 import sys
@@ -33,6 +34,23 @@ class DocsTest(unittest.TestCase):
             "README.md: link to docs/node.md#topics: no heading with that anchor",
             "docs/node.md: link to ../README.md#no-such-heading: no heading with that anchor",
         ])
+
+    def test_a_commit_hash_stands_only_in_a_generated_block(self):
+        text = ("Measured at 3f9a2c1 by hand.\n"
+                "<!-- generated: cores -->\n_From the run at commit 120ddd2._\n"
+                "<!-- end generated -->\n"
+                "A number 1234567 and the word accede are no hash; deadbeef0 is one.\n")
+        self.assertEqual(list(check_docs.commit_hashes(text)), [(1, "3f9a2c1"), (5, "deadbeef0")])
+
+    def test_every_generated_block_matches_its_files(self):
+        import performance_page
+        for page in sorted((ROOT / "docs").glob("*.md")):
+            text = page.read_text()
+            with tempfile.TemporaryDirectory() as tree:
+                copy = pathlib.Path(tree) / page.name
+                copy.write_text(text)
+                filled = performance_page.fill_page(copy, ROOT / "docs" / "bench")
+            self.assertEqual(filled, text, f"{page.name}: run scripts/performance_page.py")
 
     def test_anchors_follow_githubs_slugs(self):
         self.assertEqual(check_docs.anchors("## Node: simulator_node\n### Time: stamps and /clock\n"

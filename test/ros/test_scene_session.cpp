@@ -55,11 +55,13 @@ TEST(SceneSession, AStepSettingAReconfigureChangedIsTheUsersForEveryScene)
   SceneSession session(parametersFor("chain"), scene("chain"));
   const StepSettings before = session.initial().settings;
   StepSettings after = before;
-  after.integrator = "semi_implicit_euler";
+  after.dt = 0.004;
   session.chooseStep(before, after);
-  EXPECT_EQ(session.settingsFor(scene("pinned_pendulum")).integrator, "semi_implicit_euler");
-  // a field left alone still comes from each scene's own section
-  EXPECT_EQ(session.settingsFor(scene("pinned_pendulum")).dt, 0.001);
+  const StepSettings pendulum = session.settingsFor(scene("pinned_pendulum"));
+  EXPECT_EQ(pendulum.dt, 0.004);
+  // a field left alone still comes from each scene's own section (the file says velocity_verlet)
+  EXPECT_EQ(pendulum.integrator, "velocity_verlet");
+  EXPECT_NE(StepSettings{}.integrator, "velocity_verlet");
 }
 
 TEST(SceneSession, ARefusedRequestNamesItsFieldAndChangesNothing)
@@ -129,10 +131,21 @@ TEST(SceneSession, SceneRequestsAreCheckedHereNamingTheirField)
             "expression");
   EXPECT_EQ(refusedField([&] { session.forSurface("expression", {}, "x*", s); }), "expression");
   ChainChange chain;
-  chain.num_particles = 51;
+  chain.num_particles = 0;
   chain.link_length = 0.1;
   chain.particle_mass = 0.1;
   EXPECT_EQ(refusedField([&] { session.forChain(chain, s); }), "num_particles");
+  try
+  {
+    chain.num_particles = 51;
+    session.forChain(chain, s);
+    ADD_FAILURE() << "a chain of 51 was accepted under ~max_particles 50";
+  }
+  catch (const InvalidInput& e)
+  {
+    // the request's own range, with ~max_particles as its top
+    EXPECT_NE(std::string(e.what()).find("[1, 50]"), std::string::npos) << e.what();
+  }
   chain.num_particles = 6;
   chain.link_length = -1.0;
   EXPECT_EQ(refusedField([&] { session.forChain(chain, s); }), "link_length");

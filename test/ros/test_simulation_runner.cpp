@@ -46,6 +46,33 @@ bool waitFor(Predicate predicate, std::chrono::seconds timeout = 60s)
   return true;
 }
 
+TEST(SimulationRunner, SceneRequestsCountScenesByOneAndARefusalChangesNothing)
+{
+  SimulationRunner runner(parametersFor("chain"), scene("chain"));
+  ASSERT_EQ(runner.snapshot()->scene_serial, 1u);
+  runner.start(true);
+  ChainChange chain;
+  chain.num_particles = 8;
+  chain.link_length = 0.2;
+  chain.particle_mass = 0.1;
+  const RunnerReply changed = runner.setChain(chain);
+  ASSERT_TRUE(changed.success) << changed.message;
+  EXPECT_EQ(runner.snapshot()->scene_serial, 2u);
+  EXPECT_EQ(runner.snapshot()->model->numParticles(), 8);
+  chain.num_particles = 0;
+  const RunnerReply refused = runner.setChain(chain);
+  EXPECT_FALSE(refused.success);
+  EXPECT_EQ(refused.field, "num_particles") << refused.message;
+  // the chain scene has no surface to replace: the scene's own refusal
+  const RunnerReply no_surface = runner.setSurface("plane", { 0.0, 0.0, 0.0 }, "");
+  EXPECT_FALSE(no_surface.success);
+  EXPECT_NE(no_surface.message.find("has no surface"), std::string::npos) << no_surface.message;
+  EXPECT_EQ(runner.snapshot()->scene_serial, 2u);
+  EXPECT_EQ(runner.snapshot()->model->numParticles(), 8);
+  EXPECT_TRUE(runner.reset("").success);
+  EXPECT_EQ(runner.snapshot()->scene_serial, 3u);
+}
+
 TEST(SimulationRunner, StepTakesExactlyTheStepsAskedAndReportsThem)
 {
   SimulationRunner runner(parametersFor("chain"), scene("chain"));
