@@ -66,5 +66,9 @@ for ((i = 0; i + 1 < ${#args[@]}; ++i)); do
     echo "\`bash scripts/compare_cores.sh $BASE $*\` (old: $(git -C "$ROOT" rev-parse --short \
       "$BASE")) at $(python3 "$ROOT/scripts/performance_page.py" --stamp "$ROOT")" \
       >"${args[i + 1]%.csv}.stamp"
+    # into docs/bench: the pages' generated blocks follow (test_docs checks they match)
+    if [[ "$(cd "$(dirname "${args[i + 1]}")" && pwd)" == "$ROOT/docs/bench" ]]; then
+      python3 "$ROOT/scripts/performance_page.py" "$ROOT"
+    fi
   fi
 done

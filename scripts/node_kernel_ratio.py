@@ -33,7 +33,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 # the roscore, workspace and process handling node_rates.py already does (one copy)
 from node_rates import (machine, private_master, run, shut_down, start_roscore,  # noqa: E402
                         stop, tail, wait_for_master)
-from performance_page import stamp  # noqa: E402
+from performance_page import fill, stamp  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NODE_NAME = "simulator"
@@ -170,6 +170,9 @@ def write_csv(path, table, how):
             f.write(f"{n},{node:.6e},{kernel:.6e},{median:.4f},{low:.4f},{high:.4f}\n")
     with open(os.path.splitext(path)[0] + ".stamp", "w") as f:
         f.write(f"`scripts/node_kernel_ratio.py` at {stamp(ROOT)}: {how}\n")
+    # into docs/bench: the pages' generated blocks follow (test_docs checks they match)
+    if os.path.realpath(os.path.dirname(path)) == os.path.realpath(os.path.join(ROOT, "docs", "bench")):
+        fill(ROOT)
 
 
 def main():
