@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Regenerates docs/accuracy.md's figures: starts a master and a
 # simulator on a free port (stopped afterwards by their PIDs), asks it ~compare_methods through
-# scripts/compare_methods.py and keeps the table, CSV and diagram in docs/compare_methods/.
+# scripts/compare_methods.py and keeps the table, CSV and diagram in docs/compare_methods/, with
+# the run's stamp (command, commit, date) beside the CSV; docs/accuracy.md's summary follows
+# (scripts/performance_page.py).
 # Usage: scripts/compare_methods_demo.sh [scenario, default surface_chain] [horizon s, default 1]
 #        [target m, default 1e-6] [output dir, default docs/compare_methods]
 set -euo pipefail
@@ -36,5 +38,9 @@ for _ in $(seq 600); do
   sleep 0.1
 done
 mkdir -p "$OUT"
+STAMP="\`bash scripts/compare_methods_demo.sh${*:+ $*}\` at $(python3 "$ROOT/scripts/performance_page.py" --stamp "$ROOT")"
+rm -f "$OUT/${SCENARIO}_compare_methods.stamp"  # a failed study leaves no stamp over old files
 python3 "$ROOT/scripts/compare_methods.py" --node /simulator --horizon "$HORIZON" \
   --target "$TARGET" --output "$OUT" | tee "$OUT/${SCENARIO}_compare_methods.txt"
+echo "$STAMP" >"$OUT/${SCENARIO}_compare_methods.stamp"
+python3 "$ROOT/scripts/performance_page.py"

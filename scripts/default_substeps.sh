@@ -4,9 +4,11 @@
 # the node's default settings (max_substeps 1024), where docs/performance.md's peer table runs each integrator
 # unsplit (the unsplit_ cases: max_substeps 1). Prints each run's last line: energy drift over
 # 10 s and the largest link error.
-# Usage: scripts/default_substeps.sh [case ...]
+# Usage: scripts/default_substeps.sh [--csv FILE] [case ...]
 #   cases: peer_<n>_<integrator>, unsplit_<n>_<integrator>, taut_chain_gravity
 # (default: the semi-implicit Euler chains of 10 and 100, Verlet on 100, the taut chain)
+# --csv FILE: also writes the runs there and the stamp beside it (FILE with .stamp for .csv);
+#   in docs/bench, docs/physics.md's generated block follows (scripts/performance_page.py)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$ROOT/scripts/build.sh" >/dev/null
@@ -41,6 +43,13 @@ taut_chain() {  # 20 particles in a straight line, pinned at both ends, 0.1 m li
   } >"$DIR/taut_chain_gravity.yaml"
 }
 
+CSV=""
+if [[ "${1:-}" == "--csv" ]]; then
+  [[ -n "${2:-}" ]] || { echo "--csv needs a file" >&2; exit 2; }
+  CSV="$2"
+  shift 2
+fi
+ARGS=("$@")
 CASES=("$@")
 ((${#CASES[@]})) || CASES=(peer_10_semi_implicit_euler peer_100_semi_implicit_euler
   peer_100_velocity_verlet taut_chain_gravity)
@@ -56,5 +65,22 @@ for case in "${CASES[@]}"; do
       "taut_chain_gravity" >&2
     exit 2
   fi
-  echo "$case: $("$DEMO" 10 "$DIR/$case.yaml" | tail -2 | head -1)"
+  line="$("$DEMO" 10 "$DIR/$case.yaml" | tail -2 | head -1)"
+  echo "$case: $line"
+  echo "$case: $line" >>"$DIR/lines.txt"
 done
+if [[ -n "$CSV" ]]; then
+  # the demo's last line: "t = T s  energy = E J (drift D J)  max error = P m, V m/s"
+  /usr/bin/python3 - "$ROOT" "$CSV" "$DIR/lines.txt" "${ARGS[@]}" <<'PY'
+import re, shlex, sys
+sys.path.insert(0, sys.argv[1] + "/scripts")
+from performance_page import write_measurement
+LINE = re.compile(r"^(\S+): t = (\S+) s .*\(drift (\S+) J\)\s+max error = (\S+) m, (\S+) m/s")
+rows = [LINE.match(line).groups() for line in open(sys.argv[3])]
+write_measurement(sys.argv[1], sys.argv[2],
+                  ["case", "sim_seconds", "energy_drift_J", "max_position_error_m",
+                   "max_velocity_error_m_per_s"], rows,
+                  "`" + shlex.join(["bash", "scripts/default_substeps.sh", "--csv", sys.argv[2],
+                                    *sys.argv[4:]]) + "`")
+PY
+fi

@@ -32,6 +32,10 @@ def main(path):
         "`LongEnergySweep` in `test/core/test_energy_sweep.cpp`, rows in "
         "`docs/bench/energy_sweep.csv`); do not edit by hand.",
         "",
+        # the run's stamp, filled by scripts/performance_page.py from energy_sweep.stamp
+        "<!-- generated: energy_sweep_stamp -->",
+        "<!-- end generated -->",
+        "",
         f"Each run: a shipped scene (`config/scenes`) at the default step settings (dt = 1 ms, "
         f"`energy_budget` 0.01, sub-steps on) with one integrator and stabilisation, for "
         f"{horizon:.0f} s of sim time. It either reaches the end with every accepted step's "

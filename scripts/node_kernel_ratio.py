@@ -33,7 +33,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 # the roscore, workspace and process handling node_rates.py already does (one copy)
 from node_rates import (machine, private_master, run, shut_down, start_roscore,  # noqa: E402
                         stop, tail, wait_for_master)
-from performance_page import fill, stamp  # noqa: E402
+from performance_page import write_measurement  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NODE_NAME = "simulator"
@@ -163,16 +163,12 @@ def measure_size(n, args, env, times, log_dir):
         stop(proc)
 
 
-def write_csv(path, table, how):
-    with open(path, "w") as f:
-        f.write("n,node_s_per_step,kernel_s_per_step,ratio_median,ratio_min,ratio_max\n")
-        for n, node, kernel, median, low, high in table:
-            f.write(f"{n},{node:.6e},{kernel:.6e},{median:.4f},{low:.4f},{high:.4f}\n")
-    with open(os.path.splitext(path)[0] + ".stamp", "w") as f:
-        f.write(f"`scripts/node_kernel_ratio.py` at {stamp(ROOT)}: {how}\n")
-    # into docs/bench: the pages' generated blocks follow (test_docs checks they match)
-    if os.path.realpath(os.path.dirname(path)) == os.path.realpath(os.path.join(ROOT, "docs", "bench")):
-        fill(ROOT)
+def write_csv(path, table, command, details):
+    write_measurement(ROOT, path, ["n", "node_s_per_step", "kernel_s_per_step", "ratio_median",
+                                   "ratio_min", "ratio_max"],
+                      [[n, f"{node:.6e}", f"{kernel:.6e}", f"{median:.4f}", f"{low:.4f}",
+                        f"{high:.4f}"] for n, node, kernel, median, low, high in table],
+                      f"`{command}` ({details})")
 
 
 def main():
@@ -221,8 +217,8 @@ def main():
         print(f"\n{args.rounds} rounds of {args.seconds:g} s node, {args.seconds:g} s kernel per "
               f"size; machine: {machine()}; command: {command}")
         if args.csv and table and not failed:  # a size that failed: no table to stand for all
-            write_csv(args.csv, table, f"{args.rounds} rounds of {args.seconds:g} s, node driven "
-                      f"by {args.drive}, {command}")
+            write_csv(args.csv, table, command,
+                      f"{args.rounds} rounds of {args.seconds:g} s, node driven by {args.drive}")
         return 2 if failed else 0
     finally:
         shut_down(roscore, log_dir, failed, "node_kernel_ratio")

@@ -10,7 +10,9 @@ and reads sim time and steps from /diagnostics. Prints a markdown table of media
 consecutive windows of --seconds each.
 Usage: node_rates.py [--sizes N ...] [--seconds S] [--warmup S] [--repeats R] [--publish-rate HZ]
                      [--workspace DIR] [--start-timeout S] [--check-state-hz HZ]
-                     [--check-particles-hz HZ]
+                     [--check-particles-hz HZ] [--csv FILE]
+With --csv FILE also writes the table there and its stamp (command, commit, date) beside it as
+FILE with .stamp for .csv, which scripts/performance_page.py shows over it (docs/node.md).
 Exit status: 0; 1 if --check-state-hz or --check-particles-hz failed; 2 if a node died or never published, or no
 workspace or roscore.
 """
@@ -47,6 +49,7 @@ def parse_args():
                    help="wall seconds for a node's first /tf, ~state and /diagnostics")
     p.add_argument("--check-state-hz", type=float, default=None,
                    help="exit 1 if the largest size's ~state median is below this")
+    p.add_argument("--csv", default=None, help="also write the table here (and its stamp)")
     p.add_argument("--check-particles-hz", type=float, default=None,
                    help="exit 1 if the largest size's ~particles median is below this")
     a = p.parse_args()
@@ -398,6 +401,18 @@ def main():
               f"/tf carries at most 1,000 frames (~tf_frames -1); "
               f"measuring process CPU {fmt(max(self_cpu), 0)} % at most; "
               f"command: {shlex.join(['scripts/node_rates.py'] + sys.argv[1:])}")
+
+        if args.csv and not failed:  # a size that failed: no table to stand for all
+            # imported here: node_kernel_ratio.py imports this module, performance_page none
+            from performance_page import write_measurement
+            write_measurement(
+                ROOT, args.csv, ["n", "steps_per_s", "real_time_factor", "tf_hz", "state_hz",
+                                 "particles_hz", "node_cpu_percent"],
+                [[n, f"{m['steps/s']:.1f}", f"{m['rtf']:.4g}", f"{m['tf']:.2f}",
+                  f"{m['state']:.2f}", f"{m['particles']:.2f}", f"{m['cpu']:.1f}"]
+                 for n, m, _ in rows],
+                f"`{shlex.join(['scripts/node_rates.py'] + sys.argv[1:])}` (publish rate {asked}, "
+                f"medians of {args.repeats} x {args.seconds:g} s)")
 
         largest = max(rows, key=lambda r: r[0])
         for topic, key, wanted in (("~state", "state", args.check_state_hz),

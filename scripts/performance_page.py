@@ -1,14 +1,17 @@
-"""Fills the generated blocks of docs/*.md (docs/performance.md's, scenes.md's, stability.md's)
-from the files in docs/bench/.
+"""Fills the generated blocks of docs/*.md from the files the measuring commands write (most in
+docs/bench/; the study in docs/compare_methods/).
 
 A block is the text between `<!-- generated: NAME -->` and `<!-- end generated -->`; everything
 else on the page is hand-written and holds no measured figure and no commit hash
 (scripts/check_docs.py checks the hashes). Each block starts with the stamp of the run its files
-come from: the line the command that wrote its CSV left beside it (`<name>.stamp`: the command,
-the commit and the date; `bash scripts/bench.sh`, `scripts/compare_cores.sh --csv`,
-`scripts/node_kernel_ratio.py --csv`).
+come from: the line the command that wrote them left beside them (`<name>.stamp`: the command,
+the commit and the date). The commands: `bash scripts/bench.sh`, `scripts/compare_cores.sh
+--csv`, `scripts/node_kernel_ratio.py --csv`, `scripts/node_rates.sh --csv`,
+`scripts/default_substeps.sh --csv`, `scripts/hard_cases.sh --csv`, `scripts/energy_sweep.sh`, `scripts/compare_methods_demo.sh`,
+`scripts/reliability.sh`, `scripts/tier_times.sh`; each refills the pages when it is done
+(`write_measurement` for the Python ones).
 
-    python3 scripts/performance_page.py [ROOT]     (bench.sh runs it after each part it stamps)
+    python3 scripts/performance_page.py [ROOT]     (the commands run it after they write)
     python3 scripts/performance_page.py --stamp [ROOT]   (prints the stamp the scripts write)
 
 A block whose files are missing says which command writes them; a block name with no generator
@@ -58,6 +61,21 @@ def us(seconds):
         if seconds >= scale or unit == "us":
             value = seconds / scale
             return f"{value:.3g} {unit}"
+
+
+def write_measurement(root, path, header, rows, how):
+    """Writes a measuring command's table to `path` (CSV: `header`, then `rows`, cells as given)
+    and its stamp beside it (`how`: the command and its settings, then the commit and date), and
+    refills the pages when `path` is in docs/bench (test_docs checks the pages match it)."""
+    root = pathlib.Path(root)
+    path = pathlib.Path(path)
+    with open(path, "w", newline="") as f:
+        out = csv.writer(f, lineterminator="\n")
+        out.writerow(header)
+        out.writerows(rows)
+    path.with_suffix(".stamp").write_text(f"{how} at {stamp(root)}\n")
+    if path.resolve().parent == (root / "docs" / "bench").resolve():
+        fill(root)
 
 
 def stamp_line(text):
@@ -231,6 +249,139 @@ def node_kernel_block(bench):
                    f"{float(r['ratio_max']):.2f})"])
 
 
+def node_rates_block(bench):
+    """The node's throughput at 1,000 to 100,000 particles (docs/bench/node_rates.csv), for
+    docs/node.md."""
+    return table_block(
+        bench, "node_rates",
+        ["particles", "steps/s", "real-time factor", "/tf [Hz]", "~state [Hz]", "~particles [Hz]",
+         "node CPU [%]"],
+        lambda r: [f"{int(r['n']):,}", f"{float(r['steps_per_s']):,.0f}",
+                   f"{float(r['real_time_factor']):.3g}", f"{float(r['tf_hz']):.1f}",
+                   f"{float(r['state_hz']):.1f}", f"{float(r['particles_hz']):.1f}",
+                   f"{float(r['node_cpu_percent']):.0f}"])
+
+
+def substeps_case(case):
+    """default_substeps.sh's case name in words."""
+    match = re.match(r"(peer|unsplit)_(\d+)_(\w+)$", case)
+    if match:
+        kind, n, integrator = match.groups()
+        split = "default sub-steps" if kind == "peer" else "`max_substeps: 1`"
+        return f"the peer chain of {n}, `{integrator}`, {split}"
+    if case == "taut_chain_gravity":
+        return "20 particles taut between two pins under gravity, `rk4`, default sub-steps"
+    return case
+
+
+def default_substeps_block(bench):
+    """The peer chains and the taut chain at the node's default sub-steps
+    (docs/bench/default_substeps.csv), for docs/physics.md."""
+    return table_block(
+        bench, "default_substeps",
+        ["run", "sim time [s]", "energy drift [J]", "largest link error [m]"],
+        lambda r: [substeps_case(r["case"]), r["sim_seconds"],
+                   f"{float(r['energy_drift_J']):+.3g}", f"{float(r['max_position_error_m']):.2g}"])
+
+
+def energy_sweep_block(bench):
+    """The energy sweep's outcomes in a few lines (docs/bench/energy_sweep.csv), for
+    docs/physics.md; docs/energy_sweep.md has every run."""
+    runs = read(bench / "energy_sweep.csv")
+    ok = [r for r in runs if r["outcome"] == "ok"]
+    handed = [r for r in ok if int(r["stiff_steps"])]
+    stopped = {}
+    for r in runs:
+        if r["outcome"] != "ok":
+            stopped.setdefault((r["integrator"], r["stabilization"]), []).append(r["scene"])
+    horizon = max(float(r["time_s"]) for r in runs)
+    lines = [f"- {len(runs)} runs; {len(ok)} reach {horizon:g} s within the energy budget, "
+             f"{len(handed)} of them handed to `fast_projection` on the way;",
+             f"- {len(runs) - len(ok)} stop on a named step check:"]
+    lines += [f"  - `{integrator}` under `{stabilization}`: {len(scenes)} "
+              f"({', '.join(sorted(scenes))})" for (integrator, stabilization), scenes in
+              sorted(stopped.items(), key=lambda item: (-len(item[1]), item[0]))]
+    return (stamp_line(f"From {stamp_of(bench, 'energy_sweep')} (`docs/bench/energy_sweep.csv`).")
+            + "\n".join(lines) + "\n")
+
+
+def energy_sweep_stamp_block(bench):
+    return stamp_line(f"From {stamp_of(bench, 'energy_sweep')}.")
+
+
+def compare_methods_block(bench):
+    """The study of docs/compare_methods/ (scripts/compare_methods_demo.sh) in a few lines, for
+    docs/accuracy.md: the recommendation, and per integrator its cheapest run within the target
+    or, if none is, its most accurate run."""
+    folder = bench.parent / "compare_methods"
+    runs = [r for r in read(folder / "surface_chain_compare_methods.csv") if r["finite"] == "1"]
+    target = float(runs[0]["error_target_m"])
+    error, cpu = (lambda r: float(r["position_error_m"])), (lambda r: float(r["cpu_s_per_sim_s"]))
+
+    def method(r):
+        tolerance = f", tolerance {float(r['tolerance']):g}" if float(r["tolerance"]) else ""
+        return f"{r['integrator']} + {r['stabilization']}, dt = {float(r['dt_s']):g} s{tolerance}"
+
+    times = lambda x: f"{x:,.0f}" if x >= 100 else f"{x:.2g}"
+    best = next(r for r in runs if r["recommended"] == "1")
+    lines = [f"For {target:g} m at t = {float(best['horizon_s']):g} s the cheapest is "
+             f"{method(best)} ({error(best):.2g} m, {cpu(best):.2g} s CPU per simulated second). "
+             "Each integrator's cheapest run within the target, or its most accurate one:", "",
+             "| integrator | run | error [m] | error / target | CPU x the recommended |",
+             "|---|---|---|---|---|"]
+    for integrator in dict.fromkeys(r["integrator"] for r in runs):
+        mine = [r for r in runs if r["integrator"] == integrator]
+        within = [r for r in mine if error(r) <= target]
+        r = min(within, key=cpu) if within else min(mine, key=error)
+        lines.append(f"| {integrator} | {method(r)} | {error(r):.2g} | {error(r) / target:.2g} | "
+                     f"{times(cpu(r) / cpu(best))} |")
+    stem = "compare_methods/surface_chain_compare_methods"
+    return (stamp_line(f"From {(bench.parent / (stem + '.stamp')).read_text().strip()} "
+                       f"(`docs/{stem}.csv`).") + "\n".join(lines) + "\n")
+
+
+RELIABILITY_PARTS = [
+    ("fuzz_services", "service fuzzing",
+     "`CP_FUZZ_SUMMARY=FILE rostest constrained_particles fuzz_services.test` (also in `scripts/test.sh`)"),
+    ("fuzz", "core fuzzing (libFuzzer + ASan + UBSan)", "`bash scripts/fuzz.sh 300`"),
+    ("tsan", "data races (ThreadSanitizer), every rostest", "`bash scripts/tsan.sh`"),
+    ("realtime", "real time: 1,000 particles, dt = 1 ms, a busy loop on the other core; then more "
+     "than the machine can do (20,000 particles, the loop on the node's core)",
+     "`bash scripts/realtime_load.sh`")]
+
+
+def reliability_block(bench):
+    """docs/reliability.md's table: each part's result line as `scripts/reliability.sh PART` kept
+    it (docs/bench/reliability_PART.txt), with its own stamp."""
+    lines = ["| what | command | result | run |", "|---|---|---|---|"]
+    for part, what, command in RELIABILITY_PARTS:
+        try:
+            result = "; ".join((bench / f"reliability_{part}.txt").read_text().strip().split("\n"))
+            run = stamp_of(bench, f"reliability_{part}")
+        except OSError:
+            result, run = "not measured yet", f"`bash scripts/reliability.sh {part}` writes it"
+        lines.append(f"| {what} | {command} | {result.replace('|', '/')} | {run} |")
+    return stamp_line("Each row from its own run (`docs/bench/reliability_*.txt`).") + "\n".join(lines) + "\n"
+
+
+def tiers_block(bench):
+    """How long each test tier takes (docs/bench/tiers.csv), for docs/testing.md."""
+    minutes = lambda seconds: f"{int(seconds) // 60} min {int(seconds) % 60:02d} s"
+    return table_block(
+        bench, "tiers", ["tier", "tests passed", "wall time", "gtests", "rostests"],
+        lambda r: [f"`bash scripts/test.sh{' --long' if r['tier'] == 'long' else ''}`",
+                   r["tests_passed"], minutes(float(r["wall_s"])), minutes(float(r["gtest_s"])),
+                   minutes(float(r["rostest_s"]))])
+
+
+def hard_cases_block(bench):
+    """The hard cases' measured figures (docs/bench/hard_cases.csv), under docs/stability.md's
+    table of what the tests assert."""
+    rows = read(bench / "hard_cases.csv")
+    return (stamp_line(f"From {stamp_of(bench, 'hard_cases')} (`docs/bench/hard_cases.csv`).") +
+            "\n".join(f"- {r['case']}: {r['figures']}" for r in rows) + "\n")
+
+
 def instructions_block(bench):
     text = (bench / "kernel_instructions.txt").read_text().strip().split("\n")
     stamps = [line[2:] for line in text if line.startswith("# ")]
@@ -329,10 +480,23 @@ def stability_block(bench):
 NOT_MEASURED = {"cores": "`bash scripts/bench.sh --cores BASE`",
                 "node_kernel": "`scripts/node_kernel_ratio.py --csv docs/bench/node_kernel.csv`",
                 "instructions": "`bash scripts/kernel_instructions.sh > "
-                                "docs/bench/kernel_instructions.txt`"}
+                                "docs/bench/kernel_instructions.txt`",
+                "node_rates": "`bash scripts/node_rates.sh --check-particles-hz 10 --csv "
+                              "docs/bench/node_rates.csv`",
+                "default_substeps": "`bash scripts/default_substeps.sh --csv "
+                                    "docs/bench/default_substeps.csv`",
+                "energy_sweep": "`bash scripts/energy_sweep.sh`",
+                "energy_sweep_stamp": "`bash scripts/energy_sweep.sh`",
+                "compare_methods": "`bash scripts/compare_methods_demo.sh`",
+                "tiers": "`bash scripts/tier_times.sh`",
+                "hard_cases": "`bash scripts/hard_cases.sh --csv docs/bench/hard_cases.csv`"}
 BLOCKS = {"stability": stability_block, "scenes": scenes_block, "trees": trees_block, "orders": orders_block, "headline": headline_block, "peers": peers_block,
           "cores": cores_block, "kernel": kernel_block, "node_kernel": node_kernel_block,
-          "instructions": instructions_block}
+          "instructions": instructions_block, "node_rates": node_rates_block,
+          "default_substeps": default_substeps_block, "energy_sweep": energy_sweep_block,
+          "energy_sweep_stamp": energy_sweep_stamp_block, "compare_methods": compare_methods_block,
+          "reliability": reliability_block, "tiers": tiers_block,
+          "hard_cases": hard_cases_block}
 
 
 def fill(root):

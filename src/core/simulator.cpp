@@ -335,9 +335,9 @@ void Simulator::readSceneKind()
 {
   driven_ = false;
   for (const Constraint& constraint : model_->scene().constraints)
-    driven_ = driven_ || std::holds_alternative<MovingAnchorConstraint>(constraint);
-  // a driven anchor (the one time-dependent kind) or a force from outside does work on the
-  // system: its energy is not kept
+    driven_ = driven_ || isDriven(constraint);
+  // a driven anchor (a time-dependent kind) or a force from outside does work on the system:
+  // its energy is not kept
   conservative_ = !driven_ && forcesConservative(model_->scene()) && data_->perturbations.empty();
   has_stiffness_ = hasStiffness(*model_, data_->perturbations);
 }

@@ -218,6 +218,7 @@ TYPED_TEST(RowKind, RowsMatchFiniteDifferences)
 TYPED_TEST(EliminatedKind, ImposedMotionIsConsistent)
 {
   using Kind = TypeParam;
+  bool moved = false;
   {
     Random random(200 + Constraint(Kind{}).index());
     for (int trial = 0; trial < TRIALS; ++trial)
@@ -235,8 +236,12 @@ TYPED_TEST(EliminatedKind, ImposedMotionIsConsistent)
           << trial;
       EXPECT_GE(eliminatedParticle(Constraint(record)), 0);
       EXPECT_LT(eliminatedParticle(Constraint(record)), PARTICLES);
+      moved = moved || (later.position - now.position).norm() > 0.0;
     }
   }
+  // a kind that moves its particle in time does work: it says DRIVEN, or the ledger misses it
+  EXPECT_EQ(moved, IsDriven<Kind>::value);
+  EXPECT_EQ(moved, isDriven(Constraint(Kind{})));
 }
 
 // Conservative forces: f = -grad U, and f does not depend on velocity. The others add nothing to

@@ -72,6 +72,24 @@ inline bool isEliminated(const Constraint& constraint)
                     constraint);
 }
 
+/// A kind whose imposed motion depends on time declares `static constexpr bool DRIVEN = true`:
+/// it does work on the system (EnergyLedger books it through its reaction). Others need not say.
+template <class Kind, class = void>
+struct IsDriven : std::false_type
+{
+};
+template <class Kind>
+struct IsDriven<Kind, std::void_t<decltype(Kind::DRIVEN)>> : std::bool_constant<Kind::DRIVEN>
+{
+};
+
+/// True for kinds that move their particle in time (driven anchors).
+inline bool isDriven(const Constraint& constraint)
+{
+  return std::visit([](const auto& c) { return IsDriven<std::decay_t<decltype(c)>>::value; },
+                    constraint);
+}
+
 /// Rows a record makes (0 for eliminated kinds).
 inline int rowCount(const Constraint& constraint)
 {

@@ -25,6 +25,7 @@ struct MovingAnchorConstraint
   static constexpr const char* KIND = "moving_anchor";
   static constexpr bool ELIMINATED = true;           ///< no rows: inverse mass 0
   static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
+  static constexpr bool DRIVEN = true;  ///< moves in time: does work (isDriven, EnergyLedger)
   static constexpr auto fields()
   {
     return std::make_tuple(
