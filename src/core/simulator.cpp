@@ -72,10 +72,10 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
 // (addEliminatedReactions); a pin, at rest, puts in none
 double drivePower(const Model& model, const Data& data)
 {
-  const int m = model.numRows();
   double power = 0.0;
   for (std::size_t k = 0; k < data.imposed.size(); ++k)
-    power += data.multipliers.segment<3>(m + 3 * static_cast<int>(k)).dot(data.imposed[k].velocity);
+    power += model.eliminatedReaction(data.multipliers, static_cast<int>(k))
+                 .dot(data.imposed[k].velocity);
   return power;
 }
 

@@ -45,6 +45,7 @@ void Perturbations::clearAll()
 {
   applied_.clear();
   drags_.clear();
+  commands_.clear();
   std::lock_guard<std::mutex> lock(queue_mutex_);
   queue_.clear();
   queued_ = false;
@@ -64,7 +65,7 @@ bool Perturbations::expire(std::uint64_t steps, std::uint64_t limit, std::uint64
   return applied_.size() != before;
 }
 
-void Perturbations::queue(const DragUpdate& update)
+void Perturbations::queue(const Update& update)
 {
   std::lock_guard<std::mutex> lock(queue_mutex_);
   queue_.push_back(update);
@@ -73,32 +74,62 @@ void Perturbations::queue(const DragUpdate& update)
 
 void Perturbations::queueDrag(std::uint64_t scene_serial, int particle, const Vec3& target)
 {
-  queue(DragUpdate{ scene_serial, particle, target, false });
+  queue(Update{ Update::Drag, scene_serial, particle, target, {} });
 }
 
 void Perturbations::queueRelease(std::uint64_t scene_serial, int particle)
 {
-  queue(DragUpdate{ scene_serial, particle, Vec3::Zero(), true });
+  queue(Update{ Update::Release, scene_serial, particle, Vec3::Zero(), {} });
 }
 
-Perturbations::DragChange Perturbations::takeQueued(std::uint64_t scene_serial, int num_particles)
+void Perturbations::queueCommand(std::uint64_t scene_serial, int particle, const Vec3& force,
+                                 Clock::time_point received, double timeout)
+{
+  queue(Update{ Update::Push, scene_serial, particle, force,
+                received + std::chrono::duration_cast<Clock::duration>(
+                               std::chrono::duration<double>(timeout)) });
+}
+
+int Perturbations::checkCommand(const std::string& frame, const std::string& prefix,
+                                const Vec3& force, int num_particles)
+{
+  // tf2 strips a leading '/' from frame ids; a command names the frame as /tf carries it
+  const std::string name = !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
+  const std::string index =
+      name.compare(0, prefix.size(), prefix) == 0 && name.size() > prefix.size()
+          ? name.substr(prefix.size())
+          : std::string();
+  const bool digits =
+      !index.empty() && index.size() <= 9 &&
+      std::all_of(index.begin(), index.end(), [](char c) { return c >= '0' && c <= '9'; });
+  const int particle = digits ? std::stoi(index) : -1;
+  if (particle < 0 || particle >= num_particles)
+    throw InvalidInput("header.frame_id", "= '" + frame + "', must name a particle frame, '" +
+                                              prefix + "<i>' with i in [0, " +
+                                              std::to_string(num_particles - 1) + "]");
+  requireInRange("wrench.force", force, limits::FORCE);
+  return particle;
+}
+
+Perturbations::Change Perturbations::takeQueued(std::uint64_t scene_serial, int num_particles)
 {
   if (!queued_)
-    return DragChange::None;
-  std::vector<DragUpdate> updates;
+    return Change::None;
+  std::vector<Update> updates;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
     updates.swap(queue_);
     queued_ = false;
   }
-  const std::size_t before = drags_.size();
+  const std::size_t before = drags_.size() + commands_.size();
   bool changed = false;
-  for (const DragUpdate& u : updates)
+  for (const Update& u : updates)
   {
-    // made for another scene (a marker rviz still held across a reset): not this one's particle
+    // made for another scene (a marker rviz still held across a reset, a command sent before
+    // it): not this one's particle
     if (u.scene_serial != scene_serial && u.scene_serial != 0)
       continue;
-    if (u.release)
+    if (u.kind == Update::Release)
     {
       changed |= u.particle < 0 ? !drags_.empty() : drags_.count(u.particle) > 0;
       if (u.particle < 0)
@@ -106,25 +137,54 @@ Perturbations::DragChange Perturbations::takeQueued(std::uint64_t scene_serial, 
       else
         drags_.erase(u.particle);
     }
-    else if (u.particle >= 0 && u.particle < num_particles &&
-             limits::COORDINATE.contains(u.target.x()) &&
-             limits::COORDINATE.contains(u.target.y()) && limits::COORDINATE.contains(u.target.z()))
+    else if (u.particle < 0 || u.particle >= num_particles)
+      continue;
+    else if (u.kind == Update::Push)
     {
-      drags_[u.particle] = u.target;
+      // checkCommand checked the force; a newer command replaces the older one
+      commands_[u.particle] = Command{ u.value, u.expires };
+      changed = true;
+    }
+    else if (limits::COORDINATE.contains(u.value.x()) && limits::COORDINATE.contains(u.value.y()) &&
+             limits::COORDINATE.contains(u.value.z()))
+    {
+      drags_[u.particle] = u.value;
       changed = true;
     }
   }
   if (!changed)
-    return DragChange::None;
-  return drags_.size() != before ? DragChange::Grabbed : DragChange::Targets;
+    return Change::None;
+  return drags_.size() + commands_.size() != before ? Change::Acting : Change::Forces;
+}
+
+bool Perturbations::expireCommands(Clock::time_point now, Clock::time_point& next)
+{
+  bool ended = false;
+  next = Clock::time_point::max();
+  for (auto it = commands_.begin(); it != commands_.end();)
+  {
+    if (it->second.expires <= now)
+    {
+      it = commands_.erase(it);
+      ended = true;
+    }
+    else
+    {
+      next = std::min(next, it->second.expires);
+      ++it;
+    }
+  }
+  return ended;
 }
 
 std::vector<Force> Perturbations::forces(const std::vector<double>& masses, double dt) const
 {
   std::vector<Force> forces;
-  forces.reserve(applied_.size() + drags_.size());
+  forces.reserve(applied_.size() + drags_.size() + commands_.size());
   for (const AppliedForce& applied : applied_)
     forces.push_back(applied.force);
+  for (const auto& [particle, command] : commands_)
+    forces.push_back(ExternalForce{ particle, command.force });
   for (const auto& [particle, target] : drags_)
   {
     const double m = masses[particle];

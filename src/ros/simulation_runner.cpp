@@ -36,7 +36,7 @@ RunnerReply accepted(const std::string& message)
 }  // namespace
 
 SimulationRunner::SimulationRunner(const NodeParameters& parameters, const SceneDescription& scene)
-  : parameters_(parameters), session_(parameters, scene)
+  : parameters_(parameters), session_(parameters, scene), wrench_timeout_(parameters.wrench_timeout)
 {
   // start-up overrides are already in `scene`; kept, a reconfigure would carry them to other scenes
   parameters_.overrides = SceneOverrides{};
@@ -367,17 +367,42 @@ void SimulationRunner::release(std::uint64_t scene_serial, int particle)
   wake_.notify_all();
 }
 
-void SimulationRunner::applyDragInbox()
+void SimulationRunner::commandWrench(std::uint64_t scene_serial, int particle, const Vec3& force,
+                                     std::chrono::steady_clock::time_point received)
 {
-  const Perturbations::DragChange change =
+  perturbations_.queueCommand(scene_serial, particle, force, received, wrench_timeout_);
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+  }
+  wake_.notify_all();
+}
+
+void SimulationRunner::applyInbox()
+{
+  const Perturbations::Change change =
       perturbations_.takeQueued(session_.serial(), simulator_->model().numParticles());
-  if (change == Perturbations::DragChange::None)
+  if (change == Perturbations::Change::None)
     return;
+  // a command's new expiry, or none left
+  Clock::time_point next;
+  perturbations_.expireCommands(Clock::now(), next);
+  next_command_expiry_ = next;
   updatePerturbations();
-  // a new target moves only the spring: the next batch's snapshot shows it; a grab or a release
-  // changes what ~state reports at once
-  if (change == Perturbations::DragChange::Grabbed)
+  // a new target or force moves only the spring or push: the next batch's snapshot shows it; a
+  // grab, a release or a new command changes what ~state reports at once
+  if (change == Perturbations::Change::Acting)
     snapshot_due_ = true;
+}
+
+void SimulationRunner::expireCommands(Clock::time_point now)
+{
+  if (now < next_command_expiry_)
+    return;
+  if (perturbations_.expireCommands(now, next_command_expiry_))
+  {
+    updatePerturbations();
+    snapshot_due_ = true;
+  }
 }
 
 void SimulationRunner::updatePerturbations()
@@ -415,7 +440,8 @@ void SimulationRunner::loop()
   while (!stopping_)
   {
     const bool applied = applyRequests();
-    applyDragInbox();
+    applyInbox();
+    expireCommands(Clock::now());
     const bool stepped = !stopping_ && runBatch();
     updateAccuracy();
     const Clock::time_point now = Clock::now();
@@ -441,6 +467,7 @@ void SimulationRunner::loop()
           std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(BATCH_PERIOD));
       wake = std::min(wake, std::max(due, period));
     }
+    wake = std::min(wake, next_command_expiry_);  // a command's timeout ends it while idle too
     std::unique_lock<std::mutex> lock(queue_mutex_);
     wake_.wait_until(lock, wake,
                      [this] { return stopping_ || !queue_.empty() || perturbations_.hasQueued(); });
@@ -552,6 +579,7 @@ bool SimulationRunner::runBatch()
       batch.merge(statistics);
       taken += static_cast<std::uint64_t>(steps_now);
       expireForces(0);
+      expireCommands(Clock::now());  // a silent commander's push ends within a chunk
       last_good_ = simulator_->state();
       if (accuracy_.record(simulator_->state()))
       {
@@ -817,6 +845,7 @@ void SimulationRunner::makeSnapshot()
   s->region = session_.region();
   s->applied_forces = static_cast<std::uint32_t>(perturbations_.appliedCount());
   s->dragged_particles = static_cast<std::uint32_t>(perturbations_.draggedCount());
+  s->commanded_particles = static_cast<std::uint32_t>(perturbations_.commandedCount());
   {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
     snapshot_ = std::move(s);

@@ -128,6 +128,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   services_.push_back(
       nh_.advertiseService("clear_forces", &SimulatorNode::clearForcesCallback, this));
   grab_markers_ = std::make_unique<GrabMarkers>(nh_, *runner_, parameters_.fixed_frame);
+  wrench_commands_ = std::make_unique<WrenchCommands>(nh_, *runner_, parameters_.frame_prefix);
+  anchor_wrenches_ = std::make_unique<AnchorWrenches>(nh_, parameters_.frame_prefix);
   compare_methods_ = std::make_unique<CompareMethodsServer>(
       nh_, *runner_,
       ros::package::getPath("constrained_particles") + "/scripts/plot_compare_methods.py");
@@ -283,6 +285,7 @@ void SimulatorNode::publish()
   }
   if (particles_publisher_.getNumSubscribers() > 0)
     publishParticles(*snap, header);
+  anchor_wrenches_->publish(*snap, header);
 
   if (state_publisher_.getNumSubscribers() > 0 || sim_time_stamps_)
   {
@@ -314,6 +317,7 @@ void SimulatorNode::publish()
     msg.accuracy_skipped_windows = static_cast<std::uint32_t>(snap->skipped_windows);
     msg.applied_forces = snap->applied_forces;
     msg.dragged_particles = snap->dragged_particles;
+    msg.commanded_particles = snap->commanded_particles;
     state_publisher_.publish(msg);
   }
   if (force_marker_publisher_.getNumSubscribers() > 0)
@@ -661,6 +665,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   add("max_substeps", std::to_string(p.step.max_substeps));
   add("energy_budget", formatValue(p.step.energy_budget));
   addStatistics(statistics, add);
+  wrench_commands_->report(add);
   diagnostic_msgs::DiagnosticArray array;
   array.header.stamp = ros::Time::now();
   array.status.push_back(status);

@@ -65,21 +65,21 @@ TEST(Perturbations, ABadPushIsRefusedNamingTheFieldAndChangesNothing)
 TEST(Perturbations, DragUpdatesForAnotherSceneOrOutOfRangeAreDropped)
 {
   Perturbations p;
-  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::DragChange::None);
+  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::Change::None);
   p.queueDrag(6, 1, Vec3(1.0, 0.0, 0.0));                          // another scene
   p.queueDrag(7, 5, Vec3(1.0, 0.0, 0.0));                          // particle out of range
   p.queueDrag(7, 2, Vec3(NAN, 0.0, 0.0));                          // target not finite
   p.queueDrag(0, 2, Vec3(limits::COORDINATE.high * 2, 0.0, 0.0));  // outside the coordinates
   EXPECT_TRUE(p.hasQueued());
-  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::DragChange::None);
+  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::Change::None);
   EXPECT_FALSE(p.hasQueued());
   EXPECT_EQ(p.draggedCount(), 0u);
   p.queueDrag(7, 2, Vec3(1.0, 0.0, 0.0));
-  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::DragChange::Grabbed);
+  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::Change::Acting);
   p.queueDrag(0, 2, Vec3(2.0, 0.0, 0.0));  // 0: the current scene
-  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::DragChange::Targets);
+  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::Change::Forces);
   p.queueRelease(7, -1);
-  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::DragChange::Grabbed);
+  EXPECT_EQ(p.takeQueued(7, 5), Perturbations::Change::Acting);
   EXPECT_TRUE(p.empty());
 }
 
@@ -88,7 +88,7 @@ TEST(Perturbations, ADragsSpringIsCriticallyDampedAtTheFrequencyTheStepAllows)
   Perturbations p;
   p.queueDrag(0, 0, Vec3(1.0, 2.0, 3.0));
   p.queueDrag(0, 1, Vec3(0.0, 0.0, 1.0));
-  ASSERT_EQ(p.takeQueued(1, 2), Perturbations::DragChange::Grabbed);
+  ASSERT_EQ(p.takeQueued(1, 2), Perturbations::Change::Acting);
   const std::vector<double> masses = { 0.5, 2.0 };
   for (const double dt : { 1e-3, 0.05 })
   {
@@ -105,6 +105,69 @@ TEST(Perturbations, ADragsSpringIsCriticallyDampedAtTheFrequencyTheStepAllows)
   }
   p.clearAll();
   EXPECT_TRUE(p.forces(masses, 1e-3).empty());
+}
+
+TEST(Perturbations, ACommandActsUntilANewerOneOrItsTimeout)
+{
+  using Clock = Perturbations::Clock;
+  Perturbations p;
+  const Clock::time_point t0 = Clock::now();
+  p.queueCommand(7, 3, Vec3(1.0, 0.0, 0.0), t0, 0.5);
+  p.queueCommand(6, 2, Vec3(1.0, 0.0, 0.0), t0, 0.5);  // for another scene: dropped
+  EXPECT_EQ(p.takeQueued(7, 4), Perturbations::Change::Acting);
+  EXPECT_EQ(p.commandedCount(), 1u);
+  std::vector<Force> forces = p.forces({ 1.0, 1.0, 1.0, 1.0 }, 1e-3);
+  ASSERT_EQ(forces.size(), 1u);
+  ASSERT_TRUE(std::holds_alternative<ExternalForce>(forces[0]));
+  EXPECT_EQ(std::get<ExternalForce>(forces[0]).particle, 3);
+  EXPECT_EQ(std::get<ExternalForce>(forces[0]).force, Vec3(1.0, 0.0, 0.0));
+  // a newer command replaces it, and moves its timeout
+  p.queueCommand(7, 3, Vec3(0.0, 2.0, 0.0), t0 + std::chrono::milliseconds(300), 0.5);
+  EXPECT_EQ(p.takeQueued(7, 4), Perturbations::Change::Forces);
+  forces = p.forces({ 1.0, 1.0, 1.0, 1.0 }, 1e-3);
+  ASSERT_EQ(forces.size(), 1u);
+  EXPECT_EQ(std::get<ExternalForce>(forces[0]).force, Vec3(0.0, 2.0, 0.0));
+  Clock::time_point next;
+  EXPECT_FALSE(p.expireCommands(t0 + std::chrono::milliseconds(799), next));
+  EXPECT_EQ(next, t0 + std::chrono::milliseconds(800));
+  EXPECT_TRUE(p.expireCommands(t0 + std::chrono::milliseconds(800), next));
+  EXPECT_EQ(next, Clock::time_point::max());
+  EXPECT_TRUE(p.empty());
+  // a command for a particle the scene no longer has is dropped
+  p.queueCommand(7, 4, Vec3(1.0, 0.0, 0.0), t0, 0.5);
+  EXPECT_EQ(p.takeQueued(7, 4), Perturbations::Change::None);
+  // a reset ends them
+  p.queueCommand(7, 1, Vec3(1.0, 0.0, 0.0), t0, 0.5);
+  p.takeQueued(7, 4);
+  p.clearAll();
+  EXPECT_EQ(p.commandedCount(), 0u);
+}
+
+TEST(Perturbations, ACommandNamesAParticleFrameAndAForceInRange)
+{
+  EXPECT_EQ(Perturbations::checkCommand("particle_3", "particle_", Vec3(1.0, 2.0, 3.0), 4), 3);
+  EXPECT_EQ(Perturbations::checkCommand("/particle_0", "particle_", Vec3::Zero(), 4), 0);
+  EXPECT_EQ(Perturbations::checkCommand("robot1/particle_12", "robot1/particle_", Vec3::Zero(), 13),
+            12);
+  auto field = [](const std::string& frame, const Vec3& force)
+  {
+    try
+    {
+      Perturbations::checkCommand(frame, "particle_", force, 4);
+    }
+    catch (const InvalidInput& e)
+    {
+      return e.field();
+    }
+    return std::string("accepted");
+  };
+  for (const std::string frame : { "particle_4", "particle_", "particle_-1", "particle_1x", "world",
+                                   "", "particle_99999999999", "p_1" })
+    EXPECT_EQ(field(frame, Vec3::Zero()), "header.frame_id") << frame;
+  EXPECT_EQ(field("particle_1", Vec3(NAN, 0.0, 0.0)), "wrench.force.x");
+  EXPECT_EQ(field("particle_1", Vec3(0.0, INFINITY, 0.0)), "wrench.force.y");
+  EXPECT_EQ(field("particle_1", Vec3(0.0, 0.0, -2.0 * limits::FORCE.high)), "wrench.force.z");
+  EXPECT_EQ(field("particle_1", Vec3(0.0, 0.0, limits::FORCE.high)), "accepted");
 }
 
 }  // namespace

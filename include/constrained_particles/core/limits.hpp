@@ -154,6 +154,8 @@ constexpr Range STUDY_ERROR_TARGET{ 0.0, false, 1e3, "m", false };
 constexpr Range STUDY_METHODS{ 0.0, false, 256.0, "1", true };
 /// Window of the live accuracy estimate against a shadow reference [s]; 0 = off.
 constexpr Range ACCURACY_WINDOW{ 0.0, false, 60.0, "s", false };
+/// A ~wrench_command acts until a newer one or this long after it [s].
+constexpr Range WRENCH_TIMEOUT{ 0.0, true, 60.0, "s", false };
 
 }  // namespace limits
 

@@ -294,6 +294,12 @@ public:
   {
     return eliminated_particles_;
   }
+  /// Eliminated record k's reaction in `multipliers` (numMultipliers(): rows first):
+  /// r = m a(t) - f - (J^T lambda)_i [N], the force its holder exerts on particle i.
+  Vec3 eliminatedReaction(const Eigen::VectorXd& multipliers, int k) const
+  {
+    return multipliers.segment<3>(numRows() + 3 * k);
+  }
   /// The blocks touching a particle an eliminated record holds.
   const std::vector<EliminatedBlock>& eliminatedBlocks() const
   {

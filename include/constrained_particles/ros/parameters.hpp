@@ -57,6 +57,8 @@ struct NodeParameters
   bool publish_clock = false;         ///< publish /clock from sim time and stamp with it
   /// Live accuracy window against a shadow reference [s], 0 = off (SimulationRunner)
   double accuracy_window = 0.0;
+  /// A ~wrench_command acts until a newer one for its particle or this long after it [s]
+  double wrench_timeout = 0.5;
 
   /// The node's own settings (the step's are StepSettings::fields()): name, member, range.
   static constexpr auto fields()
@@ -80,6 +82,9 @@ struct NodeParameters
               "surface mesh cells per side"),
         field("accuracy_window", &NodeParameters::accuracy_window, FieldKind::Number,
               &limits::ACCURACY_WINDOW, "live accuracy window against a shadow reference, 0 = off"),
+        field("wrench_timeout", &NodeParameters::wrench_timeout, FieldKind::Number,
+              &limits::WRENCH_TIMEOUT,
+              "a ~wrench_command acts until a newer one or this long after it"),
         field("scenario", &NodeParameters::scenario, FieldKind::Name, nullptr,
               "scene name or scene file path"),
         field("scene_directory", &NodeParameters::scene_directory, FieldKind::Name, nullptr,

@@ -1,12 +1,14 @@
 /// @file perturbations.hpp
-/// @brief What acts on the running scene from outside it: forces ~apply_force started and the
-/// target springs of dragged particles (docs/node.md, "Grab, drag and push").
+/// @brief What acts on the running scene from outside it: forces ~apply_force started, the
+/// target springs of dragged particles and the forces ~wrench_command streams (docs/node.md,
+/// "Grab, drag and push").
 #pragma once
 
 #include "constrained_particles/core/forces.hpp"
 #include "constrained_particles/core/types.hpp"
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <mutex>
@@ -15,13 +17,14 @@
 
 namespace constrained_particles
 {
-/// The pushes and drags on one scene, turned into the core's perturbation forces
-/// (Simulator::setPerturbations) by forces(). Owned by the runner and used on its thread, but for
-/// queueDrag() and queueRelease(), which any thread may call (a mouse on the interactive markers).
-/// The command streams to come (wrench commands, frame anchors' holders) belong here too.
+/// The pushes, drags and commanded forces on one scene, turned into the core's perturbation
+/// forces (Simulator::setPerturbations) by forces(). Owned by the runner and used on its thread,
+/// but for queueDrag(), queueRelease() and queueCommand(), which any thread may call (a mouse on
+/// the interactive markers, a controller's command topic).
 class Perturbations
 {
 public:
+  using Clock = std::chrono::steady_clock;
   /// A dragged particle is pulled by a critically damped target spring of frequency
   /// w = min(DRAG_FREQUENCY, DRAG_STEP_LIMIT / dt): k = m w^2, c = 2 m w. w dt <= 0.2 keeps every
   /// explicit integrator stable on the spring alone (the stability estimate sees it too). A
@@ -57,20 +60,36 @@ public:
   void queueDrag(std::uint64_t scene_serial, int particle, const Vec3& target);
   /// Thread-safe: end the pull on `particle` (-1: on every particle).
   void queueRelease(std::uint64_t scene_serial, int particle);
+  /// Thread-safe: push `particle` with `force` [N] (checked by checkCommand) from the next
+  /// takeQueued() until a newer command for it, or until `timeout` [s] after `received` passes
+  /// without one (expireCommands): a controller's command-topic contract. For scene
+  /// `scene_serial` (a command for another scene is dropped).
+  void queueCommand(std::uint64_t scene_serial, int particle, const Vec3& force,
+                    Clock::time_point received, double timeout);
+  /// The particle a ~wrench_command names and its force, checked: `frame` is `prefix` followed by
+  /// a particle index of a scene of `num_particles` (a leading '/' is ignored, as tf2 does), each
+  /// force component finite and in limits::FORCE.
+  /// @throws InvalidInput naming `header.frame_id` or `wrench.force.x` .. and what is valid
+  static int checkCommand(const std::string& frame, const std::string& prefix, const Vec3& force,
+                          int num_particles);
   /// Thread-safe: whether updates wait for takeQueued().
   bool hasQueued() const
   {
     return queued_;
   }
-  /// What takeQueued() changed.
-  enum class DragChange
+  /// What takeQueued() or expireCommands() changed.
+  enum class Change
   {
-    None,     ///< nothing (updates for another scene, bad particles or targets are dropped)
-    Targets,  ///< only the targets of particles already dragged moved
-    Grabbed,  ///< a particle was grabbed or released
+    None,    ///< nothing (updates for another scene, bad particles or targets are dropped)
+    Forces,  ///< only the targets or forces of drags and commands already acting moved
+    Acting,  ///< a drag or a command began or ended
   };
-  /// Applies the queued drag updates for the scene `scene_serial` of `num_particles`.
-  DragChange takeQueued(std::uint64_t scene_serial, int num_particles);
+  /// Applies the queued drag and command updates for the scene `scene_serial` of
+  /// `num_particles`.
+  Change takeQueued(std::uint64_t scene_serial, int num_particles);
+  /// Ends the commands whose timeout passed by `now`; returns whether any ended. `next`: when
+  /// the next one ends (Clock::time_point::max() if none acts).
+  bool expireCommands(Clock::time_point now, Clock::time_point& next);
 
   /// The external forces and target springs acting now, for particles of `masses` [kg] at the
   /// step `dt` [s].
@@ -83,9 +102,14 @@ public:
   {
     return drags_.size();
   }
+  /// Particles a ~wrench_command pushes now.
+  std::size_t commandedCount() const
+  {
+    return commands_.size();
+  }
   bool empty() const
   {
-    return applied_.empty() && drags_.empty();
+    return applied_.empty() && drags_.empty() && commands_.empty();
   }
 
 private:
@@ -94,19 +118,31 @@ private:
     ExternalForce force;
     std::uint64_t end_step = 0;  // State::steps at which it stops acting; 0: until cleared
   };
-  struct DragUpdate
+  struct Command
   {
+    Vec3 force = Vec3::Zero();  // [N]
+    Clock::time_point expires;  // its timeout after the message that set it
+  };
+  struct Update
+  {
+    enum Kind
+    {
+      Drag,
+      Release,
+      Push,  // a ~wrench_command
+    } kind = Drag;
     std::uint64_t scene_serial = 0;
     int particle = 0;
-    Vec3 target = Vec3::Zero();
-    bool release = false;
+    Vec3 value = Vec3::Zero();  // a drag's target [m] or a command's force [N]
+    Clock::time_point expires;  // a command's
   };
-  void queue(const DragUpdate& update);
+  void queue(const Update& update);
 
   std::vector<AppliedForce> applied_;
-  std::map<int, Vec3> drags_;  // particle -> target [m]
-  std::mutex queue_mutex_;     // guards queue_ (any thread posts, the runner's thread takes)
-  std::vector<DragUpdate> queue_;
+  std::map<int, Vec3> drags_;        // particle -> target [m]
+  std::map<int, Command> commands_;  // particle -> its commanded force
+  std::mutex queue_mutex_;           // guards queue_ (any thread posts, the runner's thread takes)
+  std::vector<Update> queue_;
   std::atomic<bool> queued_{ false };
 };
 

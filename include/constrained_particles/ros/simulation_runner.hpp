@@ -86,6 +86,8 @@ struct Snapshot
   RegionSpec region;
   /// Forces applied by ~apply_force acting now, and particles held by a drag.
   std::uint32_t applied_forces = 0, dragged_particles = 0;
+  /// Particles a ~wrench_command pushes now.
+  std::uint32_t commanded_particles = 0;
 };
 
 /// Whether stepping is behind its real-time factor, with hysteresis: a single slow window of a
@@ -196,6 +198,12 @@ public:
   void drag(std::uint64_t scene_serial, int particle, const Vec3& target);
   /// Ends the pull on `particle` (-1: on every particle). Not waited for.
   void release(std::uint64_t scene_serial, int particle);
+  /// Pushes `particle` with `force` [N] (Perturbations::checkCommand checked both) from the next
+  /// batch until a newer command for it, or until ~wrench_timeout after `received` passes without
+  /// one (checked at every chunk of steps and when idle). Not waited for: a controller streams
+  /// these. For scene `scene_serial`, like drag(). A reset or scene change ends them all.
+  void commandWrench(std::uint64_t scene_serial, int particle, const Vec3& force,
+                     std::chrono::steady_clock::time_point received);
 
 private:
   using Clock = std::chrono::steady_clock;
@@ -223,8 +231,10 @@ private:
   /// Drops applied forces whose steps are done; returns the steps until the next one ends (at
   /// most `limit`), so a chunk ends exactly there.
   std::uint64_t expireForces(std::uint64_t limit);
-  /// Takes the drag updates posted since the last batch.
-  void applyDragInbox();
+  /// Takes the drag and wrench-command updates posted since the last batch.
+  void applyInbox();
+  /// Ends the wrench commands whose timeout passed by `now`.
+  void expireCommands(Clock::time_point now);
   /// Sets stopping_ and wakes the loop (stop() and the destructor).
   void requestStop();
   /// Waits for a reply, giving up (refused) when the runner stops.
@@ -259,7 +269,8 @@ private:
 
   // owned by the physics thread once started (the constructor and stop() before it)
   NodeParameters parameters_;
-  SceneSession session_;  // the scene and the user's step settings (scene_session.hpp)
+  SceneSession session_;         // the scene and the user's step settings (scene_session.hpp)
+  const double wrench_timeout_;  // ~wrench_timeout [s]: read by commandWrench on any thread
   std::unique_ptr<Simulator> simulator_;
   std::shared_ptr<const Model> model_copy_;
   std::uint64_t snapshot_serial_ = 0;  // 0: none yet, for readers
@@ -276,8 +287,9 @@ private:
   Clock::time_point anchor_wall_, window_wall_, last_snapshot_wall_;
   double anchor_sim_ = 0, window_sim_ = 0, window_dropped_ = 0, achieved_rtf_ = 0;
   BehindMonitor behind_monitor_;
-  Perturbations perturbations_;  // pushes and drags (perturbations.hpp)
-  AccuracyMonitor accuracy_;     // live accuracy windows (accuracy_monitor.hpp)
+  Perturbations perturbations_;  // pushes, drags and wrench commands (perturbations.hpp)
+  Clock::time_point next_command_expiry_ = Clock::time_point::max();
+  AccuracyMonitor accuracy_;  // live accuracy windows (accuracy_monitor.hpp)
   bool behind_ = false, window_valid_ = false, snapshot_due_ = true;
 
   mutable std::mutex queue_mutex_;  // guards the queue and the wake-up

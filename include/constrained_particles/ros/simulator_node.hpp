@@ -5,12 +5,14 @@
 
 #include "constrained_particles/SimulatorConfig.h"
 #include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/ros/anchor_wrenches.hpp"
 #include "constrained_particles/ros/compare_methods_server.hpp"
 #include "constrained_particles/ros/grab_markers.hpp"
 #include "constrained_particles/ros/markers.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 #include "constrained_particles/ros/reconfigure_server.hpp"
 #include "constrained_particles/ros/simulation_runner.hpp"
+#include "constrained_particles/ros/wrench_commands.hpp"
 
 #include <constrained_particles/ApplyForce.h>
 #include <constrained_particles/ClearForces.h>
@@ -119,6 +121,8 @@ private:
   std::unique_ptr<SimulationRunner> runner_;
   std::unique_ptr<CompareMethodsServer> compare_methods_;  // reads runner_: goes first
   std::unique_ptr<GrabMarkers> grab_markers_;              // likewise
+  std::unique_ptr<WrenchCommands> wrench_commands_;        // likewise
+  std::unique_ptr<AnchorWrenches> anchor_wrenches_;        // publish() only
 
   std::mutex publish_mutex_;  // publish() only: timer callbacks may overlap on the spinner
   std::optional<ros::Time> last_stamp_;  // the stamp of the last /tf and ~state sent

@@ -1,0 +1,80 @@
+#include "constrained_particles/ros/anchor_wrenches.hpp"
+
+#include <cctype>
+#include <utility>
+
+namespace constrained_particles
+{
+Vec3 holderForce(const Model& model, const Eigen::VectorXd& multipliers, int eliminated_index)
+{
+  // Newton's third law: the particle pushes its holder with minus the holder's push on it
+  return -model.eliminatedReaction(multipliers, eliminated_index);
+}
+
+std::string anchorWrenchTopic(const std::string& frame)
+{
+  std::string name = frame;
+  for (char& c : name)
+    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+          c == '/'))
+      c = '_';
+  // a ROS name's parts start with a letter (or '_' in a private name): frames rarely break it
+  std::string topic = "anchor_wrench";
+  std::string part;
+  for (std::size_t i = 0; i <= name.size(); ++i)
+  {
+    if (i == name.size() || name[i] == '/')
+    {
+      if (!part.empty())
+        topic += "/" + (std::isalpha(static_cast<unsigned char>(part[0])) ? part : "_" + part);
+      part.clear();
+    }
+    else
+      part += name[i];
+  }
+  return topic;
+}
+
+AnchorWrenches::AnchorWrenches(ros::NodeHandle node, std::string frame_prefix)
+  : node_(std::move(node)), frame_prefix_(std::move(frame_prefix))
+{
+}
+
+void AnchorWrenches::publish(const Snapshot& snap, const std_msgs::Header& header)
+{
+  const Model& model = *snap.model;
+  const std::vector<int>& held = model.eliminatedParticles();
+  if (snap.scene_serial != scene_serial_)
+  {
+    // a new scene holds other particles: its own topics (the old ones end with their publishers)
+    publishers_.clear();
+    for (const int particle : held)
+      publishers_.push_back(node_.advertise<geometry_msgs::WrenchStamped>(
+          anchorWrenchTopic(frame_prefix_ + std::to_string(particle)), 10));
+    scene_serial_ = snap.scene_serial;
+  }
+  if (snap.multipliers.size() != model.numMultipliers())
+    return;  // not the snapshot's model: never a force of one scene on another's topic
+  for (std::size_t k = 0; k < publishers_.size(); ++k)
+  {
+    if (publishers_[k].getNumSubscribers() == 0)
+      continue;
+    const Vec3 force = holderForce(model, snap.multipliers, static_cast<int>(k));
+    geometry_msgs::WrenchStamped msg;
+    msg.header = header;
+    msg.wrench.force.x = force.x();
+    msg.wrench.force.y = force.y();
+    msg.wrench.force.z = force.z();
+    publishers_[k].publish(msg);
+  }
+}
+
+std::vector<std::string> AnchorWrenches::topics() const
+{
+  std::vector<std::string> names;
+  for (const ros::Publisher& publisher : publishers_)
+    names.push_back(publisher.getTopic());
+  return names;
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,63 @@
+#include "constrained_particles/ros/wrench_commands.hpp"
+
+#include "constrained_particles/ros/perturbations.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+namespace constrained_particles
+{
+WrenchCommands::WrenchCommands(ros::NodeHandle node, SimulationRunner& runner,
+                               std::string frame_prefix)
+  : runner_(runner), frame_prefix_(std::move(frame_prefix))
+{
+  // a controller's stream: a deep queue drops nothing at 1 kHz between two spins
+  subscriber_ = node.subscribe("wrench_command", 100, &WrenchCommands::take, this,
+                               ros::TransportHints().tcpNoDelay());
+}
+
+void WrenchCommands::take(const geometry_msgs::WrenchStamped& message)
+{
+  const auto received = std::chrono::steady_clock::now();
+  const std::shared_ptr<const Snapshot> snap = runner_.snapshot();
+  const Vec3 force(message.wrench.force.x, message.wrench.force.y, message.wrench.force.z);
+  try
+  {
+    const int particle = Perturbations::checkCommand(message.header.frame_id, frame_prefix_, force,
+                                                     snap->model->numParticles());
+    const Vec3 torque(message.wrench.torque.x, message.wrench.torque.y, message.wrench.torque.z);
+    if (torque != Vec3::Zero() && !torque_noted_.exchange(true))
+      ROS_INFO("simulator: ~wrench_command's torque is ignored (particles take forces only)");
+    runner_.commandWrench(snap->scene_serial, particle, force, received);
+    ++taken_;
+  }
+  catch (const InvalidInput& e)
+  {
+    ++dropped_;
+    const std::string reason = std::string("~wrench_command dropped: ") + e.what();
+    {
+      std::lock_guard<std::mutex> lock(reason_mutex_);
+      last_drop_reason_ = reason;
+    }
+    ROS_WARN_THROTTLE(5.0, "simulator: %s", reason.c_str());
+  }
+}
+
+std::string WrenchCommands::lastDropReason() const
+{
+  std::lock_guard<std::mutex> lock(reason_mutex_);
+  return last_drop_reason_;
+}
+
+void WrenchCommands::report(
+    const std::function<void(const std::string&, const std::string&)>& add) const
+{
+  add("wrench commands taken", std::to_string(taken_));
+  add("wrench commands dropped", std::to_string(dropped_));
+  const std::string reason = lastDropReason();
+  if (!reason.empty())
+    add("last wrench command dropped", reason);
+}
+
+}  // namespace constrained_particles
