@@ -236,6 +236,10 @@ void validateNodeParameters(const NodeParameters& p)
   if (p.frame_prefix.empty() || p.frame_prefix.front() == '/')
     throw InvalidInput("~frame_prefix",
                        "= '" + p.frame_prefix + "', must be non-empty without a leading '/'");
+  if (p.follow_clock && p.publish_clock)
+    throw InvalidInput("~follow_clock",
+                       "= true with ~publish_clock = true: a node follows /clock "
+                       "or publishes it, not both");
 }
 
 }  // namespace constrained_particles

@@ -36,7 +36,10 @@ RunnerReply accepted(const std::string& message)
 }  // namespace
 
 SimulationRunner::SimulationRunner(const NodeParameters& parameters, const SceneDescription& scene)
-  : parameters_(parameters), session_(parameters, scene), wrench_timeout_(parameters.wrench_timeout)
+  : parameters_(parameters)
+  , session_(parameters, scene)
+  , wrench_timeout_(parameters.wrench_timeout)
+  , follow_clock_(parameters.follow_clock)
 {
   // start-up overrides are already in `scene`; kept, a reconfigure would carry them to other scenes
   parameters_.overrides = SceneOverrides{};
@@ -251,6 +254,10 @@ RunnerReply SimulationRunner::step(std::uint64_t steps)
   RunnerReply immediate = submit(
       [this, steps, promise]
       {
+        if (follow_clock_)
+          return refused(
+              "the node follows /clock (~follow_clock): it steps as the clock moves, "
+              "never ahead of it");
         if (!paused_)
           return refused("the simulation is running: call ~pause before ~step");
         if (faulted_)
@@ -377,6 +384,16 @@ void SimulationRunner::commandWrench(std::uint64_t scene_serial, int particle, c
   wake_.notify_all();
 }
 
+void SimulationRunner::followClock(double clock_seconds)
+{
+  clock_now_ = clock_seconds;
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    clock_moved_ = true;
+  }
+  wake_.notify_all();
+}
+
 void SimulationRunner::applyInbox()
 {
   const Perturbations::Change change =
@@ -455,7 +472,7 @@ void SimulationRunner::loop()
       continue;
     // idle: until a request, the next due step, or a while (to refresh the rate window)
     Clock::time_point wake = now + IDLE_WAIT;
-    if (!paused_ && !faulted_)
+    if (!paused_ && !faulted_ && !follow_clock_)  // a clock that moves wakes the loop itself
     {
       const double dt = simulator_->stepSettings().dt;
       const double until_next =
@@ -470,7 +487,11 @@ void SimulationRunner::loop()
     wake = std::min(wake, next_command_expiry_);  // a command's timeout ends it while idle too
     std::unique_lock<std::mutex> lock(queue_mutex_);
     wake_.wait_until(lock, wake,
-                     [this] { return stopping_ || !queue_.empty() || perturbations_.hasQueued(); });
+                     [this]
+                     {
+                       return stopping_ || !queue_.empty() || perturbations_.hasQueued() ||
+                              (clock_moved_ && !paused_ && !faulted_);
+                     });
   }
   // refuse what is still queued, and a running ~step with what it took
   std::deque<std::shared_ptr<Request>> left;
@@ -531,6 +552,27 @@ bool SimulationRunner::runBatch()
   if (step_request_)
   {
     wanted = step_request_->wanted - step_request_->taken;
+  }
+  else if (follow_clock_)
+  {
+    clock_moved_ = false;
+    if (seconds(start - last_batch_start_) < BATCH_PERIOD)
+      return false;
+    const double clock = clock_now_;
+    if (!std::isfinite(clock))
+      return false;  // no /clock yet: nothing to follow
+    const double time = simulator_->state().time;
+    // the first clock, or one that went back (a bag played again): anchored to now's sim time
+    if (!std::isfinite(anchor_clock_) || clock < anchor_clock_ + (time - anchor_sim_) - dt)
+    {
+      anchor_clock_ = clock;
+      anchor_sim_ = time;
+    }
+    const double due = std::floor((anchor_sim_ + (clock - anchor_clock_) - time) / dt + 1e-9);
+    if (!(due >= 1.0))
+      return false;
+    wanted = static_cast<std::uint64_t>(std::min(due, 1e15));
+    last_batch_start_ = start;
   }
   else
   {
@@ -622,7 +664,7 @@ bool SimulationRunner::runBatch()
       finishStep(false, fault_reason_ + " (" + std::to_string(step_request_->taken) + " of " +
                             std::to_string(step_request_->wanted) + " steps kept)");
   }
-  else if (!faulted_ && out_of_time && taken < wanted)
+  else if (!faulted_ && out_of_time && taken < wanted && !follow_clock_)
   {
     // behind wall time: slow sim time down instead of building a backlog, and count the loss
     window_dropped_ += static_cast<double>(wanted - taken) * dt;
@@ -785,6 +827,8 @@ void SimulationRunner::reanchor()
 {
   anchor_wall_ = Clock::now();
   anchor_sim_ = simulator_->state().time;
+  // following /clock: the scene goes on from the clock's time now (NaN: from the first one)
+  anchor_clock_ = clock_now_;
 }
 
 void SimulationRunner::updateRate(Clock::time_point now)
@@ -797,8 +841,18 @@ void SimulationRunner::updateRate(Clock::time_point now)
   if (window_valid_)
     achieved_rtf_ = idle ? 0.0 : std::max(0.0, sim - window_sim_) / wall;
   // lag: the share of the wanted sim time that was dropped to keep up (running only)
-  const double lag =
-      (idle || paused_) ? 0.0 : window_dropped_ / (parameters_.real_time_factor * wall);
+  double lag = (idle || paused_) ? 0.0 : window_dropped_ / (parameters_.real_time_factor * wall);
+  if (follow_clock_)
+  {
+    // following /clock nothing is dropped: behind is the backlog against the clock's advance
+    const double clock = clock_now_;
+    lag = 0.0;
+    if (!idle && !paused_ && std::isfinite(anchor_clock_) && clock > window_clock_)
+      lag = std::max(0.0,
+                     anchor_sim_ + (clock - anchor_clock_) - sim - simulator_->stepSettings().dt) /
+            (clock - window_clock_);
+    window_clock_ = clock;
+  }
   behind_ = behind_monitor_.update(lag);
   window_wall_ = now;
   window_sim_ = sim;
@@ -846,6 +900,8 @@ void SimulationRunner::makeSnapshot()
   s->applied_forces = static_cast<std::uint32_t>(perturbations_.appliedCount());
   s->dragged_particles = static_cast<std::uint32_t>(perturbations_.draggedCount());
   s->commanded_particles = static_cast<std::uint32_t>(perturbations_.commandedCount());
+  if (follow_clock_)
+    s->clock_stamp = anchor_clock_ + (s->state.time - anchor_sim_);
   {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
     snapshot_ = std::move(s);

@@ -63,6 +63,10 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
     throw InvalidInput("~fixed_frame",
                        "= '" + parameters_.fixed_frame + "' starts with the frame prefix '" +
                            parameters_.frame_prefix + "': particle frames would clash with it");
+  if (parameters_.follow_clock && !ros::Time::isSimTime())
+    throw InvalidInput("~follow_clock",
+                       "= true with /use_sim_time false: set /use_sim_time true "
+                       "so that the node reads the /clock it follows");
   if (parameters_.publish_clock)
     requireClockFree(false);
   SceneDescription scene =
@@ -84,6 +88,15 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
     clock_check_until_ = std::chrono::steady_clock::now() + CLOCK_CHECK_PERIOD;
     clock_check_timer_ =
         nh_.createWallTimer(ros::WallDuration(1.0), &SimulatorNode::checkClockCallback, this);
+  }
+  if (parameters_.follow_clock)
+  {
+    // each /clock (as remapped, like roscpp's own time) to the runner, which steps up to it
+    clock_subscriber_ = ros::NodeHandle().subscribe<rosgraph_msgs::Clock>(
+        "/clock", 100,
+        [this](const rosgraph_msgs::Clock::ConstPtr& clock)
+        { runner_->followClock(clock->clock.toSec()); },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   }
   // our own /tf publisher (tf2_ros::TransformBroadcaster is a thin wrapper of one) so the message
   // is built only with subscribers and reuses its frame names; queue as tf2_ros's broadcaster
@@ -194,6 +207,7 @@ SimulatorNode::~SimulatorNode()
 bool SimulatorNode::shutdown(std::chrono::milliseconds timeout)
 {
   publish_spinner_.stop();
+  clock_subscriber_.shutdown();
   clock_check_timer_.stop();
   publish_timer_.stop();
   diagnostics_timer_.stop();
@@ -202,14 +216,29 @@ bool SimulatorNode::shutdown(std::chrono::milliseconds timeout)
   return runner_->stop(timeout);
 }
 
+ros::Time SimulatorNode::stampOf(const Snapshot& snap, const ros::Time& now) const
+{
+  if (parameters_.publish_clock)
+    return ros::Time(snap.stamp);
+  if (parameters_.follow_clock)  // the clock time the state stands for (0 before the first)
+    return std::isfinite(snap.clock_stamp) && snap.clock_stamp > 0.0 ? ros::Time(snap.clock_stamp)
+                                                                     : ros::Time();
+  return now;
+}
+
+const char* SimulatorNode::waitMessage() const
+{
+  return parameters_.follow_clock ? FOLLOW_WAIT_MESSAGE : CLOCK_WAIT_MESSAGE;
+}
+
 std::optional<ros::Time> SimulatorNode::stampFor(const Snapshot& snap, const ros::Time& now)
 {
-  const ros::Time stamp = parameters_.publish_clock ? ros::Time(snap.stamp) : now;
+  const ros::Time stamp = stampOf(snap, now);
   if (!parameters_.publish_clock && stamp.isZero())
   {
     // /use_sim_time and no /clock: every stamp would be 0, repeated (TF_REPEATED_DATA)
     if (!waiting_for_clock_.exchange(true))
-      ROS_WARN("simulator: %s", CLOCK_WAIT_MESSAGE);
+      ROS_WARN("simulator: %s", waitMessage());
     return std::nullopt;
   }
   if (waiting_for_clock_.exchange(false))
@@ -473,7 +502,7 @@ void SimulatorNode::publishNewScene()
   // before the caller is answered: a subscriber joining after the reply gets this scene's
   std::lock_guard<std::mutex> lock(publish_mutex_);
   const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
-  const ros::Time stamp = parameters_.publish_clock ? ros::Time(snap->stamp) : ros::Time::now();
+  const ros::Time stamp = stampOf(*snap, ros::Time::now());
   if (parameters_.publish_clock || !stamp.isZero())  // else publish() sends it once time moves
     publishSceneOnce(*snap, stamp);
 }
@@ -642,7 +671,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
       message += "; " + snap->energy_fallback;
   }
   if (waiting_for_clock)
-    message += std::string("; ") + CLOCK_WAIT_MESSAGE;
+    message += std::string("; ") + waitMessage();
   status.message = message;
   if (snap->faulted && snap->fault_reason != logged_fault_)
     ROS_ERROR("simulator: %s", snap->fault_reason.c_str());

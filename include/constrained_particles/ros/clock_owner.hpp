@@ -19,6 +19,10 @@ inline constexpr const char* CLOCK_WAIT_MESSAGE =
     "/use_sim_time is true and no /clock has arrived: tf, ~state and markers wait for time to "
     "move (their stamps would all be 0); set ~publish_clock: true to let this node publish "
     "/clock, or start the clock's owner (Gazebo, rosbag play --clock)";
+/// ~follow_clock before the first /clock: the scene waits, unstepped.
+inline constexpr const char* FOLLOW_WAIT_MESSAGE =
+    "~follow_clock: no /clock has arrived: the scene waits at its start, unstepped, and nothing "
+    "is published until the clock's owner (Gazebo, rosbag play --clock) starts";
 
 /// @throws InvalidInput naming ~publish_clock and the other publishers of /clock (as this node
 /// resolves it) that answer; `advertised`: this node already publishes it (see above).

@@ -55,6 +55,8 @@ struct NodeParameters
   double max_constraint_error = 0.1;  ///< fault beyond this constraint error [m]
   int mesh_cells = 40;                ///< surface mesh cells per side
   bool publish_clock = false;         ///< publish /clock from sim time and stamp with it
+  /// step in lockstep with /clock (use_sim_time, no publish_clock): SimulationRunner::followClock
+  bool follow_clock = false;
   /// Live accuracy window against a shadow reference [s], 0 = off (SimulationRunner)
   double accuracy_window = 0.0;
   /// A ~wrench_command acts until a newer one for its particle or this long after it [s]
@@ -95,6 +97,8 @@ struct NodeParameters
               "child frames are <frame_prefix><i>"),
         field("publish_clock", &NodeParameters::publish_clock, FieldKind::Flag, nullptr,
               "publish /clock from sim time"),
+        field("follow_clock", &NodeParameters::follow_clock, FieldKind::Flag, nullptr,
+              "step in lockstep with /clock (use_sim_time)"),
         field("interactive", &NodeParameters::interactive, FieldKind::Flag, nullptr,
               "grab-and-drag interactive markers on ~grab"));
   }

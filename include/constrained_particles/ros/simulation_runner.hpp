@@ -22,6 +22,7 @@
 #include <functional>
 #include <map>
 #include <future>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -88,6 +89,9 @@ struct Snapshot
   std::uint32_t applied_forces = 0, dragged_particles = 0;
   /// Particles a ~wrench_command pushes now.
   std::uint32_t commanded_particles = 0;
+  /// ~follow_clock: the /clock time [s] the state stands for (the clock at the last anchor plus
+  /// the sim time since), NaN before the first /clock; the stamp of what is published.
+  double clock_stamp = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Whether stepping is behind its real-time factor, with hysteresis: a single slow window of a
@@ -204,6 +208,12 @@ public:
   /// these. For scene `scene_serial`, like drag(). A reset or scene change ends them all.
   void commandWrench(std::uint64_t scene_serial, int particle, const Vec3& force,
                      std::chrono::steady_clock::time_point received);
+  /// Thread-safe: the newest /clock [s]. With ~follow_clock the runner steps the scene up to it,
+  /// never past it: the first clock (and the clock at a reset, teleport, unpause or a clock that
+  /// went back) is anchored to the sim time then, and each batch takes the whole steps of dt
+  /// that fit before anchor sim time + (clock - anchor clock), the remainder carried over; no
+  /// clock yet, no steps. Paced by the clock alone (~real_time_factor unused); ~step refused.
+  void followClock(double clock_seconds);
 
 private:
   using Clock = std::chrono::steady_clock;
@@ -271,6 +281,11 @@ private:
   NodeParameters parameters_;
   SceneSession session_;         // the scene and the user's step settings (scene_session.hpp)
   const double wrench_timeout_;  // ~wrench_timeout [s]: read by commandWrench on any thread
+  const bool follow_clock_;      // ~follow_clock: paced by followClock(), not the wall
+  std::atomic<double> clock_now_{ std::numeric_limits<double>::quiet_NaN() };  // newest /clock [s]
+  std::atomic<bool> clock_moved_{ false };  // a /clock arrived since the loop last looked
+  double anchor_clock_ = std::numeric_limits<double>::quiet_NaN();  // the clock at anchor_sim_
+  double window_clock_ = std::numeric_limits<double>::quiet_NaN();  // at the rate window's start
   std::unique_ptr<Simulator> simulator_;
   std::shared_ptr<const Model> model_copy_;
   std::uint64_t snapshot_serial_ = 0;  // 0: none yet, for readers

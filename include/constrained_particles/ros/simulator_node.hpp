@@ -64,6 +64,13 @@ public:
   void publish();
 
 private:
+  /// The clock a message about `snap` is stamped with: its sim time (Snapshot::stamp) with
+  /// ~publish_clock; with ~follow_clock the /clock time its state stands for
+  /// (Snapshot::clock_stamp, 0 before the first /clock); else `now` (wall time, or a foreign
+  /// /clock under /use_sim_time).
+  ros::Time stampOf(const Snapshot& snap, const ros::Time& now) const;
+  /// Why nothing goes out before a /clock: CLOCK_WAIT_MESSAGE, or FOLLOW_WAIT_MESSAGE.
+  const char* waitMessage() const;
   /// The stamp of what publish() sends for `snap`: its sim time (Snapshot::stamp) with
   /// ~publish_clock, else ros::Time::now() taken before the snapshot (`now`: wall time, or a
   /// foreign /clock under /use_sim_time). Empty when nothing may go out: the stamp has not
@@ -147,6 +154,7 @@ private:
   ros::WallTimer publish_timer_, status_timer_, diagnostics_timer_;
   // ~publish_clock: /clock's publishers checked again for a while after advertising
   ros::WallTimer clock_check_timer_;
+  ros::Subscriber clock_subscriber_;  // ~follow_clock: each /clock to the runner
   std::chrono::steady_clock::time_point clock_check_until_;
   mutable std::mutex refusal_mutex_;
   std::string refusal_;
