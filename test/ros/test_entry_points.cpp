@@ -102,6 +102,13 @@ protected:
     ASSERT_TRUE(call<Reset>("reset", reset).success);
   }
 
+  // the subscriber's callbacks end before the fixture's members do (a race ThreadSanitizer
+  // found: onState writing latest_ while the fixture was being destroyed)
+  void TearDown() override
+  {
+    subscriber_.shutdown();
+  }
+
   void onState(const SimState& state)
   {
     std::lock_guard<std::mutex> lock(mutex_);
