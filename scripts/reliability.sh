@@ -27,10 +27,10 @@ run_part() {  # part: runs it, prints its result lines (the ones the page shows)
       (
         set +u
         source "$ROOT/build/ws/devel/setup.bash"
-        CP_FUZZ_SUMMARY="$LOG/fuzz_services.txt" rostest constrained_particles fuzz_services.test \
-          >"$LOG/rostest.log" 2>&1
+        CP_FUZZ_SUMMARY="$LOG/fuzz_services_summary.txt" rostest constrained_particles \
+          fuzz_services.test >"$LOG/rostest.log" 2>&1
       ) || { tail -40 "$LOG/rostest.log" >&2; return 1; }
-      cat "$LOG/fuzz_services.txt"
+      cat "$LOG/fuzz_services_summary.txt"
       ;;
     fuzz) bash "$ROOT/scripts/fuzz.sh" 300 | grep "^fuzz:" | sed 's/ (log: .*)//' ;;
     tsan) bash "$ROOT/scripts/tsan.sh" | grep -E "^races: |passed, .* failed$" ;;
