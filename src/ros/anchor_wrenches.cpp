@@ -46,18 +46,29 @@ void AnchorWrenches::publish(const Snapshot& snap, const std_msgs::Header& heade
   const std::vector<int>& held = model.eliminatedParticles();
   if (snap.scene_serial != scene_serial_)
   {
-    // a new scene holds other particles: its own topics (the old ones end with their publishers)
+    // a new scene may hold other particles: new topics first, then the vanished ones end, so a
+    // holder's subscriber stays connected across a reset or a change of forces
+    std::map<std::string, ros::Publisher> kept;
+    for (const int particle : held)
+    {
+      const std::string topic = anchorWrenchTopic(frame_prefix_ + std::to_string(particle));
+      const auto found = by_topic_.find(topic);
+      kept[topic] = found != by_topic_.end()
+                        ? found->second
+                        : node_.advertise<geometry_msgs::WrenchStamped>(topic, 10);
+    }
+    by_topic_.swap(kept);
     publishers_.clear();
     for (const int particle : held)
-      publishers_.push_back(node_.advertise<geometry_msgs::WrenchStamped>(
-          anchorWrenchTopic(frame_prefix_ + std::to_string(particle)), 10));
+      publishers_.push_back(
+          &by_topic_[anchorWrenchTopic(frame_prefix_ + std::to_string(particle))]);
     scene_serial_ = snap.scene_serial;
   }
   if (snap.multipliers.size() != model.numMultipliers())
     return;  // not the snapshot's model: never a force of one scene on another's topic
   for (std::size_t k = 0; k < publishers_.size(); ++k)
   {
-    if (publishers_[k].getNumSubscribers() == 0)
+    if (publishers_[k]->getNumSubscribers() == 0)
       continue;
     const Vec3 force = holderForce(model, snap.multipliers, static_cast<int>(k));
     geometry_msgs::WrenchStamped msg;
@@ -65,16 +76,8 @@ void AnchorWrenches::publish(const Snapshot& snap, const std_msgs::Header& heade
     msg.wrench.force.x = force.x();
     msg.wrench.force.y = force.y();
     msg.wrench.force.z = force.z();
-    publishers_[k].publish(msg);
+    publishers_[k]->publish(msg);
   }
-}
-
-std::vector<std::string> AnchorWrenches::topics() const
-{
-  std::vector<std::string> names;
-  for (const ros::Publisher& publisher : publishers_)
-    names.push_back(publisher.getTopic());
-  return names;
 }
 
 }  // namespace constrained_particles

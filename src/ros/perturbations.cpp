@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace constrained_particles
 {
@@ -83,15 +84,13 @@ void Perturbations::queueRelease(std::uint64_t scene_serial, int particle)
 }
 
 void Perturbations::queueCommand(std::uint64_t scene_serial, int particle, const Vec3& force,
-                                 Clock::time_point received, double timeout)
+                                 double received, double timeout)
 {
-  queue(Update{ Update::Push, scene_serial, particle, force,
-                received + std::chrono::duration_cast<Clock::duration>(
-                               std::chrono::duration<double>(timeout)) });
+  queue(Update{ Update::Push, scene_serial, particle, force, received + timeout });
 }
 
 int Perturbations::checkCommand(const std::string& frame, const std::string& prefix,
-                                const Vec3& force, int num_particles)
+                                const Vec3& force, const Vec3& torque, int num_particles)
 {
   // tf2 strips a leading '/' from frame ids; a command names the frame as /tf carries it
   const std::string name = !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
@@ -99,8 +98,9 @@ int Perturbations::checkCommand(const std::string& frame, const std::string& pre
       name.compare(0, prefix.size(), prefix) == 0 && name.size() > prefix.size()
           ? name.substr(prefix.size())
           : std::string();
+  // a particle frame's index as the node writes it: digits, no leading zero but for 0 itself
   const bool digits =
-      !index.empty() && index.size() <= 9 &&
+      !index.empty() && index.size() <= 9 && (index == "0" || index[0] != '0') &&
       std::all_of(index.begin(), index.end(), [](char c) { return c >= '0' && c <= '9'; });
   const int particle = digits ? std::stoi(index) : -1;
   if (particle < 0 || particle >= num_particles)
@@ -108,6 +108,10 @@ int Perturbations::checkCommand(const std::string& frame, const std::string& pre
                                               prefix + "<i>' with i in [0, " +
                                               std::to_string(num_particles - 1) + "]");
   requireInRange("wrench.force", force, limits::FORCE);
+  for (int axis = 0; axis < 3; ++axis)
+    if (!std::isfinite(torque[axis]))
+      throw InvalidInput(std::string("wrench.torque.") + "xyz"[axis],
+                         "= " + formatValue(torque[axis]) + ", must be finite (it is ignored)");
   return particle;
 }
 
@@ -128,7 +132,10 @@ Perturbations::Change Perturbations::takeQueued(std::uint64_t scene_serial, int 
     // made for another scene (a marker rviz still held across a reset, a command sent before
     // it): not this one's particle
     if (u.scene_serial != scene_serial && u.scene_serial != 0)
+    {
+      stale_commands_ += u.kind == Update::Push ? 1 : 0;
       continue;
+    }
     if (u.kind == Update::Release)
     {
       changed |= u.particle < 0 ? !drags_.empty() : drags_.count(u.particle) > 0;
@@ -157,10 +164,10 @@ Perturbations::Change Perturbations::takeQueued(std::uint64_t scene_serial, int 
   return drags_.size() + commands_.size() != before ? Change::Acting : Change::Forces;
 }
 
-bool Perturbations::expireCommands(Clock::time_point now, Clock::time_point& next)
+bool Perturbations::expireCommands(double now, double& next)
 {
   bool ended = false;
-  next = Clock::time_point::max();
+  next = std::numeric_limits<double>::infinity();
   for (auto it = commands_.begin(); it != commands_.end();)
   {
     if (it->second.expires <= now)

@@ -40,6 +40,7 @@ SimulationRunner::SimulationRunner(const NodeParameters& parameters, const Scene
   , session_(parameters, scene)
   , wrench_timeout_(parameters.wrench_timeout)
   , follow_clock_(parameters.follow_clock)
+  , command_clock_([] { return seconds(Clock::now().time_since_epoch()); })
 {
   // start-up overrides are already in `scene`; kept, a reconfigure would carry them to other scenes
   parameters_.overrides = SceneOverrides{};
@@ -321,7 +322,7 @@ RunnerReply SimulationRunner::reconfigure(
         parameters_ = candidate;
         step_time_estimate_ = 0;
         last_chunk_ = 1;
-        reanchor();
+        reanchor(ClockAnchor::Keep);
         if (perturbations_.draggedCount() > 0)
           updatePerturbations();  // a drag's spring is scaled to dt
         return accepted("reconfigured");
@@ -355,43 +356,42 @@ RunnerReply SimulationRunner::clearForces()
       });
 }
 
-void SimulationRunner::drag(std::uint64_t scene_serial, int particle, const Vec3& target)
+void SimulationRunner::wakeLoop()
 {
-  perturbations_.queueDrag(scene_serial, particle, target);
   {
-    // taken under the loop's lock: not between its check of hasQueued() and its wait
     std::lock_guard<std::mutex> lock(queue_mutex_);
   }
   wake_.notify_all();
+}
+
+void SimulationRunner::drag(std::uint64_t scene_serial, int particle, const Vec3& target)
+{
+  perturbations_.queueDrag(scene_serial, particle, target);
+  wakeLoop();
 }
 
 void SimulationRunner::release(std::uint64_t scene_serial, int particle)
 {
   perturbations_.queueRelease(scene_serial, particle);
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-  }
-  wake_.notify_all();
+  wakeLoop();
 }
 
-void SimulationRunner::commandWrench(std::uint64_t scene_serial, int particle, const Vec3& force,
-                                     std::chrono::steady_clock::time_point received)
+void SimulationRunner::setCommandClock(std::function<double()> now)
 {
-  perturbations_.queueCommand(scene_serial, particle, force, received, wrench_timeout_);
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-  }
-  wake_.notify_all();
+  command_clock_ = std::move(now);
 }
 
-void SimulationRunner::followClock(double clock_seconds)
+void SimulationRunner::commandWrench(std::uint64_t scene_serial, int particle, const Vec3& force)
 {
-  clock_now_ = clock_seconds;
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    clock_moved_ = true;
-  }
-  wake_.notify_all();
+  perturbations_.queueCommand(scene_serial, particle, force, command_clock_(), wrench_timeout_);
+  wakeLoop();
+}
+
+void SimulationRunner::followClock(std::int64_t clock_ns)
+{
+  clock_now_ns_ = clock_ns;
+  clock_moved_ = true;  // before the loop's lock (wakeLoop): never between its check and its wait
+  wakeLoop();
 }
 
 void SimulationRunner::applyInbox()
@@ -401,9 +401,7 @@ void SimulationRunner::applyInbox()
   if (change == Perturbations::Change::None)
     return;
   // a command's new expiry, or none left
-  Clock::time_point next;
-  perturbations_.expireCommands(Clock::now(), next);
-  next_command_expiry_ = next;
+  perturbations_.expireCommands(command_clock_(), next_command_expiry_);
   updatePerturbations();
   // a new target or force moves only the spring or push: the next batch's snapshot shows it; a
   // grab, a release or a new command changes what ~state reports at once
@@ -411,8 +409,9 @@ void SimulationRunner::applyInbox()
     snapshot_due_ = true;
 }
 
-void SimulationRunner::expireCommands(Clock::time_point now)
+void SimulationRunner::expireCommands()
 {
+  const double now = command_clock_();
   if (now < next_command_expiry_)
     return;
   if (perturbations_.expireCommands(now, next_command_expiry_))
@@ -458,13 +457,14 @@ void SimulationRunner::loop()
   {
     const bool applied = applyRequests();
     applyInbox();
-    expireCommands(Clock::now());
+    expireCommands();
     const bool stepped = !stopping_ && runBatch();
     updateAccuracy();
     const Clock::time_point now = Clock::now();
     updateRate(now);
+    const double publish_period = 1.0 / parameters_.publish_rate;
     if (snapshot_due_ || applied ||
-        (stepped && seconds(now - last_snapshot_wall_) >= 1.0 / parameters_.publish_rate))
+        (unpublished_ && seconds(now - last_snapshot_wall_) >= publish_period))
       makeSnapshot();
     if (step_request_ && step_request_->taken == step_request_->wanted)
       finishStep(true, "stepped " + std::to_string(step_request_->taken) + " steps");
@@ -484,13 +484,27 @@ void SimulationRunner::loop()
           std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(BATCH_PERIOD));
       wake = std::min(wake, std::max(due, period));
     }
-    wake = std::min(wake, next_command_expiry_);  // a command's timeout ends it while idle too
+    // steps a snapshot has not shown (the last ones before a clock stopped): at the next period
+    if (unpublished_)
+      wake =
+          std::min(wake, last_snapshot_wall_ + std::chrono::duration_cast<Clock::duration>(
+                                                   std::chrono::duration<double>(publish_period)));
+    // a command's timeout ends it while idle too (the command clock taken to run as the wall)
+    if (std::isfinite(next_command_expiry_))
+      wake = std::min(
+          wake, now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                          std::clamp(next_command_expiry_ - command_clock_(), 0.0, 1.0))));
+    // a clock that came within BATCH_PERIOD of the last batch: taken when the period ends
+    const bool clock_pending = follow_clock_ && clock_moved_ && !paused_ && !faulted_;
+    if (clock_pending)
+      wake = std::min(wake, last_batch_start_ + std::chrono::duration_cast<Clock::duration>(
+                                                    std::chrono::duration<double>(BATCH_PERIOD)));
     std::unique_lock<std::mutex> lock(queue_mutex_);
     wake_.wait_until(lock, wake,
-                     [this]
+                     [this, clock_pending]
                      {
                        return stopping_ || !queue_.empty() || perturbations_.hasQueued() ||
-                              (clock_moved_ && !paused_ && !faulted_);
+                              (!clock_pending && clock_moved_ && !paused_ && !faulted_);
                      });
   }
   // refuse what is still queued, and a running ~step with what it took
@@ -555,20 +569,21 @@ bool SimulationRunner::runBatch()
   }
   else if (follow_clock_)
   {
-    clock_moved_ = false;
     if (seconds(start - last_batch_start_) < BATCH_PERIOD)
-      return false;
-    const double clock = clock_now_;
-    if (!std::isfinite(clock))
+      return false;  // clock_moved_ stays: the loop wakes when the period ends
+    clock_moved_ = false;
+    const std::int64_t clock = clock_now_ns_;
+    if (clock < 0)
       return false;  // no /clock yet: nothing to follow
-    const double time = simulator_->state().time;
-    // the first clock, or one that went back (a bag played again): anchored to now's sim time
-    if (!std::isfinite(anchor_clock_) || clock < anchor_clock_ + (time - anchor_sim_) - dt)
-    {
-      anchor_clock_ = clock;
-      anchor_sim_ = time;
-    }
-    const double due = std::floor((anchor_sim_ + (clock - anchor_clock_) - time) / dt + 1e-9);
+    // the first clock, or one that went back (a bag played again): the scene goes on from it
+    if (anchor_clock_ns_ < 0 || clock < clockStandsFor() - static_cast<std::int64_t>(dt * 1e9))
+      reanchor(ClockAnchor::Now);
+    // whole steps since the anchor, from integer nanoseconds: exact for clocks near the epoch
+    // and for increments of exactly dt (the 1e-9 absorbs the quotient's rounding)
+    const double since_anchor =
+        std::floor(static_cast<double>(clock - anchor_clock_ns_) * 1e-9 / dt + 1e-9);
+    const double due =
+        since_anchor - static_cast<double>(simulator_->state().steps - anchor_steps_);
     if (!(due >= 1.0))
       return false;
     wanted = static_cast<std::uint64_t>(std::min(due, 1e15));
@@ -620,8 +635,11 @@ bool SimulationRunner::runBatch()
     {
       batch.merge(statistics);
       taken += static_cast<std::uint64_t>(steps_now);
+      unpublished_ = true;
       expireForces(0);
-      expireCommands(Clock::now());  // a silent commander's push ends within a chunk
+      // a command takes effect, and a silent commander's push ends, within a chunk
+      applyInbox();
+      expireCommands();
       last_good_ = simulator_->state();
       if (accuracy_.record(simulator_->state()))
       {
@@ -823,12 +841,25 @@ void SimulationRunner::apply(const SceneSession::Candidate& candidate)
   interruptStep("a reset or scene change");
 }
 
-void SimulationRunner::reanchor()
+void SimulationRunner::reanchor(ClockAnchor clock)
 {
   anchor_wall_ = Clock::now();
   anchor_sim_ = simulator_->state().time;
-  // following /clock: the scene goes on from the clock's time now (NaN: from the first one)
-  anchor_clock_ = clock_now_;
+  if (!follow_clock_)
+    return;
+  // following /clock: from the clock's time now (-1: from the first one), or from the time the
+  // state stands for (a settings change keeps the backlog and the count since the anchor)
+  anchor_clock_ns_ =
+      clock == ClockAnchor::Keep && anchor_clock_ns_ >= 0 ? clockStandsFor() : clock_now_ns_.load();
+  anchor_steps_ = simulator_->state().steps;
+  anchor_clock_sim_ = simulator_->state().time;
+}
+
+std::int64_t SimulationRunner::clockStandsFor() const
+{
+  if (anchor_clock_ns_ < 0)
+    return -1;
+  return anchor_clock_ns_ + std::llround((simulator_->state().time - anchor_clock_sim_) * 1e9);
 }
 
 void SimulationRunner::updateRate(Clock::time_point now)
@@ -845,13 +876,14 @@ void SimulationRunner::updateRate(Clock::time_point now)
   if (follow_clock_)
   {
     // following /clock nothing is dropped: behind is the backlog against the clock's advance
-    const double clock = clock_now_;
+    const std::int64_t clock = clock_now_ns_;
     lag = 0.0;
-    if (!idle && !paused_ && std::isfinite(anchor_clock_) && clock > window_clock_)
-      lag = std::max(0.0,
-                     anchor_sim_ + (clock - anchor_clock_) - sim - simulator_->stepSettings().dt) /
-            (clock - window_clock_);
-    window_clock_ = clock;
+    if (!idle && !paused_ && anchor_clock_ns_ >= 0 && window_clock_ns_ >= 0 &&
+        clock > window_clock_ns_)
+      lag = std::max(0.0, static_cast<double>(clock - clockStandsFor()) * 1e-9 -
+                              simulator_->stepSettings().dt) /
+            (static_cast<double>(clock - window_clock_ns_) * 1e-9);
+    window_clock_ns_ = clock;
   }
   behind_ = behind_monitor_.update(lag);
   window_wall_ = now;
@@ -900,8 +932,11 @@ void SimulationRunner::makeSnapshot()
   s->applied_forces = static_cast<std::uint32_t>(perturbations_.appliedCount());
   s->dragged_particles = static_cast<std::uint32_t>(perturbations_.draggedCount());
   s->commanded_particles = static_cast<std::uint32_t>(perturbations_.commandedCount());
+  // following /clock, a resting scene stands for the clock's time now: its state still goes out
   if (follow_clock_)
-    s->clock_stamp = anchor_clock_ + (s->state.time - anchor_sim_);
+    s->clock_stamp_ns = paused_ || faulted_ ? clock_now_ns_.load() : clockStandsFor();
+  s->stale_commands = perturbations_.staleCommands();
+  unpublished_ = false;
   {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
     snapshot_ = std::move(s);

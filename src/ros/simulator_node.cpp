@@ -95,7 +95,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
     clock_subscriber_ = ros::NodeHandle().subscribe<rosgraph_msgs::Clock>(
         "/clock", 100,
         [this](const rosgraph_msgs::Clock::ConstPtr& clock)
-        { runner_->followClock(clock->clock.toSec()); },
+        { runner_->followClock(static_cast<std::int64_t>(clock->clock.toNSec())); },
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   }
   // our own /tf publisher (tf2_ros::TransformBroadcaster is a thin wrapper of one) so the message
@@ -160,6 +160,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   if (parameters_.status_period > 0.0)
     status_timer_ = publish_nh_.createWallTimer(ros::WallDuration(parameters_.status_period),
                                                 &SimulatorNode::statusCallback, this);
+  // ~wrench_timeout on ROS time: wall, or /clock under /use_sim_time (a paused clock pauses it)
+  runner_->setCommandClock([] { return ros::Time::now().toSec(); });
   runner_->start();
   publish_spinner_.start();
   ROS_INFO("simulator: scene '%s', %d particles, %s + %s, dt = %g s, solve %s; frames %s<i> in %s",
@@ -221,8 +223,11 @@ ros::Time SimulatorNode::stampOf(const Snapshot& snap, const ros::Time& now) con
   if (parameters_.publish_clock)
     return ros::Time(snap.stamp);
   if (parameters_.follow_clock)  // the clock time the state stands for (0 before the first)
-    return std::isfinite(snap.clock_stamp) && snap.clock_stamp > 0.0 ? ros::Time(snap.clock_stamp)
-                                                                     : ros::Time();
+  {
+    ros::Time stamp;
+    return snap.clock_stamp_ns > 0 ? stamp.fromNSec(static_cast<std::uint64_t>(snap.clock_stamp_ns))
+                                   : stamp;
+  }
   return now;
 }
 
@@ -694,7 +699,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   add("max_substeps", std::to_string(p.step.max_substeps));
   add("energy_budget", formatValue(p.step.energy_budget));
   addStatistics(statistics, add);
-  wrench_commands_->report(add);
+  wrench_commands_->report(*snap, add);
   diagnostic_msgs::DiagnosticArray array;
   array.header.stamp = ros::Time::now();
   array.status.push_back(status);

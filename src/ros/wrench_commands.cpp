@@ -2,7 +2,6 @@
 
 #include "constrained_particles/ros/perturbations.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <utility>
 
@@ -19,17 +18,16 @@ WrenchCommands::WrenchCommands(ros::NodeHandle node, SimulationRunner& runner,
 
 void WrenchCommands::take(const geometry_msgs::WrenchStamped& message)
 {
-  const auto received = std::chrono::steady_clock::now();
   const std::shared_ptr<const Snapshot> snap = runner_.snapshot();
   const Vec3 force(message.wrench.force.x, message.wrench.force.y, message.wrench.force.z);
   try
   {
-    const int particle = Perturbations::checkCommand(message.header.frame_id, frame_prefix_, force,
-                                                     snap->model->numParticles());
     const Vec3 torque(message.wrench.torque.x, message.wrench.torque.y, message.wrench.torque.z);
+    const int particle = Perturbations::checkCommand(message.header.frame_id, frame_prefix_, force,
+                                                     torque, snap->model->numParticles());
     if (torque != Vec3::Zero() && !torque_noted_.exchange(true))
       ROS_INFO("simulator: ~wrench_command's torque is ignored (particles take forces only)");
-    runner_.commandWrench(snap->scene_serial, particle, force, received);
+    runner_.commandWrench(snap->scene_serial, particle, force);
     ++taken_;
   }
   catch (const InvalidInput& e)
@@ -51,10 +49,12 @@ std::string WrenchCommands::lastDropReason() const
 }
 
 void WrenchCommands::report(
+    const Snapshot& snap,
     const std::function<void(const std::string&, const std::string&)>& add) const
 {
-  add("wrench commands taken", std::to_string(taken_));
-  add("wrench commands dropped", std::to_string(dropped_));
+  // a command taken here that a scene change overtook is dropped by the runner
+  add("wrench commands taken", std::to_string(taken_ - snap.stale_commands));
+  add("wrench commands dropped", std::to_string(dropped_ + snap.stale_commands));
   const std::string reason = lastDropReason();
   if (!reason.empty())
     add("last wrench command dropped", reason);

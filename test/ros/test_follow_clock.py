@@ -16,13 +16,13 @@ from topic_recorder import Recorder
 from wall_clock import WallClockWaits
 
 NODE = "/simulator"
-START_US = 100_000_000  # the first clock: 100 s, in microseconds
-DT_US = 1000
+START_NS = 1_733_000_000_123_000_000  # the first clock, near the epoch as a bag's (ns)
+DT_NS = 1_000_000  # dt = 1 ms
 
 
-def clock_of(us):
+def clock_of(ns):
     msg = Clock()
-    msg.clock = rospy.Time(us // 1_000_000, (us % 1_000_000) * 1000)
+    msg.clock = rospy.Time(ns // 1_000_000_000, ns % 1_000_000_000)
     return msg
 
 
@@ -45,50 +45,63 @@ class FollowClockTest(WallClockWaits, unittest.TestCase):
                           if "~follow_clock" in s.message), None), "the wait in /diagnostics")
         self.assertEqual(status.level, DiagnosticStatus.WARN)
         self.assertEqual(self.states.since(0.0), [])
-        # the first clock (sent until the node shows it): sim time 0 stands for 100 s
+        # the first clock (sent until the node shows it): sim time 0 stands for it
         self.wait_until(lambda: self.clock.get_num_connections() > 0, "the node subscribing")
         first = self.wait_until(
-            lambda: (self.clock.publish(clock_of(START_US)), self.states.latest())[1],
+            lambda: (self.clock.publish(clock_of(START_NS)), self.states.latest())[1],
             "a state stamped with the first clock", poll=0.05)
         self.assertEqual(first.steps, 0)
-        self.assertEqual(first.header.stamp, clock_of(START_US).clock)
-        # irregular increments, each 0.4 ms past a step's end so that floor() is unambiguous
+        self.assertEqual(first.header.stamp, clock_of(START_NS).clock)
+        # irregular increments of whole steps (each ends exactly on a step: floor() at its edge),
+        # and after each clock the scene has taken floor((c - c0) / dt) steps, never more
         rng = random.Random(37)
-        now_us = START_US + 400
-        sent = []  # (wall time sent, clock [us])
-        for _ in range(60):
-            now_us += DT_US * rng.choice([0, 1, 2, 7, 13, 50, 150])
-            self.clock.publish(clock_of(now_us))
-            sent.append((time.monotonic(), now_us))
-            time.sleep(rng.uniform(0.005, 0.1))
-        expected = (now_us - START_US) // DT_US
-        last = self.wait_until(
-            lambda: next((s for s in reversed(self.states.since(sent[-1][0]))
-                          if s.steps == expected), None), f"{expected} steps", 30.0)
-        self.assertAlmostEqual(last.sim_time, expected * 1e-3, delta=1e-9)
+        now_ns = START_NS
+        sent = [(0.0, START_NS)]  # (wall time sent, clock [ns]): the first went before any state
+        for k in range(40):
+            now_ns += DT_NS * rng.choice([0, 1, 2, 7, 13, 50, 150]) + (DT_NS // 2 if k == 20 else 0)
+            self.clock.publish(clock_of(now_ns))
+            sent.append((time.monotonic(), now_ns))
+            expected = (now_ns - START_NS) // DT_NS
+            # states only ever step forward: the newest shows whether it got there
+            self.wait_until(lambda: self.states.latest().steps >= expected,
+                            f"{expected} steps after clock {k}", 30.0, poll=0.005)
+            self.assertEqual(self.states.latest().steps, expected, f"clock {k}")
         # held still, the clock holds the scene: no step past it
         time.sleep(1.0)
         self.assertEqual(self.states.latest().steps, expected)
-        # never ahead: each state's time is within the newest clock sent before it arrived, and
-        # its stamp is the clock time it stands for
-        for arrived, state in [(t, s) for t, s in self.states.items]:
-            clock_us = max([c for t, c in sent if t <= arrived] + [START_US])
-            self.assertLessEqual(state.sim_time, (clock_us - START_US) * 1e-6 + 1e-9, state.steps)
-            self.assertAlmostEqual(state.header.stamp.to_sec(), START_US * 1e-6 + state.sim_time,
-                                   delta=2e-9 * START_US * 1e-6)
+        # never ahead: each state stands for a clock sent before it arrived (its stamp), and
+        # its step count is that clock's floor
+        for arrived, state in list(self.states.items):
+            clock_ns = max(c for t, c in sent if t <= arrived)
+            self.assertLessEqual(state.steps, (clock_ns - START_NS) // DT_NS)
+            self.assertLessEqual(state.header.stamp.to_nsec(), clock_ns)
+            self.assertEqual(state.header.stamp.to_nsec(), START_NS + state.steps * DT_NS)
         # ~step would run ahead of the clock
         self.pause()
         reply = self.step(10)
         self.assertFalse(reply.success)
         self.assertIn("~follow_clock", reply.message)
 
-    def test_a_node_that_follows_and_publishes_the_clock_is_refused_at_start(self):
+    def test_refused_combinations_stop_a_node_at_start(self):
         run = subprocess.run(
             ["rosrun", "constrained_particles", "simulator_node", "__name:=both",
              "_follow_clock:=true", "_publish_clock:=true"],
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120)
         self.assertNotEqual(run.returncode, 0, run.stdout)
         self.assertIn("~follow_clock", run.stdout)
+        self.assertIn("~publish_clock", run.stdout)
+        # without /use_sim_time (read once at start: the running node keeps its own)
+        rospy.set_param("/use_sim_time", False)
+        try:
+            run = subprocess.run(
+                ["rosrun", "constrained_particles", "simulator_node", "__name:=wall",
+                 "_follow_clock:=true"],
+                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120)
+        finally:
+            rospy.set_param("/use_sim_time", True)
+        self.assertNotEqual(run.returncode, 0, run.stdout)
+        self.assertIn("~follow_clock", run.stdout)
+        self.assertIn("/use_sim_time", run.stdout)
 
 
 if __name__ == "__main__":

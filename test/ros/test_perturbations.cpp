@@ -109,29 +109,29 @@ TEST(Perturbations, ADragsSpringIsCriticallyDampedAtTheFrequencyTheStepAllows)
 
 TEST(Perturbations, ACommandActsUntilANewerOneOrItsTimeout)
 {
-  using Clock = Perturbations::Clock;
   Perturbations p;
-  const Clock::time_point t0 = Clock::now();
+  const double t0 = 100.0;  // [s] on the command clock
   p.queueCommand(7, 3, Vec3(1.0, 0.0, 0.0), t0, 0.5);
-  p.queueCommand(6, 2, Vec3(1.0, 0.0, 0.0), t0, 0.5);  // for another scene: dropped
+  p.queueCommand(6, 2, Vec3(1.0, 0.0, 0.0), t0, 0.5);  // for another scene: dropped, counted
   EXPECT_EQ(p.takeQueued(7, 4), Perturbations::Change::Acting);
   EXPECT_EQ(p.commandedCount(), 1u);
+  EXPECT_EQ(p.staleCommands(), 1u);
   std::vector<Force> forces = p.forces({ 1.0, 1.0, 1.0, 1.0 }, 1e-3);
   ASSERT_EQ(forces.size(), 1u);
   ASSERT_TRUE(std::holds_alternative<ExternalForce>(forces[0]));
   EXPECT_EQ(std::get<ExternalForce>(forces[0]).particle, 3);
   EXPECT_EQ(std::get<ExternalForce>(forces[0]).force, Vec3(1.0, 0.0, 0.0));
   // a newer command replaces it, and moves its timeout
-  p.queueCommand(7, 3, Vec3(0.0, 2.0, 0.0), t0 + std::chrono::milliseconds(300), 0.5);
+  p.queueCommand(7, 3, Vec3(0.0, 2.0, 0.0), t0 + 0.25, 0.5);
   EXPECT_EQ(p.takeQueued(7, 4), Perturbations::Change::Forces);
   forces = p.forces({ 1.0, 1.0, 1.0, 1.0 }, 1e-3);
   ASSERT_EQ(forces.size(), 1u);
   EXPECT_EQ(std::get<ExternalForce>(forces[0]).force, Vec3(0.0, 2.0, 0.0));
-  Clock::time_point next;
-  EXPECT_FALSE(p.expireCommands(t0 + std::chrono::milliseconds(799), next));
-  EXPECT_EQ(next, t0 + std::chrono::milliseconds(800));
-  EXPECT_TRUE(p.expireCommands(t0 + std::chrono::milliseconds(800), next));
-  EXPECT_EQ(next, Clock::time_point::max());
+  double next = 0.0;
+  EXPECT_FALSE(p.expireCommands(t0 + 0.7, next));
+  EXPECT_EQ(next, t0 + 0.75);
+  EXPECT_TRUE(p.expireCommands(t0 + 0.75, next));
+  EXPECT_EQ(next, INFINITY);
   EXPECT_TRUE(p.empty());
   // a command for a particle the scene no longer has is dropped
   p.queueCommand(7, 4, Vec3(1.0, 0.0, 0.0), t0, 0.5);
@@ -143,17 +143,20 @@ TEST(Perturbations, ACommandActsUntilANewerOneOrItsTimeout)
   EXPECT_EQ(p.commandedCount(), 0u);
 }
 
-TEST(Perturbations, ACommandNamesAParticleFrameAndAForceInRange)
+TEST(Perturbations, ACommandNamesAParticleFrameAndFiniteForcesInRange)
 {
-  EXPECT_EQ(Perturbations::checkCommand("particle_3", "particle_", Vec3(1.0, 2.0, 3.0), 4), 3);
-  EXPECT_EQ(Perturbations::checkCommand("/particle_0", "particle_", Vec3::Zero(), 4), 0);
-  EXPECT_EQ(Perturbations::checkCommand("robot1/particle_12", "robot1/particle_", Vec3::Zero(), 13),
+  const Vec3 zero = Vec3::Zero();
+  EXPECT_EQ(Perturbations::checkCommand("particle_3", "particle_", Vec3(1.0, 2.0, 3.0), zero, 4),
+            3);
+  EXPECT_EQ(Perturbations::checkCommand("/particle_0", "particle_", zero, zero, 4), 0);
+  EXPECT_EQ(Perturbations::checkCommand("robot1/particle_12", "robot1/particle_", zero,
+                                        Vec3(1.0, 0.0, 0.0), 13),
             12);
-  auto field = [](const std::string& frame, const Vec3& force)
+  auto field = [](const std::string& frame, const Vec3& force, const Vec3& torque)
   {
     try
     {
-      Perturbations::checkCommand(frame, "particle_", force, 4);
+      Perturbations::checkCommand(frame, "particle_", force, torque, 4);
     }
     catch (const InvalidInput& e)
     {
@@ -161,13 +164,16 @@ TEST(Perturbations, ACommandNamesAParticleFrameAndAForceInRange)
     }
     return std::string("accepted");
   };
-  for (const std::string frame : { "particle_4", "particle_", "particle_-1", "particle_1x", "world",
-                                   "", "particle_99999999999", "p_1" })
-    EXPECT_EQ(field(frame, Vec3::Zero()), "header.frame_id") << frame;
-  EXPECT_EQ(field("particle_1", Vec3(NAN, 0.0, 0.0)), "wrench.force.x");
-  EXPECT_EQ(field("particle_1", Vec3(0.0, INFINITY, 0.0)), "wrench.force.y");
-  EXPECT_EQ(field("particle_1", Vec3(0.0, 0.0, -2.0 * limits::FORCE.high)), "wrench.force.z");
-  EXPECT_EQ(field("particle_1", Vec3(0.0, 0.0, limits::FORCE.high)), "accepted");
+  for (const std::string frame :
+       { "particle_4", "particle_", "particle_-1", "particle_1x", "world", "",
+         "particle_99999999999", "p_1", "particle_01", "particle_+1" })
+    EXPECT_EQ(field(frame, zero, zero), "header.frame_id") << frame;
+  EXPECT_EQ(field("particle_1", Vec3(NAN, 0.0, 0.0), zero), "wrench.force.x");
+  EXPECT_EQ(field("particle_1", Vec3(0.0, INFINITY, 0.0), zero), "wrench.force.y");
+  EXPECT_EQ(field("particle_1", Vec3(0.0, 0.0, -2.0 * limits::FORCE.high), zero), "wrench.force.z");
+  EXPECT_EQ(field("particle_1", zero, Vec3(0.0, 0.0, NAN)), "wrench.torque.z");
+  EXPECT_EQ(field("particle_1", Vec3(0.0, 0.0, limits::FORCE.high), Vec3(1e300, 0.0, 0.0)),
+            "accepted");
 }
 
 }  // namespace

@@ -93,17 +93,27 @@ class WrenchCommandsTest(WallClockWaits, unittest.TestCase):
         self.assertEqual(topics, [f"{NODE}/anchor_wrench/particle_0"])
 
     def test_a_steady_push_settles_to_the_statics(self):
-        # the chain settles within ~10 s of sim time (damping rate 2/s): 2.5 s of wall time at
-        # real_time_factor 10; streamed for 4 s, the state taken while the stream still runs
-        done = threading.Event()
-        thread = threading.Thread(target=lambda: (self.stream("particle_3", PUSH, 4.0), done.set()))
+        # the chain settles within ~10 s of sim time (damping rate 2/s); streamed until 14 s of
+        # sim time have passed since the push began, however slowly a busy machine steps
+        stop = threading.Event()
+
+        def push():
+            while not stop.is_set():
+                self.commands.publish(command("particle_3", PUSH))
+                time.sleep(0.02)
+
+        thread = threading.Thread(target=push)
+        began = time.monotonic()
         thread.start()
         try:
-            time.sleep(3.5)
+            t0 = self.wait_until(lambda: next((s.sim_time for s in self.states.since(began)
+                                               if s.commanded_particles == 1), None), "the push")
+            self.wait_until(lambda: (self.states.latest().sim_time >= t0 + 14.0), "14 s of sim", 120.0)
             start = time.monotonic()
             state = self.wait_until(lambda: self.states.since(start)[-1:], "a state")[0]
             wrench = self.wait_until(lambda: self.wrenches.since(start)[-1:], "a wrench")[0]
         finally:
+            stop.set()
             thread.join()
         self.assertEqual(state.commanded_particles, 1)
         # link j (from particle j - 1 to j) carries the push and the weight of particles j..N-1:
@@ -123,6 +133,8 @@ class WrenchCommandsTest(WallClockWaits, unittest.TestCase):
     def test_a_command_ends_its_timeout_after_the_last_one(self):
         last = self.stream("particle_3", PUSH, 1.0)
         self.assertTrue(any(s.commanded_particles == 1 for s in self.states.since(last - 0.5)))
+        # it pushed: the last particle swung out towards +x (its statics put it 0.16 m out)
+        self.assertTrue(any(s.positions[3].x > 0.05 for s in self.states.since(last - 0.5)))
         ended = self.wait_until(
             lambda: next((t for t, s in self.states.items if t > last and s.commanded_particles == 0),
                          None), "the command ending", 10.0)
@@ -134,14 +146,16 @@ class WrenchCommandsTest(WallClockWaits, unittest.TestCase):
             lambda: any(s.positions[3].x < 0.05 for s in self.states.since(ended)), "swinging back", 10.0))
 
     def test_bad_commands_are_dropped_counted_and_change_nothing(self):
-        self.pause()
+        # the chain hangs at rest and runs: a bad command taken would push it off x = 0
         start = time.monotonic()
-        before = self.wait_until(lambda: self.states.since(start + 0.2)[-1:], "a paused state")[0]
+        self.wait_until(lambda: self.states.since(start + 0.2), "a state")
         dropped_before = int(self.wait_until(
             lambda: self.diagnostic("wrench commands dropped", start), "/diagnostics' count"))
         bad = [command("particle_4"), command("particle_"), command("world"), command(""),
-               command("particle_-1"), command("particle_3", fx=float("nan")),
-               command("particle_3", fz=float("inf")), command("particle_3", fy=2e9)]
+               command("particle_-1"), command("particle_03"), command("particle_3", fx=float("nan")),
+               command("particle_3", fz=float("inf")), command("particle_3", tx=float("nan")),
+               command("particle_3", fy=2e9)]
+        first = time.monotonic()
         for msg in bad:
             self.commands.publish(msg)
             time.sleep(0.05)
@@ -150,12 +164,11 @@ class WrenchCommandsTest(WallClockWaits, unittest.TestCase):
                         str(dropped_before + len(bad)), f"{len(bad)} more dropped", 20.0)
         reason = self.diagnostic("last wrench command dropped", sent)
         self.assertIn("wrench.force.y", reason)
-        after = self.wait_until(lambda: self.states.since(sent + 0.5)[-1:], "a state after")[0]
-        self.assertEqual(after.commanded_particles, 0)
-        self.assertEqual(after.steps, before.steps)
-        self.assertEqual([(p.x, p.y, p.z) for p in after.positions],
-                         [(p.x, p.y, p.z) for p in before.positions])
-        self.unpause()
+        during = self.states.since(first)
+        self.assertGreater(len(during), 10)
+        self.assertEqual([s.steps for s in during if s.commanded_particles != 0], [])
+        self.assertLessEqual(max(abs(p.x) + abs(p.y) for s in during for p in s.positions), 1e-9)
+        self.assertEqual(self.states.latest().status, SimState.STATUS_RUNNING)
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@
 #include <std_msgs/Header.h>
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -25,8 +26,9 @@ Vec3 holderForce(const Model& model, const Eigen::VectorXd& multipliers, int eli
 /// a ROS name may not hold ([A-Za-z0-9_/] only) written '_', e.g. "anchor_wrench/particle_0".
 std::string anchorWrenchTopic(const std::string& frame);
 
-/// One geometry_msgs/WrenchStamped publisher per held particle of the scene in force,
-/// re-advertised when the scene changes; each message built only while that topic has a
+/// One geometry_msgs/WrenchStamped publisher per held particle of the scene in force: when the
+/// scene changes, topics it still has keep their publishers (and their subscribers), new ones
+/// are advertised and vanished ones end. Each message built only while its topic has a
 /// subscriber. Used by the node's publishing thread only.
 class AnchorWrenches
 {
@@ -36,14 +38,13 @@ public:
   /// Publishes every held particle's holderForce() from `snap`, stamped with `header` (frame:
   /// ~fixed_frame, whose axes the force is in).
   void publish(const Snapshot& snap, const std_msgs::Header& header);
-  /// Topics advertised now (for tests and the start line).
-  std::vector<std::string> topics() const;
 
 private:
   ros::NodeHandle node_;
   std::string frame_prefix_;
-  std::uint64_t scene_serial_ = 0;          // the scene the publishers are for
-  std::vector<ros::Publisher> publishers_;  // one per Model::eliminated() record
+  std::uint64_t scene_serial_ = 0;                  // the scene the publishers are for
+  std::map<std::string, ros::Publisher> by_topic_;  // every held particle's, by topic name
+  std::vector<ros::Publisher*> publishers_;         // one per Model::eliminated() record
 };
 
 }  // namespace constrained_particles

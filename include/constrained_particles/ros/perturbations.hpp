@@ -8,7 +8,6 @@
 #include "constrained_particles/core/types.hpp"
 
 #include <atomic>
-#include <chrono>
 #include <cstdint>
 #include <map>
 #include <mutex>
@@ -24,7 +23,6 @@ namespace constrained_particles
 class Perturbations
 {
 public:
-  using Clock = std::chrono::steady_clock;
   /// A dragged particle is pulled by a critically damped target spring of frequency
   /// w = min(DRAG_FREQUENCY, DRAG_STEP_LIMIT / dt): k = m w^2, c = 2 m w. w dt <= 0.2 keeps every
   /// explicit integrator stable on the spring alone (the stability estimate sees it too). A
@@ -61,17 +59,20 @@ public:
   /// Thread-safe: end the pull on `particle` (-1: on every particle).
   void queueRelease(std::uint64_t scene_serial, int particle);
   /// Thread-safe: push `particle` with `force` [N] (checked by checkCommand) from the next
-  /// takeQueued() until a newer command for it, or until `timeout` [s] after `received` passes
-  /// without one (expireCommands): a controller's command-topic contract. For scene
-  /// `scene_serial` (a command for another scene is dropped).
-  void queueCommand(std::uint64_t scene_serial, int particle, const Vec3& force,
-                    Clock::time_point received, double timeout);
-  /// The particle a ~wrench_command names and its force, checked: `frame` is `prefix` followed by
-  /// a particle index of a scene of `num_particles` (a leading '/' is ignored, as tf2 does), each
-  /// force component finite and in limits::FORCE.
-  /// @throws InvalidInput naming `header.frame_id` or `wrench.force.x` .. and what is valid
+  /// takeQueued() until a newer command for it, or until `timeout` [s] after `received` [s, on
+  /// the caller's command clock] passes without one (expireCommands): a controller's
+  /// command-topic contract. For scene `scene_serial` (a command for another scene is dropped
+  /// and counted: staleCommands()).
+  void queueCommand(std::uint64_t scene_serial, int particle, const Vec3& force, double received,
+                    double timeout);
+  /// The particle a ~wrench_command names, checked: `frame` is `prefix` followed by a particle
+  /// index of a scene of `num_particles` written as tf frames are (no sign, no leading zero; a
+  /// leading '/' is ignored, as tf2 does), each force component finite and in limits::FORCE,
+  /// each torque component finite (it is ignored).
+  /// @throws InvalidInput naming `header.frame_id`, `wrench.force.x` .. or `wrench.torque.x` ..
+  /// and what is valid
   static int checkCommand(const std::string& frame, const std::string& prefix, const Vec3& force,
-                          int num_particles);
+                          const Vec3& torque, int num_particles);
   /// Thread-safe: whether updates wait for takeQueued().
   bool hasQueued() const
   {
@@ -87,9 +88,14 @@ public:
   /// Applies the queued drag and command updates for the scene `scene_serial` of
   /// `num_particles`.
   Change takeQueued(std::uint64_t scene_serial, int num_particles);
-  /// Ends the commands whose timeout passed by `now`; returns whether any ended. `next`: when
-  /// the next one ends (Clock::time_point::max() if none acts).
-  bool expireCommands(Clock::time_point now, Clock::time_point& next);
+  /// Ends the commands whose timeout passed by `now` [s, the command clock]; returns whether any
+  /// ended. `next`: when the next one ends (+infinity if none acts).
+  bool expireCommands(double now, double& next);
+  /// Commands takeQueued() dropped because they were made for another scene, so far.
+  std::uint64_t staleCommands() const
+  {
+    return stale_commands_;
+  }
 
   /// The external forces and target springs acting now, for particles of `masses` [kg] at the
   /// step `dt` [s].
@@ -121,7 +127,7 @@ private:
   struct Command
   {
     Vec3 force = Vec3::Zero();  // [N]
-    Clock::time_point expires;  // its timeout after the message that set it
+    double expires = 0;         // its timeout after the message that set it [s, command clock]
   };
   struct Update
   {
@@ -134,14 +140,15 @@ private:
     std::uint64_t scene_serial = 0;
     int particle = 0;
     Vec3 value = Vec3::Zero();  // a drag's target [m] or a command's force [N]
-    Clock::time_point expires;  // a command's
+    double expires = 0;         // a command's [s, command clock]
   };
   void queue(const Update& update);
 
   std::vector<AppliedForce> applied_;
   std::map<int, Vec3> drags_;        // particle -> target [m]
   std::map<int, Command> commands_;  // particle -> its commanded force
-  std::mutex queue_mutex_;           // guards queue_ (any thread posts, the runner's thread takes)
+  std::uint64_t stale_commands_ = 0;
+  std::mutex queue_mutex_;  // guards queue_ (any thread posts, the runner's thread takes)
   std::vector<Update> queue_;
   std::atomic<bool> queued_{ false };
 };

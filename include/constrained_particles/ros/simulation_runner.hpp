@@ -89,9 +89,13 @@ struct Snapshot
   std::uint32_t applied_forces = 0, dragged_particles = 0;
   /// Particles a ~wrench_command pushes now.
   std::uint32_t commanded_particles = 0;
-  /// ~follow_clock: the /clock time [s] the state stands for (the clock at the last anchor plus
-  /// the sim time since), NaN before the first /clock; the stamp of what is published.
-  double clock_stamp = std::numeric_limits<double>::quiet_NaN();
+  /// ~follow_clock: the /clock time [ns] the state stands for (the clock at the last anchor plus
+  /// the sim time since; while paused or faulted, the newest clock), -1 before the first /clock;
+  /// the stamp of what is published.
+  std::int64_t clock_stamp_ns = -1;
+  /// Wrench commands dropped on arrival because a scene change came first (not counted by the
+  /// node, which took them).
+  std::uint64_t stale_commands = 0;
 };
 
 /// Whether stepping is behind its real-time factor, with hysteresis: a single slow window of a
@@ -203,17 +207,21 @@ public:
   /// Ends the pull on `particle` (-1: on every particle). Not waited for.
   void release(std::uint64_t scene_serial, int particle);
   /// Pushes `particle` with `force` [N] (Perturbations::checkCommand checked both) from the next
-  /// batch until a newer command for it, or until ~wrench_timeout after `received` passes without
-  /// one (checked at every chunk of steps and when idle). Not waited for: a controller streams
-  /// these. For scene `scene_serial`, like drag(). A reset or scene change ends them all.
-  void commandWrench(std::uint64_t scene_serial, int particle, const Vec3& force,
-                     std::chrono::steady_clock::time_point received);
-  /// Thread-safe: the newest /clock [s]. With ~follow_clock the runner steps the scene up to it,
-  /// never past it: the first clock (and the clock at a reset, teleport, unpause or a clock that
-  /// went back) is anchored to the sim time then, and each batch takes the whole steps of dt
-  /// that fit before anchor sim time + (clock - anchor clock), the remainder carried over; no
-  /// clock yet, no steps. Paced by the clock alone (~real_time_factor unused); ~step refused.
-  void followClock(double clock_seconds);
+  /// chunk of steps until a newer command for it, or until ~wrench_timeout passes without one
+  /// on the command clock (setCommandClock; checked at every chunk of steps and when idle). Not
+  /// waited for: a controller streams these. For scene `scene_serial`, like drag(). A reset or
+  /// scene change ends them all.
+  void commandWrench(std::uint64_t scene_serial, int particle, const Vec3& force);
+  /// Thread-safe: the newest /clock [ns since its epoch]. With ~follow_clock the runner steps
+  /// the scene up to it, never past it: the first clock (and the clock at a reset, teleport,
+  /// unpause, or one that went back) is anchored to the step count then, and after clock c the
+  /// scene has taken floor((c - anchor clock) / dt) steps since the anchor, the remainder
+  /// carried over (a settings change keeps the anchor's clock time); no clock yet, no steps.
+  /// Paced by the clock alone (~real_time_factor unused); ~step refused.
+  void followClock(std::int64_t clock_ns);
+  /// The clock ~wrench_timeout is measured on [s] (the node's ROS time: wall, or /clock under
+  /// /use_sim_time); steady wall seconds until set. Set before start().
+  void setCommandClock(std::function<double()> now);
 
 private:
   using Clock = std::chrono::steady_clock;
@@ -243,8 +251,21 @@ private:
   std::uint64_t expireForces(std::uint64_t limit);
   /// Takes the drag and wrench-command updates posted since the last batch.
   void applyInbox();
-  /// Ends the wrench commands whose timeout passed by `now`.
-  void expireCommands(Clock::time_point now);
+  /// Ends the wrench commands whose timeout passed by the command clock's now.
+  void expireCommands();
+  /// How a clock anchor moves (~follow_clock): to the newest clock (a reset, teleport or
+  /// unpause: the scene goes on from the clock's time now), or kept at the clock time the state
+  /// stands for (a settings change: the backlog and floor((c - c0) / dt) are kept).
+  enum class ClockAnchor
+  {
+    Now,
+    Keep
+  };
+  /// The clock time [ns] the state stands for under ~follow_clock (-1 before the first clock).
+  std::int64_t clockStandsFor() const;
+  /// Wakes the loop after a post from another thread (taken under its lock: never between its
+  /// check of what is posted and its wait).
+  void wakeLoop();
   /// Sets stopping_ and wakes the loop (stop() and the destructor).
   void requestStop();
   /// Waits for a reply, giving up (refused) when the runner stops.
@@ -269,7 +290,7 @@ private:
   /// @throws InvalidInput if the simulator refuses it; nothing changes
   void apply(const SceneSession::Candidate& candidate);
   /// Restarts wall-time pacing from the current sim time.
-  void reanchor();
+  void reanchor(ClockAnchor clock = ClockAnchor::Now);
   void updateRate(Clock::time_point now);
   void makeSnapshot();
   /// Live accuracy (AccuracyMonitor::update) after a batch; a finished report makes a snapshot.
@@ -282,10 +303,15 @@ private:
   SceneSession session_;         // the scene and the user's step settings (scene_session.hpp)
   const double wrench_timeout_;  // ~wrench_timeout [s]: read by commandWrench on any thread
   const bool follow_clock_;      // ~follow_clock: paced by followClock(), not the wall
-  std::atomic<double> clock_now_{ std::numeric_limits<double>::quiet_NaN() };  // newest /clock [s]
-  std::atomic<bool> clock_moved_{ false };  // a /clock arrived since the loop last looked
-  double anchor_clock_ = std::numeric_limits<double>::quiet_NaN();  // the clock at anchor_sim_
-  double window_clock_ = std::numeric_limits<double>::quiet_NaN();  // at the rate window's start
+  std::function<double()> command_clock_;         // ~wrench_timeout's clock [s]
+  std::atomic<std::int64_t> clock_now_ns_{ -1 };  // the newest /clock [ns], -1: none yet
+  std::atomic<bool> clock_moved_{ false };        // a /clock arrived since the loop last stepped
+  std::int64_t anchor_clock_ns_ = -1;             // the clock at the anchor, -1: none yet
+  std::uint64_t anchor_steps_ = 0;                // State::steps at the anchor
+  double anchor_clock_sim_ = 0;                   // sim time at the anchor [s]
+  std::int64_t window_clock_ns_ = -1;             // the clock at the rate window's start
+  std::uint64_t stale_commands_ = 0;              // see Snapshot::stale_commands
+  bool unpublished_ = false;                      // steps taken since the last snapshot
   std::unique_ptr<Simulator> simulator_;
   std::shared_ptr<const Model> model_copy_;
   std::uint64_t snapshot_serial_ = 0;  // 0: none yet, for readers
@@ -303,7 +329,7 @@ private:
   double anchor_sim_ = 0, window_sim_ = 0, window_dropped_ = 0, achieved_rtf_ = 0;
   BehindMonitor behind_monitor_;
   Perturbations perturbations_;  // pushes, drags and wrench commands (perturbations.hpp)
-  Clock::time_point next_command_expiry_ = Clock::time_point::max();
+  double next_command_expiry_ = std::numeric_limits<double>::infinity();  // command clock [s]
   AccuracyMonitor accuracy_;  // live accuracy windows (accuracy_monitor.hpp)
   bool behind_ = false, window_valid_ = false, snapshot_due_ = true;
 

@@ -40,8 +40,10 @@ public:
     return dropped_;
   }
   std::string lastDropReason() const;
-  /// /diagnostics keys: commands taken and dropped, and the last reason.
-  void report(const std::function<void(const std::string&, const std::string&)>& add) const;
+  /// /diagnostics keys: commands taken and dropped (here, or by the runner: made for a scene a
+  /// change replaced, Snapshot::stale_commands), and the last reason dropped here.
+  void report(const Snapshot& snap,
+              const std::function<void(const std::string&, const std::string&)>& add) const;
 
 private:
   SimulationRunner& runner_;
