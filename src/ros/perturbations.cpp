@@ -111,7 +111,8 @@ int Perturbations::checkCommand(const std::string& frame, const std::string& pre
   for (int axis = 0; axis < 3; ++axis)
     if (!std::isfinite(torque[axis]))
       throw InvalidInput(std::string("wrench.torque.") + "xyz"[axis],
-                         "= " + formatValue(torque[axis]) + ", must be finite (it is ignored)");
+                         "= " + formatValue(torque[axis]) +
+                             ", must be finite (a finite torque is ignored; this command is not)");
   return particle;
 }
 

@@ -658,13 +658,15 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   const bool unconverged = !statistics.projection.converged;
   const bool waiting_for_clock = waiting_for_clock_;
   const bool fallback = !snap->energy_fallback.empty();
-  status.level = snap->faulted ? diagnostic_msgs::DiagnosticStatus::ERROR
-                 : (snap->behind || singular || unconverged || waiting_for_clock || fallback)
-                     ? diagnostic_msgs::DiagnosticStatus::WARN
-                     : diagnostic_msgs::DiagnosticStatus::OK;
+  const std::uint64_t drops = wrench_commands_->newDrops(*snap);  // since the last second
+  status.level =
+      snap->faulted ? diagnostic_msgs::DiagnosticStatus::ERROR
+      : (snap->behind || singular || unconverged || waiting_for_clock || fallback || drops > 0)
+          ? diagnostic_msgs::DiagnosticStatus::WARN
+          : diagnostic_msgs::DiagnosticStatus::OK;
   std::string message = statusText(*snap);
   if (message.empty())
-    message = "running";
+    message = waiting_for_clock && parameters_.follow_clock ? "waiting for /clock" : "running";
   if (!snap->faulted)
   {
     if (singular)
@@ -674,6 +676,12 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
       message += "; a projection did not converge within its iteration limit";
     if (fallback)
       message += "; " + snap->energy_fallback;
+    if (drops > 0)
+    {
+      const std::string why = wrench_commands_->lastDropReason();
+      message += "; " + std::to_string(drops) + " ~wrench_command messages dropped in the last " +
+                 "second" + (why.empty() ? " (made for a scene since replaced)" : "; last: " + why);
+    }
   }
   if (waiting_for_clock)
     message += std::string("; ") + waitMessage();

@@ -2,6 +2,7 @@
 
 #include "constrained_particles/ros/perturbations.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -40,6 +41,14 @@ void WrenchCommands::take(const geometry_msgs::WrenchStamped& message)
     }
     ROS_WARN_THROTTLE(5.0, "simulator: %s", reason.c_str());
   }
+}
+
+std::uint64_t WrenchCommands::newDrops(const Snapshot& snap)
+{
+  const std::uint64_t drops = dropped_ + snap.stale_commands;
+  const std::uint64_t fresh = drops - std::min(drops, drops_reported_);
+  drops_reported_ = drops;
+  return fresh;
 }
 
 std::string WrenchCommands::lastDropReason() const

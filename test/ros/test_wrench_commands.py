@@ -11,7 +11,7 @@ import rospy
 import rostest
 from constrained_particles.msg import SimState
 from constrained_particles.srv import Reset
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import WrenchStamped
 from std_srvs.srv import Empty
 from topic_recorder import Recorder
@@ -164,6 +164,9 @@ class WrenchCommandsTest(WallClockWaits, unittest.TestCase):
                         str(dropped_before + len(bad)), f"{len(bad)} more dropped", 20.0)
         reason = self.diagnostic("last wrench command dropped", sent)
         self.assertIn("wrench.force.y", reason)
+        # while they keep coming, /diagnostics warns (a controller sending to a wrong frame)
+        self.assertTrue(any(s.level == DiagnosticStatus.WARN and "messages dropped" in s.message
+                            for a in self.diagnostics.since(first) for s in a.status))
         during = self.states.since(first)
         self.assertGreater(len(during), 10)
         self.assertEqual([s.steps for s in during if s.commanded_particles != 0], [])

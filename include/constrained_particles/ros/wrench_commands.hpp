@@ -40,6 +40,9 @@ public:
     return dropped_;
   }
   std::string lastDropReason() const;
+  /// Commands dropped (here or by the runner) since the last call: /diagnostics warns while
+  /// they keep coming (a controller sending to a wrong frame). Called by one thread.
+  std::uint64_t newDrops(const Snapshot& snap);
   /// /diagnostics keys: commands taken and dropped (here, or by the runner: made for a scene a
   /// change replaced, Snapshot::stale_commands), and the last reason dropped here.
   void report(const Snapshot& snap,
@@ -51,7 +54,8 @@ private:
   ros::Subscriber subscriber_;
   std::atomic<std::uint64_t> taken_{ 0 }, dropped_{ 0 };
   std::atomic<bool> torque_noted_{ false };
-  mutable std::mutex reason_mutex_;  // the subscriber and /diagnostics' timer run on two threads
+  std::uint64_t drops_reported_ = 0;  // newDrops()' count at its last call
+  mutable std::mutex reason_mutex_;   // the subscriber and /diagnostics' timer run on two threads
   std::string last_drop_reason_;
 };
 
