@@ -777,7 +777,15 @@ void SimulationRunner::fault(const std::string& reason, const State& good)
 {
   abandonWindow();
   faulted_ = true;
-  fault_reason_ = reason +
+  // a push the scene cannot follow faults it as an unstable method would: say that one acted
+  const std::string pushed =
+      perturbations_.empty()
+          ? std::string()
+          : "; forces from outside acted (" + std::to_string(perturbations_.appliedCount()) +
+                " ~apply_force, " + std::to_string(perturbations_.draggedCount()) + " drags, " +
+                std::to_string(perturbations_.commandedCount()) +
+                " ~wrench_command): one too large for the scene faults it as a method would";
+  fault_reason_ = reason + pushed +
                   "; stepping stopped at the last good state (t = " + formatValue(good.time) +
                   " s); call ~reset";
   simulator_->restoreState(good);

@@ -226,9 +226,26 @@ TEST(SimulationRunner, FaultKeepsEveryGoodBatch)
   EXPECT_GT(reply.steps_taken, fault_step / 2);
   EXPECT_EQ(snap->state.steps, reply.steps_taken);
   EXPECT_LE(snap->diagnostics.max_position_error, p.max_constraint_error);
+  EXPECT_EQ(snap->fault_reason.find("forces from outside"), std::string::npos)
+      << snap->fault_reason;
   EXPECT_FALSE(runner.step(1).success);
   ASSERT_TRUE(runner.reset("").success);
   EXPECT_FALSE(runner.snapshot()->faulted);
+}
+
+TEST(SimulationRunner, AFaultUnderAPushSaysThePushActed)
+{
+  // 1e9 N (inside limits::FORCE) on a 1 kg particle of the chain: no step can follow it
+  SimulationRunner runner(parametersFor("chain"), scene("chain"));
+  runner.start(true);
+  ASSERT_TRUE(runner.applyForce(4, Vec3(0.0, 0.0, 1e9), 0.0).success);
+  EXPECT_FALSE(runner.step(1000).success);
+  const auto snap = runner.snapshot();
+  ASSERT_TRUE(snap->faulted);
+  EXPECT_NE(snap->fault_reason.find("forces from outside acted (1 ~apply_force, 0 drags, 0 "
+                                    "~wrench_command)"),
+            std::string::npos)
+      << snap->fault_reason;
 }
 
 TEST(SimulationRunner, Dopri5AtItsGuardsFaultsNamingTheTolerance)
