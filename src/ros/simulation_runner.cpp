@@ -17,6 +17,13 @@ double seconds(std::chrono::steady_clock::duration d)
   return std::chrono::duration<double>(d).count();
 }
 
+// seconds() the other way: a wait of `s` seconds on the steady clock
+std::chrono::steady_clock::duration wallDuration(double s)
+{
+  return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(s));
+}
+
 RunnerReply refused(const std::string& message)
 {
   RunnerReply reply;
@@ -411,6 +418,8 @@ void SimulationRunner::applyInbox()
 
 void SimulationRunner::expireCommands()
 {
+  if (!std::isfinite(next_command_expiry_))
+    return;  // none acts: no clock read on the chunks' path
   const double now = command_clock_();
   if (now < next_command_expiry_)
     return;
@@ -477,28 +486,21 @@ void SimulationRunner::loop()
       const double dt = simulator_->stepSettings().dt;
       const double until_next =
           (simulator_->state().time + dt - anchor_sim_) / parameters_.real_time_factor;
-      const Clock::time_point due = anchor_wall_ + std::chrono::duration_cast<Clock::duration>(
-                                                       std::chrono::duration<double>(until_next));
-      const Clock::time_point period =
-          last_batch_start_ +
-          std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(BATCH_PERIOD));
+      const Clock::time_point due = anchor_wall_ + wallDuration(until_next);
+      const Clock::time_point period = last_batch_start_ + wallDuration(BATCH_PERIOD);
       wake = std::min(wake, std::max(due, period));
     }
     // steps a snapshot has not shown (the last ones before a clock stopped): at the next period
     if (unpublished_)
-      wake =
-          std::min(wake, last_snapshot_wall_ + std::chrono::duration_cast<Clock::duration>(
-                                                   std::chrono::duration<double>(publish_period)));
+      wake = std::min(wake, last_snapshot_wall_ + wallDuration(publish_period));
     // a command's timeout ends it while idle too (the command clock taken to run as the wall)
     if (std::isfinite(next_command_expiry_))
       wake = std::min(
-          wake, now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-                          std::clamp(next_command_expiry_ - command_clock_(), 0.0, 1.0))));
+          wake, now + wallDuration(std::clamp(next_command_expiry_ - command_clock_(), 0.0, 1.0)));
     // a clock that came within BATCH_PERIOD of the last batch: taken when the period ends
     const bool clock_pending = follow_clock_ && clock_moved_ && !paused_ && !faulted_;
     if (clock_pending)
-      wake = std::min(wake, last_batch_start_ + std::chrono::duration_cast<Clock::duration>(
-                                                    std::chrono::duration<double>(BATCH_PERIOD)));
+      wake = std::min(wake, last_batch_start_ + wallDuration(BATCH_PERIOD));
     std::unique_lock<std::mutex> lock(queue_mutex_);
     wake_.wait_until(lock, wake,
                      [this, clock_pending]
