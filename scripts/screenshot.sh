@@ -10,10 +10,12 @@
 #   CP_SCREENSHOT_WAIT    seconds of simulation before the shot (default 6)
 #   CP_SCREENSHOT_DRAG    "PARTICLE X Y Z": drags that particle towards the point (scripts/drag.py)
 #                         during the last 3 s before the shot, still held when it is taken
+#   CP_SCREENSHOT_BESIDE  a command run from the repository beside the simulator, from its start
+#                         until the shot, e.g. "python3 scripts/hand.py" (hold_the_rope's hand)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 if [[ $# -lt 1 || $# -gt 2 ]]; then
-  sed -n '2,13p' "$0" >&2
+  sed -n '2,15p' "$0" >&2
   exit 2
 fi
 SCENARIO="$1"
@@ -22,6 +24,7 @@ OUT="${2:-$ROOT/build/screenshots/$NAME.png}"
 WAIT="${CP_SCREENSHOT_WAIT:-6}"
 PARAMS="${CP_SCREENSHOT_PARAMS:-}"
 DRAG="${CP_SCREENSHOT_DRAG:-}"
+BESIDE="${CP_SCREENSHOT_BESIDE:-}"
 WITH_RVIZ=1 bash "$ROOT/scripts/install_deps.sh"
 bash "$ROOT/scripts/build.sh" >/dev/null
 set +u
@@ -41,6 +44,7 @@ Xvfb ":$DISPLAY_NUMBER" -screen 0 1280x800x24 >"$LOGS/xvfb.log" 2>&1 &
 XVFB_PID=$!
 LAUNCH_PID=""
 DRAG_PID=""
+BESIDE_PID=""
 # stops what we started, by its process group (setsid below): SIGINT as Ctrl-C would, then
 # SIGTERM, then SIGKILL, each after a wall-clock wait (a background job may ignore SIGINT)
 stop_group() {
@@ -55,6 +59,7 @@ stop_group() {
 }
 cleanup() {
   [[ -n "$DRAG_PID" ]] && stop_group "$DRAG_PID"
+  [[ -n "$BESIDE_PID" ]] && stop_group "$BESIDE_PID"
   [[ -n "$LAUNCH_PID" ]] && stop_group "$LAUNCH_PID"
   kill "$XVFB_PID" 2>/dev/null && wait "$XVFB_PID" 2>/dev/null
   rm -rf "$LOGS"
@@ -77,6 +82,10 @@ for _ in $(seq 600); do
   fi
   sleep 0.1
 done
+if [[ -n "$BESIDE" ]]; then
+  (cd "$ROOT" && exec setsid bash -c "$BESIDE") >"$LOGS/beside.log" 2>&1 &
+  BESIDE_PID=$!
+fi
 if [[ -n "$DRAG" ]]; then
   sleep "$(python3 -c "print(max(0.0, $WAIT - 3.0))")"
   # shellcheck disable=SC2086  # PARTICLE X Y Z as separate words

@@ -31,6 +31,7 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   free_accelerations.setZero(3, n);
   imposed.assign(model.eliminated().size(),
                  ImposedMotion{ Vec3::Zero(), Vec3::Zero(), Vec3::Zero() });
+  tracks.assign(model.tracked().size(), AnchorTrack());  // Simulator rests them at the start
   constraint_forces.setZero(3, n);
   accelerations.setZero(3, n);
   multipliers.setZero(model.numMultipliers());

@@ -115,16 +115,17 @@ StepCheckSums stepCheckSums(const Model& model, const State& state, const Points
   return sums;
 }
 
-Diagnostics computeDiagnostics(const Model& model, const State& state)
+Diagnostics computeDiagnostics(const Model& model, const State& state,
+                               const std::vector<AnchorTrack>* tracks)
 {
   RowData rows;
   rows.resize(model);
   Eigen::VectorXd rates;
-  return computeDiagnostics(model, state, rows, rates);
+  return computeDiagnostics(model, state, rows, rates, tracks);
 }
 
 Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& rows,
-                               Eigen::VectorXd& rates)
+                               Eigen::VectorXd& rates, const std::vector<AnchorTrack>* tracks)
 {
   Diagnostics d;
   const Scene& scene = model.scene();
@@ -140,8 +141,12 @@ Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& 
   for (int k : model.eliminated())
   {
     const Constraint& constraint = scene.constraints[k];
+    if (!tracks && isTracked(constraint))
+      continue;  // its path is not known here: imposed exactly at every stage all the same
     const int i = eliminatedParticle(constraint);
-    const ImposedMotion motion = imposedMotion(constraint, state.time);
+    static const std::vector<AnchorTrack> NO_TRACKS;  // an lvalue: the tracks are not copied
+    const ImposedMotion motion =
+        imposedMotion(constraint, state.time, tracks ? *tracks : NO_TRACKS);
     d.max_position_error =
         worseError(d.max_position_error, (state.positions.col(i) - motion.position).norm());
     d.max_velocity_error =

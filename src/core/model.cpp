@@ -510,8 +510,19 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
                                                     std::to_string(held_by[i]) + "], a " +
                                                     kindOf(scene.constraints[held_by[i]]) + ")");
       held_by[i] = static_cast<int>(k);
+      // a tracked kind's motion is Data::tracks[track]: numbered in scene order
+      std::visit(
+          [&model](auto& record)
+          {
+            if constexpr (IsTracked<std::decay_t<decltype(record)>>::value)
+              record.track = static_cast<int>(model.tracked_.size());
+          },
+          model.scene_.constraints[k]);
+      if (isTracked(c))
+        model.tracked_.push_back(static_cast<int>(k));
       model.inverse_masses_[i] = 0.0;
-      model.addToKindTable(c, static_cast<int>(k), static_cast<int>(model.eliminated_.size()), i);
+      model.addToKindTable(model.scene_.constraints[k], static_cast<int>(k),
+                           static_cast<int>(model.eliminated_.size()), i);
       model.eliminated_.push_back(static_cast<int>(k));
       model.eliminated_particles_.push_back(i);
       continue;

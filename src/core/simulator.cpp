@@ -116,6 +116,47 @@ void forgetControl(Data& data)
   data.control.end_energies_current = false;
 }
 
+// Every tracked record (a frame anchor) at rest where its particle is in `positions`, no knot.
+void restartTracks(const Model& model, Data& data, const Points& positions)
+{
+  for (std::size_t k = 0; k < data.tracks.size(); ++k)
+    data.tracks[k].restart(
+        positions.col(eliminatedParticle(model.scene().constraints[model.tracked()[k]])));
+}
+
+// Projects `state` (positions, then velocities) onto `model`'s constraints at its time.
+// @throws InvalidInput naming `field`, saying `what` failed; `state` is then half projected
+ProjectionReport projectState(const Model& model, Data& data, const StepSettings& settings,
+                              State& state, const std::string& field, const std::string& what)
+{
+  ProjectionReport report =
+      projectPositions(model, data, state.time, state.positions, settings.projection_tolerance,
+                       settings.projection_max_iterations);
+  if (!report.converged)
+    throw InvalidInput(field, what + ": error " + formatValue(report.max_position_error) +
+                                  " m after " + std::to_string(report.iterations) +
+                                  " Newton iterations; nothing changed");
+  report.max_velocity_change =
+      projectVelocities(model, data, state.time, state.positions, state.velocities, false, true);
+  if (!isFinite(state))
+    throw InvalidInput(field, "projection produced a non-finite state; nothing changed");
+  return report;
+}
+
+// The running scene changed in place (its forces, its constraints): a model of `scene` and its
+// data, with `data`'s state and perturbations (they come from outside the scene) carried over.
+std::pair<std::unique_ptr<Model>, std::unique_ptr<Data>> recompile(const Scene& scene,
+                                                                   const Model& model,
+                                                                   const Data& data,
+                                                                   StagePaths paths)
+{
+  auto compiled = std::make_unique<Model>(Model::compile(scene, model.solveMethod(), paths));
+  auto fresh = std::make_unique<Data>(*compiled);
+  fresh->state = data.state;
+  fresh->perturbations = data.perturbations;
+  return { std::move(compiled), std::move(fresh) };
+}
+
 }  // namespace
 
 Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_state,
@@ -128,6 +169,7 @@ Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_
   const Model& model = *compiled.model;
   model.validateState(initial_state, "initial_state");
   compiled.data = std::make_unique<Data>(model);
+  restartTracks(model, *compiled.data, initial_state.positions);
   compiled.initial_state = initial_state;
   State& start = compiled.initial_state;
   // a run starts at t = 0 (reset): driven motion is imposed at that time, not the state's
@@ -487,8 +529,11 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
     outcome.ledger_before = data.ledger;
     bookStep(settings_.dt, outcome.end_energies);
     const EnergyLedger& ledger = data.ledger;
-    // a NaN residual fails `<=`: it overdraws
+    // a NaN residual fails `<=`: it overdraws. A sampled holder (a frame anchor) is not judged:
+    // its path's acceleration jumps at every sample, which the trapezoid of its reaction's power
+    // cannot follow, so the ledger's residual there is the quadrature's, not the method's
     if (outcome.failed != StepCheck::None || settings_.energy_budget <= 0.0 ||
+        !model_->tracked().empty() ||
         ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR))
     {
       total.merge(taken);
@@ -586,6 +631,8 @@ StepStatistics Simulator::step(int count)
 void Simulator::reset()
 {
   data_->setState(initial_state_);
+  // the holders' paths were in the old run's time: each rests where its particle starts again
+  restartTracks(*model_, *data_, initial_state_.positions);
   data_->state.time = 0.0;
   data_->state.steps = 0;
   data_->statistics = StepStatistics{};
@@ -599,21 +646,9 @@ ProjectionReport Simulator::setState(const State& state)
   State projected = state;
   projected.time = data_->state.time;
   projected.steps = data_->state.steps;
-  ProjectionReport report =
-      projectPositions(*model_, *data_, projected.time, projected.positions,
-                       settings_.projection_tolerance, settings_.projection_max_iterations);
-  if (!report.converged)
-  {
-    throw InvalidInput("positions", "cannot be projected onto the constraints: error " +
-                                        formatValue(report.max_position_error) + " m after " +
-                                        std::to_string(report.iterations) +
-                                        " Newton iterations; state unchanged");
-  }
-  report.max_velocity_change = projectVelocities(
-      *model_, *data_, projected.time, projected.positions, projected.velocities, false, true);
+  ProjectionReport report = projectState(*model_, *data_, settings_, projected, "positions",
+                                         "cannot be projected onto the constraints");
   report.max_displacement = (projected.positions - state.positions).colwise().norm().maxCoeff();
-  if (!isFinite(projected))
-    throw InvalidInput("positions", "projection produced a non-finite state; state unchanged");
   data_->setState(projected);
   forgetControl(*data_);
   openLedger();  // a teleport: the energy it brought or took is no step's
@@ -659,15 +694,60 @@ void Simulator::setForces(const std::vector<Force>& forces)
 {
   Scene scene = model_->scene();
   scene.forces = forces;
-  auto model = std::make_unique<Model>(Model::compile(scene, model_->solveMethod(), paths_));
-  auto data = std::make_unique<Data>(*model);
-  data->state = data_->state;
-  data->perturbations = data_->perturbations;  // they come from outside the scene: kept
-  data_.reset();  // the old data refers to the old model: it goes first
+  auto [model, data] = recompile(scene, *model_, *data_, paths_);
+  data->tracks = data_->tracks;  // the holders' paths come from outside the scene too
+  data_.reset();                 // the old data refers to the old model: it goes first
   model_ = std::move(model);
   data_ = std::move(data);
   readSceneKind();
   openLedger();  // new forces: a new potential and new powers
+}
+
+void Simulator::restTracks()
+{
+  if (data_->tracks.empty())
+    return;
+  const double now = data_->state.time;
+  for (AnchorTrack& track : data_->tracks)
+    track.restart(track.motion(now).position);
+  imposeEliminated(*model_, *data_, now, &data_->state.positions, &data_->state.velocities);
+  projectVelocities(*model_, *data_, now, data_->state.positions, data_->state.velocities, false,
+                    true);
+  data_->noteStateChange();
+  forgetControl(*data_);
+  openLedger();
+}
+
+ProjectionReport Simulator::setConstraints(const std::vector<Constraint>& constraints)
+{
+  Scene scene = model_->scene();
+  scene.constraints = constraints;
+  auto [model, data] = recompile(scene, *model_, *data_, paths_);
+  // tracks by the particle they hold (each particle has at most one holder)
+  restartTracks(*model, *data, data_->state.positions);
+  for (std::size_t k = 0; k < data->tracks.size(); ++k)
+  {
+    const int particle = eliminatedParticle(model->scene().constraints[model->tracked()[k]]);
+    for (std::size_t old = 0; old < data_->tracks.size(); ++old)
+      if (eliminatedParticle(model_->scene().constraints[model_->tracked()[old]]) == particle)
+        data->tracks[k] = data_->tracks[old];
+  }
+  // project with the new model before anything is replaced: a refusal changes nothing
+  State projected = data_->state;
+  ProjectionReport report = projectState(*model, *data, settings_, projected, "constraints",
+                                         "the state cannot be projected onto them");
+  report.max_displacement =
+      (projected.positions - data_->state.positions).colwise().norm().maxCoeff();
+  data->setState(projected);
+  data_.reset();  // the old data refers to the old model: it goes first
+  model_ = std::move(model);
+  data_ = std::move(data);
+  readSceneKind();
+  diagnostic_rows_.resize(*model_);
+  diagnostic_rates_.setZero(model_->numRows());
+  forgetControl(*data_);
+  openLedger();  // a new holder does work, a freed particle no longer
+  return report;
 }
 
 void Simulator::setPerturbations(const std::vector<Force>& perturbations)
@@ -690,7 +770,8 @@ void Simulator::setPerturbations(const std::vector<Force>& perturbations)
 
 Diagnostics Simulator::diagnostics() const
 {
-  return computeDiagnostics(*model_, data_->state, diagnostic_rows_, diagnostic_rates_);
+  return computeDiagnostics(*model_, data_->state, diagnostic_rows_, diagnostic_rates_,
+                            &data_->tracks);
 }
 
 void Simulator::constraintForces(Points& forces, Eigen::VectorXd& multipliers)

@@ -47,15 +47,16 @@ void evaluateKind(const std::vector<KindRecord<Kind>>& table, const Model& model
 // One eliminated kind's records: their motion at `time`, onto the particles they hold.
 template <typename Kind>
 void imposeKind(const std::vector<KindRecord<Kind>>& table, double time,
-                std::vector<ImposedMotion>& imposed, Points* positions, Points* velocities,
-                EffectCounters& counters)
+                const std::vector<AnchorTrack>& tracks, std::vector<ImposedMotion>& imposed,
+                Points* positions, Points* velocities, EffectCounters& counters)
 {
   if constexpr (Kind::ELIMINATED)
   {
     for (const KindRecord<Kind>& entry : table)
     {
       // eliminated kinds keep their index in first_row and their particle in first_block
-      const ImposedMotion& motion = imposed[entry.first_row] = imposedMotion(entry.record, time);
+      const ImposedMotion& motion = imposed[entry.first_row] =
+          imposedMotionOf(entry.record, time, tracks);
       if (positions)
         positions->col(entry.first_block) = motion.position;
       if (velocities)
@@ -274,7 +275,10 @@ void imposeEliminated(const Model& model, Data& data, double time, Points* posit
     return;
   std::apply(
       [&](const auto&... tables)
-      { (imposeKind(tables, time, data.imposed, positions, velocities, data.counters), ...); },
+      {
+        (imposeKind(tables, time, data.tracks, data.imposed, positions, velocities, data.counters),
+         ...);
+      },
       model.kindTables());
 }
 

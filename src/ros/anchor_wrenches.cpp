@@ -44,7 +44,7 @@ void AnchorWrenches::publish(const Snapshot& snap, const std_msgs::Header& heade
 {
   const Model& model = *snap.model;
   const std::vector<int>& held = model.eliminatedParticles();
-  if (snap.scene_serial != scene_serial_)
+  if (snap.scene_serial != scene_serial_ || snap.tracks_serial != tracks_serial_)
   {
     // a new scene may hold other particles: new topics first, then the vanished ones end, so a
     // holder's subscriber stays connected across a reset or a change of forces
@@ -63,6 +63,7 @@ void AnchorWrenches::publish(const Snapshot& snap, const std_msgs::Header& heade
       publishers_.push_back(
           &by_topic_[anchorWrenchTopic(frame_prefix_ + std::to_string(particle))]);
     scene_serial_ = snap.scene_serial;
+    tracks_serial_ = snap.tracks_serial;
   }
   if (snap.multipliers.size() != model.numMultipliers())
     return;  // not the snapshot's model: never a force of one scene on another's topic
@@ -70,9 +71,18 @@ void AnchorWrenches::publish(const Snapshot& snap, const std_msgs::Header& heade
   {
     if (publishers_[k]->getNumSubscribers() == 0)
       continue;
-    const Vec3 force = holderForce(model, snap.multipliers, static_cast<int>(k));
+    Vec3 force = holderForce(model, snap.multipliers, static_cast<int>(k));
     geometry_msgs::WrenchStamped msg;
     msg.header = header;
+    // a frame anchor's holder reads it in its own frame, as a force/torque sensor in it would
+    const auto* anchor =
+        std::get_if<FrameAnchorConstraint>(&model.scene().constraints[model.eliminated()[k]]);
+    if (anchor && !anchor->frame.empty() &&
+        anchor->track < static_cast<int>(snap.holder_orientations.size()))
+    {
+      force = snap.holder_orientations[anchor->track].conjugate() * force;
+      msg.header.frame_id = anchor->frame;
+    }
     msg.wrench.force.x = force.x();
     msg.wrench.force.y = force.y();
     msg.wrench.force.z = force.z();

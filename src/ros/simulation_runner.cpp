@@ -57,6 +57,7 @@ SimulationRunner::SimulationRunner(const NodeParameters& parameters, const Scene
   parameters_.step = first.settings;
   session_.adopt(first.description, first.built.initial_state);
   model_copy_ = std::make_shared<const Model>(simulator_->model());
+  holders_.setModel(++tracks_serial_, simulator_->model());
   simulator_->constraintForces(forces_, multipliers_);
   makeSnapshot();
 }
@@ -219,6 +220,7 @@ RunnerReply SimulationRunner::setState(const Points& positions, const Points& ve
         clock_base_ += TIME_JUMP;
         simulator_->constraintForces(forces_, multipliers_);
         reanchor();
+        restHolders();
         // last: its snapshot must show the teleport whole
         interruptStep("~set_state");
         RunnerReply reply =
@@ -249,6 +251,7 @@ RunnerReply SimulationRunner::unpause()
         interruptStep("~unpause");
         paused_ = false;
         reanchor();
+        restHolders();
         return accepted(faulted_ ? "unpaused, but stepping is stopped (" + fault_reason_ + ")"
                                  : "running");
       });
@@ -350,6 +353,121 @@ RunnerReply SimulationRunner::applyForce(long particle, const Vec3& force, doubl
         updatePerturbations();
         return accepted(outcome.message);
       });
+}
+
+RunnerReply SimulationRunner::attach(long particle, const std::string& frame, const Vec3& offset)
+{
+  return submit(
+      [this, particle, frame, offset]
+      {
+        const Model& model = simulator_->model();
+        const int n = model.numParticles();
+        RunnerReply reply;
+        if (particle < 0 || particle >= n)
+        {
+          reply.field = "particle";
+          reply.message = "particle = " + std::to_string(particle) + ", must be in [0, " +
+                          std::to_string(n - 1) + "] (the scene's particles)";
+          return reply;
+        }
+        for (std::size_t k = 0; k < model.eliminated().size(); ++k)
+          if (model.eliminatedParticles()[k] == particle)
+          {
+            const Constraint& holder = model.scene().constraints[model.eliminated()[k]];
+            const bool attached =
+                std::find(attachments_.begin(), attachments_.end(), particle) != attachments_.end();
+            reply.field = "particle";
+            reply.message = "particle = " + std::to_string(particle) + " is already held (by " +
+                            (attached ? std::string("an attachment; ~detach it first")
+                                      : std::string("the scene's ") + kindOf(holder)) +
+                            ")";
+            return reply;
+          }
+        if (frame.empty() || frame.front() == '/')
+        {
+          reply.field = "frame";
+          reply.message = "frame = '" + frame + "', must name a tf frame (non-empty, no leading /)";
+          return reply;
+        }
+        try
+        {
+          requireInRange("offset", offset, limits::COORDINATE);
+        }
+        catch (const InvalidInput& e)
+        {
+          reply.field = e.field();
+          reply.message = e.what();
+          return reply;
+        }
+        FrameAnchorConstraint anchor;
+        anchor.particle = static_cast<int>(particle);
+        anchor.frame = frame;
+        anchor.offset = offset;
+        std::vector<Constraint> constraints = model.scene().constraints;
+        constraints.push_back(anchor);
+        reply = changeHolders(constraints, "attached particle " + std::to_string(particle) +
+                                               " to frame '" + frame + "'");
+        if (reply.success)
+          attachments_.push_back(static_cast<int>(particle));
+        return reply;
+      });
+}
+
+RunnerReply SimulationRunner::detach(long particle)
+{
+  return submit(
+      [this, particle]
+      {
+        const auto found = std::find(attachments_.begin(), attachments_.end(), particle);
+        if (found == attachments_.end())
+        {
+          RunnerReply reply;
+          reply.field = "particle";
+          std::string held;
+          for (int i : attachments_)
+            held += (held.empty() ? "" : ", ") + std::to_string(i);
+          reply.message = "particle = " + std::to_string(particle) +
+                          " is not attached; attached now: " + (held.empty() ? "none" : held);
+          return reply;
+        }
+        const Model& model = simulator_->model();
+        std::vector<Constraint> constraints;
+        for (const Constraint& c : model.scene().constraints)
+          // the attachment's record: no other can hold its particle (attach refuses a held one)
+          if (!(std::holds_alternative<FrameAnchorConstraint>(c) &&
+                eliminatedParticle(c) == particle))
+            constraints.push_back(c);
+        RunnerReply reply =
+            changeHolders(constraints, "detached particle " + std::to_string(particle));
+        if (reply.success)
+          attachments_.erase(std::find(attachments_.begin(), attachments_.end(), particle));
+        return reply;
+      });
+}
+
+RunnerReply SimulationRunner::changeHolders(const std::vector<Constraint>& constraints,
+                                            const std::string& what)
+{
+  ProjectionReport report;
+  try
+  {
+    report = simulator_->setConstraints(constraints);
+  }
+  catch (const InvalidInput& e)
+  {
+    RunnerReply reply;
+    reply.field = e.field();
+    reply.message = std::string(e.what()) + "; nothing changed";
+    return reply;
+  }
+  abandonWindow();
+  model_copy_ = std::make_shared<const Model>(simulator_->model());
+  holders_.setModel(++tracks_serial_, simulator_->model());
+  simulator_->constraintForces(forces_, multipliers_);
+  last_good_ = simulator_->state();
+  snapshot_due_ = true;
+  return accepted(what + " (the scene projected onto it: particles moved by up to " +
+                  formatValue(report.max_displacement) + " m)");
 }
 
 RunnerReply SimulationRunner::clearForces()
@@ -561,7 +679,10 @@ bool SimulationRunner::applyRequests()
 bool SimulationRunner::runBatch()
 {
   if (faulted_ || (paused_ && !step_request_))
+  {
+    holders_.discard();  // a scene at rest follows no holder: its poses meanwhile are stale
     return false;
+  }
   const double dt = simulator_->stepSettings().dt;
   const Clock::time_point start = Clock::now();
   std::uint64_t wanted = 0;
@@ -579,7 +700,10 @@ bool SimulationRunner::runBatch()
       return false;  // no /clock yet: nothing to follow
     // the first clock, or one that went back (a bag played again): the scene goes on from it
     if (anchor_clock_ns_ < 0 || clock < clockStandsFor() - static_cast<std::int64_t>(dt * 1e9))
+    {
       reanchor(ClockAnchor::Now);
+      restHolders();
+    }
     // whole steps since the anchor, from integer nanoseconds: exact for clocks near the epoch
     // and for increments of exactly dt (the 1e-9 absorbs the quotient's rounding)
     const double since_anchor =
@@ -623,6 +747,8 @@ bool SimulationRunner::runBatch()
     // an applied force's last step ends a chunk too: it is dropped exactly after it
     steps_now = static_cast<int>(expireForces(static_cast<std::uint64_t>(std::max(steps_now, 1))));
     last_chunk_ = chunk;
+    // holders' poses posted since the last chunk: known before the steps that reach them
+    followHolders();
     const Clock::time_point chunk_start = Clock::now();
     const double cpu_start = accuracy_.open() ? threadCpuSeconds() : 0.0;
     const StepStatistics statistics = simulator_->step(steps_now);
@@ -842,6 +968,8 @@ void SimulationRunner::apply(const SceneSession::Candidate& candidate)
   faulted_ = false;
   fault_reason_.clear();
   model_copy_ = std::make_shared<const Model>(simulator_->model());
+  attachments_.clear();  // they held particles of the scene that was
+  holders_.setModel(++tracks_serial_, simulator_->model());
   simulator_->constraintForces(forces_, multipliers_);
   step_time_estimate_ = 0;
   last_chunk_ = 1;
@@ -851,10 +979,80 @@ void SimulationRunner::apply(const SceneSession::Candidate& candidate)
   interruptStep("a reset or scene change");
 }
 
+void SimulationRunner::postHolderSamples(std::uint64_t tracks_serial, int track,
+                                         std::vector<HolderSample> samples)
+{
+  holders_.post(tracks_serial, track, std::move(samples));
+}
+
+double SimulationRunner::simTimeOf(std::int64_t stamp_ns) const
+{
+  if (follow_clock_)
+    return anchor_clock_ns_ < 0
+               ? std::numeric_limits<double>::quiet_NaN()
+               : anchor_clock_sim_ + static_cast<double>(stamp_ns - anchor_clock_ns_) * 1e-9;
+  if (parameters_.publish_clock)  // the node's clock is clock_base_ + sim time (Snapshot::stamp)
+    return static_cast<double>(stamp_ns) * 1e-9 - clock_base_;
+  return anchor_sim_ +
+         parameters_.real_time_factor * static_cast<double>(stamp_ns - anchor_ros_ns_) * 1e-9;
+}
+
+void SimulationRunner::followHolders()
+{
+  if (simulator_->tracks().empty())
+    return;
+  // a knot no sooner than a step ahead: a shorter first interval's acceleration (~1/h^2) explodes
+  const std::vector<std::pair<int, Vec3>> jumped = holders_.apply(
+      *simulator_, [this](std::int64_t stamp_ns) { return simTimeOf(stamp_ns); },
+      std::llround(parameters_.anchor_lag * 1e9), parameters_.anchor_max_jump,
+      simulator_->stepSettings().dt);
+  if (jumped.empty())
+    return;
+  // a teleported holder: where it alone holds the scene, the scene is carried along by its jump
+  // (links stay exact), then projected onto where the holders rest, like ~set_state
+  State moved = simulator_->state();
+  if (jumped.size() == simulator_->model().eliminated().size())
+  {
+    Vec3 carry = Vec3::Zero();
+    for (const auto& jump : jumped)
+      carry += jump.second / static_cast<double>(jumped.size());
+    moved.positions.colwise() += carry;
+  }
+  try
+  {
+    simulator_->setState(moved);
+  }
+  catch (const InvalidInput& e)
+  {
+    // the scene cannot follow: the holders rest where their particles are (nothing changed)
+    const Model& model = simulator_->model();
+    for (const auto& jump : jumped)
+    {
+      const int particle =
+          eliminatedParticle(model.scene().constraints[model.tracked()[jump.first]]);
+      simulator_->tracks()[jump.first].restart(simulator_->state().positions.col(particle));
+      holders_.refuseTeleport(jump.first, e.what());
+    }
+    return;
+  }
+  abandonWindow();
+  simulator_->constraintForces(forces_, multipliers_);
+  last_good_ = simulator_->state();
+  snapshot_due_ = true;
+}
+
+void SimulationRunner::restHolders()
+{
+  holders_.discard();
+  simulator_->restTracks();
+  simulator_->constraintForces(forces_, multipliers_);
+}
+
 void SimulationRunner::reanchor(ClockAnchor clock)
 {
   anchor_wall_ = Clock::now();
   anchor_sim_ = simulator_->state().time;
+  anchor_ros_ns_ = std::llround(command_clock_() * 1e9);
   if (!follow_clock_)
     return;
   // following /clock: from the clock's time now (-1: from the first one), or from the time the
@@ -946,6 +1144,11 @@ void SimulationRunner::makeSnapshot()
   if (follow_clock_)
     s->clock_stamp_ns = paused_ || faulted_ ? clock_now_ns_.load() : clockStandsFor();
   s->stale_commands = perturbations_.staleCommands();
+  s->tracks_serial = tracks_serial_;
+  s->holders = holders_.status();
+  s->anchor_lag = parameters_.anchor_lag;
+  for (const AnchorTrack& track : simulator_->tracks())
+    s->holder_orientations.push_back(track.orientation(s->state.time));
   unpublished_ = false;
   {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
@@ -967,9 +1170,11 @@ void SimulationRunner::updateAccuracy()
 {
   // pushed or dragged, the live state follows forces the shadow does not feel: no window opens
   const bool stepping = !faulted_ && (!paused_ || step_request_) && perturbations_.empty();
-  if (accuracy_.update(simulator_->state(), stepping, parameters_.step, parameters_.accuracy_window,
-                       parameters_.publish_rate, simulator_->model().numParticles(),
-                       session_.scene(), clock_base_))
+  // the shadow reference cannot know where holders outside the node go: no window with one
+  const bool measurable = stepping && simulator_->tracks().empty();
+  if (accuracy_.update(simulator_->state(), measurable, parameters_.step,
+                       parameters_.accuracy_window, parameters_.publish_rate,
+                       simulator_->model().numParticles(), session_.scene(), clock_base_))
     snapshot_due_ = true;
 }
 

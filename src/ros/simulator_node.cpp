@@ -140,9 +140,15 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
       nh_.advertiseService("apply_force", &SimulatorNode::applyForceCallback, this));
   services_.push_back(
       nh_.advertiseService("clear_forces", &SimulatorNode::clearForcesCallback, this));
+  services_.push_back(nh_.advertiseService("attach", &SimulatorNode::attachCallback, this));
+  services_.push_back(nh_.advertiseService("detach", &SimulatorNode::detachCallback, this));
   grab_markers_ = std::make_unique<GrabMarkers>(nh_, *runner_, parameters_.fixed_frame);
   wrench_commands_ = std::make_unique<WrenchCommands>(nh_, *runner_, parameters_.frame_prefix);
   anchor_wrenches_ = std::make_unique<AnchorWrenches>(nh_, parameters_.frame_prefix);
+  // holders' topics are named like any topic the node reads: relative to its namespace
+  frame_anchors_ =
+      std::make_unique<FrameAnchors>(ros::NodeHandle(), *runner_, parameters_.fixed_frame);
+  frame_anchors_->update(*first);
   compare_methods_ = std::make_unique<CompareMethodsServer>(
       nh_, *runner_,
       ros::package::getPath("constrained_particles") + "/scripts/plot_compare_methods.py");
@@ -270,6 +276,7 @@ void SimulatorNode::publish()
       runner_->snapshot(SimulationRunner::Reader::State, statistics);
   // interactive markers first: shown, hidden or let go even while sim time stands still
   grab_markers_->update(*snap);
+  frame_anchors_->update(*snap);  // an attachment made while the clock stands is followed too
   // one rule for every clock source: only a stamp past the last one sent
   const std::optional<ros::Time> stamp = stampFor(*snap, now);
   if (!stamp)
@@ -352,6 +359,14 @@ void SimulatorNode::publish()
     msg.applied_forces = snap->applied_forces;
     msg.dragged_particles = snap->dragged_particles;
     msg.commanded_particles = snap->commanded_particles;
+    msg.anchor_lag = snap->anchor_lag;
+    for (int k : snap->model->tracked())
+      if (const auto* anchor =
+              std::get_if<FrameAnchorConstraint>(&snap->model->scene().constraints[k]))
+      {
+        msg.held_particles.push_back(anchor->particle);
+        msg.holders.push_back(anchor->frame.empty() ? anchor->topic : anchor->frame);
+      }
     state_publisher_.publish(msg);
   }
   if (force_marker_publisher_.getNumSubscribers() > 0)
@@ -608,6 +623,36 @@ bool SimulatorNode::applyForceCallback(ApplyForce::Request& request, ApplyForce:
                           request.duration));
 }
 
+bool SimulatorNode::attachCallback(Attach::Request& request, Attach::Response& response)
+{
+  Vec3 offset(request.offset.x, request.offset.y, request.offset.z);
+  if (request.keep_offset)
+  {
+    // where the particle is now, in the frame's latest pose (tf2_eigen converts it)
+    const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
+    if (request.particle >= snap->state.positions.cols())
+      return answer(response, runner_->attach(request.particle, request.frame, offset));
+    try
+    {
+      const Eigen::Isometry3d frame =
+          tf2::transformToEigen(frame_anchors_->buffer().lookupTransform(
+              parameters_.fixed_frame, request.frame, ros::Time(0)));
+      offset = frame.inverse() * Vec3(snap->state.positions.col(request.particle));
+    }
+    catch (const tf2::TransformException& e)
+    {
+      return refuse(response, "frame = '" + request.frame + "': keep_offset needs it in tf (" +
+                                  e.what() + "); nothing changed");
+    }
+  }
+  return answer(response, runner_->attach(request.particle, request.frame, offset));
+}
+
+bool SimulatorNode::detachCallback(Detach::Request& request, Detach::Response& response)
+{
+  return answer(response, runner_->detach(request.particle));
+}
+
 bool SimulatorNode::clearForcesCallback(ClearForces::Request&, ClearForces::Response& response)
 {
   return answer(response, runner_->clearForces());
@@ -659,11 +704,13 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   const bool waiting_for_clock = waiting_for_clock_;
   const bool fallback = !snap->energy_fallback.empty();
   const std::uint64_t drops = wrench_commands_->newDrops(*snap);  // since the last second
-  status.level =
-      snap->faulted ? diagnostic_msgs::DiagnosticStatus::ERROR
-      : (snap->behind || singular || unconverged || waiting_for_clock || fallback || drops > 0)
-          ? diagnostic_msgs::DiagnosticStatus::WARN
-          : diagnostic_msgs::DiagnosticStatus::OK;
+  std::string holder_warning;  // a holder not followed: which, and why
+  const bool holders_missing = frame_anchors_->report(*snap, add, holder_warning);
+  status.level = snap->faulted ? diagnostic_msgs::DiagnosticStatus::ERROR
+                 : (snap->behind || singular || unconverged || waiting_for_clock || fallback ||
+                    drops > 0 || holders_missing)
+                     ? diagnostic_msgs::DiagnosticStatus::WARN
+                     : diagnostic_msgs::DiagnosticStatus::OK;
   std::string message = statusText(*snap);
   if (message.empty())
     message = waiting_for_clock && parameters_.follow_clock ? "waiting for /clock" : "running";
@@ -685,6 +732,8 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   }
   if (waiting_for_clock)
     message += std::string("; ") + waitMessage();
+  if (holders_missing)
+    message += "; " + holder_warning + " (the particle is held where it is)";
   status.message = message;
   if (snap->faulted && snap->fault_reason != logged_fault_)
     ROS_ERROR("simulator: %s", snap->fault_reason.c_str());

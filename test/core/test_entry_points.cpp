@@ -75,7 +75,10 @@ std::string validYaml(const Spec& spec, int& next_particle)
   else if constexpr (std::is_same_v<Member, bool>)
     return "false";
   else if constexpr (std::is_same_v<Member, std::string>)
-    return spec.kind == FieldKind::Surface ? "ground" : "x";
+    // a frame_anchor names a frame or a topic, not both: the topic is left empty
+    return spec.kind == FieldKind::Surface     ? "ground"
+           : std::string(spec.name) == "topic" ? "''"
+                                               : "x";
   else
   {
     std::string list = "[";

@@ -106,6 +106,11 @@ Kind randomRecord(Random& random)
             member = Vec3(sample(random, *spec.range), sample(random, *spec.range),
                           sample(random, *spec.range));
         }
+        else if constexpr (std::is_same_v<Member, std::string>)
+        {
+          // a holder's names: a frame, not a topic (exactly one is set)
+          member = std::string(spec.name) == "frame" ? "holder" : "";
+        }
         else
         {
           for (int& index : member)
@@ -226,9 +231,18 @@ TYPED_TEST(EliminatedKind, ImposedMotionIsConsistent)
       Points p, v;
       const Kind record = randomCase<Kind>(random, p, v);
       const double t = random.uniform(0.0, 3.0);
-      const ImposedMotion now = imposedMotion(record, t);
-      const ImposedMotion later = imposedMotion(record, t + STEP);
-      const ImposedMotion earlier = imposedMotion(record, t - STEP);
+      // a tracked kind's path: random knots about every 0.1 s over [-1, 4] s
+      std::vector<AnchorTrack> tracks(1, AnchorTrack(p.col(eliminatedParticle(record))));
+      for (double knot = -1.0; knot < 4.0; knot += random.uniform(0.05, 0.15))
+      {
+        AnchorSample sample;
+        sample.time = knot;
+        sample.position = random.vector(1.5);
+        EXPECT_EQ(tracks[0].append(sample, -2.0), AnchorTrack::Append::Taken);
+      }
+      const ImposedMotion now = imposedMotionOf(record, t, tracks);
+      const ImposedMotion later = imposedMotionOf(record, t + STEP, tracks);
+      const ImposedMotion earlier = imposedMotionOf(record, t - STEP, tracks);
       const Vec3 velocity = (later.position - earlier.position) / (2 * STEP);
       const Vec3 acceleration = (later.velocity - earlier.velocity) / (2 * STEP);
       EXPECT_LE((now.velocity - velocity).norm(), 1e-6 * (1.0 + velocity.norm())) << trial;
@@ -309,6 +323,8 @@ TYPED_TEST(ConstraintKind, OutOfRangeFieldsAreRefusedNamingThem)
           (bad.*(spec.member)).x() = NAN;
         else if constexpr (std::is_same_v<Member, int>)
           bad.*(spec.member) = -1;
+        else if constexpr (std::is_same_v<Member, std::string>)
+          bad.*(spec.member) = (valid.*(spec.member)).empty() ? "other" : "";  // none, or both
         else
           (bad.*(spec.member))[0] = PARTICLES;
         try

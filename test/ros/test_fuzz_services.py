@@ -37,10 +37,11 @@ SURFACE_TYPES = {"plane": 3, "bowl": 2, "saddle": 2, "waves": 3, "gaussian": 4}
 # scenes with chains and their particles per chain; those naming chain particles by index keep
 # their counts (config/scenes)
 CHAIN_COUNTS = {"chain": 5, "surface_chain": 5, "pinned_pendulum": 4, "two_chains_on_surface": 4,
-                "mobile": 3, "shaken_chain": 6, "stiff_rod": 4}
-FIXED_COUNT = {"two_chains_on_surface", "mobile", "shaken_chain", "stiff_rod"}
-# pinning these chains' first particles over-constrains them (the hub; the driven top): refused
-NO_PIN_FIRST = {"mobile", "shaken_chain"}
+                "mobile": 3, "shaken_chain": 6, "stiff_rod": 4, "hold_the_rope": 8}
+FIXED_COUNT = {"two_chains_on_surface", "mobile", "shaken_chain", "stiff_rod", "hold_the_rope"}
+# pinning these chains' first particles over-constrains them (the hub; the driven or held top):
+# refused
+NO_PIN_FIRST = {"mobile", "shaken_chain", "hold_the_rope"}
 
 
 def scenes_with_a_surface(directory):

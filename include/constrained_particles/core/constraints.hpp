@@ -13,6 +13,7 @@
 
 #include "constrained_particles/core/effects/angle_constraint.hpp"
 #include "constrained_particles/core/effects/collinear_constraint.hpp"
+#include "constrained_particles/core/effects/frame_anchor.hpp"
 #include "constrained_particles/core/effects/link_constraint.hpp"
 #include "constrained_particles/core/effects/moving_anchor.hpp"
 #include "constrained_particles/core/effects/pin_constraint.hpp"
@@ -28,7 +29,7 @@ namespace constrained_particles
 /// One constraint of a scene: the registry of constraint kinds.
 using Constraint = std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
                                 PointOnLineConstraint, PointOnPlaneConstraint,
-                                MovingAnchorConstraint, CollinearConstraint>;
+                                MovingAnchorConstraint, CollinearConstraint, FrameAnchorConstraint>;
 
 /// Number of constraint kinds.
 constexpr int NUM_CONSTRAINT_KINDS = static_cast<int>(std::variant_size_v<Constraint>);
@@ -167,14 +168,49 @@ inline int eliminatedParticle(const Constraint& constraint)
       constraint);
 }
 
-/// Position, velocity and acceleration an eliminated record imposes at `time` [s].
-inline ImposedMotion imposedMotion(const Constraint& constraint, double time)
+/// A kind whose motion is sampled from outside (AnchorTrack) rather than a formula of time
+/// declares `static constexpr bool TRACKED = true` and an `int track` member (its index in
+/// Data::tracks); its imposedMotion takes the track. Others need not say.
+template <class Kind, class = void>
+struct IsTracked : std::false_type
+{
+};
+template <class Kind>
+struct IsTracked<Kind, std::void_t<decltype(Kind::TRACKED)>> : std::bool_constant<Kind::TRACKED>
+{
+};
+
+/// True for kinds whose motion is an AnchorTrack (frame anchors).
+inline bool isTracked(const Constraint& constraint)
+{
+  return std::visit([](const auto& c) { return IsTracked<std::decay_t<decltype(c)>>::value; },
+                    constraint);
+}
+
+/// The motion one eliminated record of kind `Kind` imposes at `time` [s]; a tracked kind reads
+/// tracks[record.track] (Data::tracks), and rests at its hold if `tracks` is too short.
+template <typename Kind>
+ImposedMotion imposedMotionOf(const Kind& record, double time,
+                              const std::vector<AnchorTrack>& tracks)
+{
+  if constexpr (IsTracked<Kind>::value)
+    return static_cast<std::size_t>(record.track) < tracks.size()
+               ? imposedMotion(record, tracks[record.track], time)
+               : AnchorTrack().motion(time);
+  else
+    return imposedMotion(record, time);
+}
+
+/// Position, velocity and acceleration an eliminated record imposes at `time` [s], tracked kinds
+/// from `tracks` (Data::tracks).
+inline ImposedMotion imposedMotion(const Constraint& constraint, double time,
+                                   const std::vector<AnchorTrack>& tracks)
 {
   return std::visit(
-      [time](const auto& c)
+      [time, &tracks](const auto& c)
       {
         if constexpr (std::decay_t<decltype(c)>::ELIMINATED)
-          return imposedMotion(c, time);
+          return imposedMotionOf(c, time, tracks);
         else
           return ImposedMotion{ Vec3::Zero(), Vec3::Zero(), Vec3::Zero() };
       },

@@ -217,7 +217,10 @@ public:
   Points constraint_forces;            ///< J^T lambda plus eliminated reactions [N] (3 x n)
   Points accelerations;                ///< a = a0 + W J^T lambda [m/s^2] (3 x n)
   std::vector<ImposedMotion> imposed;  ///< each eliminated record's motion at the stage's time (e)
-  Eigen::VectorXd multipliers;         ///< lambda (m), then each eliminated reaction [N] (3 e)
+  /// Each tracked record's path (Model::tracked(), t), written between steps by whoever samples
+  /// its holder (Simulator::tracks()); each rests at its particle's start until then.
+  std::vector<AnchorTrack> tracks;
+  Eigen::VectorXd multipliers;  ///< lambda (m), then each eliminated reaction [N] (3 e)
   /// Right-hand side, then solution, of a solve (m); the fused projections solve in place in
   /// it and fused.velocity_rhs, so after one it holds the last check's forward-substituted C
   /// (the fused tree stages by place in Model::treeOrder(), not by row).

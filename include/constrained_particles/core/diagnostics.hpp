@@ -53,12 +53,15 @@ StepCheckSums stepCheckSums(const Model& model, const State& state, const Points
 /// sum |f_i| [N] of `forces` (3 x n), in energyScale's order.
 double forceNormSum(const Points& forces);
 
-/// Evaluates the diagnostics of a state of the model. Allocates its row workspace.
-Diagnostics computeDiagnostics(const Model& model, const State& state);
+/// Evaluates the diagnostics of a state of the model. Allocates its row workspace. Tracked
+/// records (frame anchors) are measured against `tracks` (Data::tracks; none: not measured).
+Diagnostics computeDiagnostics(const Model& model, const State& state,
+                               const std::vector<AnchorTrack>* tracks = nullptr);
 
 /// As above, evaluating the rows into `rows` (sized for the model: no allocation) and the
 /// rates into `rates` (m, resized once).
 Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& rows,
-                               Eigen::VectorXd& rates);
+                               Eigen::VectorXd& rates,
+                               const std::vector<AnchorTrack>* tracks = nullptr);
 
 }  // namespace constrained_particles

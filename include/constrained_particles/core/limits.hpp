@@ -156,6 +156,13 @@ constexpr Range STUDY_METHODS{ 0.0, false, 256.0, "1", true };
 constexpr Range ACCURACY_WINDOW{ 0.0, false, 60.0, "s", false };
 /// A ~wrench_command acts until a newer one or this long after it [s].
 constexpr Range WRENCH_TIMEOUT{ 0.0, true, 60.0, "s", false };
+/// A frame_anchor's particle at stamp t is where its holder was at t - this [s]: time for the
+/// holder's poses to arrive before the steps reach them (AnchorFollower).
+/// At least two of FrameAnchors' 10 ms sample intervals: the spline needs the sample after.
+constexpr Range ANCHOR_LAG{ 0.02, false, 10.0, "s", false };
+/// A holder moving farther than this between two samples teleported: the scene is projected onto
+/// its new pose instead of following it [m].
+constexpr Range ANCHOR_MAX_JUMP{ 0.0, true, 1e3, "m", false };
 
 }  // namespace limits
 

@@ -289,6 +289,12 @@ public:
   {
     return eliminated_;
   }
+  /// Indices in scene().constraints of the tracked records (frame anchors), in the order of
+  /// their tracks (Data::tracks): t.
+  const std::vector<int>& tracked() const
+  {
+    return tracked_;
+  }
   /// The particle each eliminated record holds: e.
   const std::vector<int>& eliminatedParticles() const
   {
@@ -416,6 +422,7 @@ private:
   std::vector<int> block_row_;
   KindTables kind_tables_;
   std::vector<int> eliminated_;
+  std::vector<int> tracked_;
   std::vector<int> eliminated_particles_;
   std::vector<EliminatedBlock> eliminated_blocks_;
   std::vector<int> incidence_start_;

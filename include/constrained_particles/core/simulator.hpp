@@ -73,6 +73,13 @@ public:
   /// and the perturbations. @throws InvalidInput naming the bad force; nothing changes
   void setForces(const std::vector<Force>& forces);
 
+  /// Replaces the scene's constraints, keeping the state, forces and perturbations (a particle
+  /// grabbed or let go at run time: a frame_anchor added or removed). A held particle's track is
+  /// kept where the same particle is tracked again; a newly tracked one rests where it is. The
+  /// state is projected onto the new constraints (like setState) and the energy ledger opened.
+  /// @throws InvalidInput naming the bad constraint or the failed projection; nothing changes
+  ProjectionReport setConstraints(const std::vector<Constraint>& constraints);
+
   /// Replaces the forces applied from outside the model (Data::perturbations: a push, a grabbed
   /// particle's target spring), evaluated from the next step on beside the model's own and
   /// counted with them; empty = none. Cheap: no recompilation. A conservative scene's energy
@@ -104,6 +111,18 @@ public:
   {
     return data_->state;
   }
+  /// The tracked records' paths (Data::tracks, in Model::tracked() order), in sim time: written
+  /// between steps by whoever samples their holders (AnchorTrack::append with now = state().time
+  /// changes nothing before it). reset() puts each back at rest where its particle starts.
+  std::vector<AnchorTrack>& tracks()
+  {
+    return data_->tracks;
+  }
+  /// Every track at rest where its point is now (AnchorTrack::restart): the held particles
+  /// stopped, the velocities projected onto the constraints again and the energy ledger opened
+  /// (the stop is no step's doing). For when the stamps a track's knots stood for are gone (an
+  /// unpause, a clock that went back, a teleport).
+  void restTracks();
   const State& initialState() const
   {
     return initial_state_;

@@ -36,13 +36,15 @@ public:
   /// `node` the private handle (~), `frame_prefix` the particle frames' (~frame_prefix).
   AnchorWrenches(ros::NodeHandle node, std::string frame_prefix);
   /// Publishes every held particle's holderForce() from `snap`, stamped with `header` (frame:
-  /// ~fixed_frame, whose axes the force is in).
+  /// ~fixed_frame, whose axes the force is in; a frame_anchor's in its holder's tf frame,
+  /// turned by the holder's orientation at the state's time, Snapshot::holder_orientations).
   void publish(const Snapshot& snap, const std_msgs::Header& header);
 
 private:
   ros::NodeHandle node_;
   std::string frame_prefix_;
   std::uint64_t scene_serial_ = 0;                  // the scene the publishers are for
+  std::uint64_t tracks_serial_ = 0;                 // and its holders (an ~attach changes them)
   std::map<std::string, ros::Publisher> by_topic_;  // every held particle's, by topic name
   std::vector<ros::Publisher*> publishers_;         // one per Model::eliminated() record
 };

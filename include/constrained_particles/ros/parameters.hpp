@@ -61,6 +61,10 @@ struct NodeParameters
   double accuracy_window = 0.0;
   /// A ~wrench_command acts until a newer one for its particle or this long after it [s]
   double wrench_timeout = 0.5;
+  /// A frame_anchor's particle at stamp t is where its holder was at t - anchor_lag [s]
+  double anchor_lag = 0.1;
+  /// A holder that moves farther between two samples teleported: the scene is projected [m]
+  double anchor_max_jump = 0.5;
 
   /// The node's own settings (the step's are StepSettings::fields()): name, member, range.
   static constexpr auto fields()
@@ -87,6 +91,11 @@ struct NodeParameters
         field("wrench_timeout", &NodeParameters::wrench_timeout, FieldKind::Number,
               &limits::WRENCH_TIMEOUT,
               "a ~wrench_command acts until a newer one or this long after it"),
+        field("anchor_lag", &NodeParameters::anchor_lag, FieldKind::Number, &limits::ANCHOR_LAG,
+              "a frame_anchor's particle at stamp t is where its holder was at t - this"),
+        field("anchor_max_jump", &NodeParameters::anchor_max_jump, FieldKind::Number,
+              &limits::ANCHOR_MAX_JUMP,
+              "a holder that moves farther between two samples teleported: the scene is projected"),
         field("scenario", &NodeParameters::scenario, FieldKind::Name, nullptr,
               "scene name or scene file path"),
         field("scene_directory", &NodeParameters::scene_directory, FieldKind::Name, nullptr,

@@ -8,6 +8,7 @@
 
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/ros/accuracy_monitor.hpp"
+#include "constrained_particles/ros/anchor_follower.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 #include "constrained_particles/ros/perturbations.hpp"
 #include "constrained_particles/ros/scene_session.hpp"
@@ -96,6 +97,15 @@ struct Snapshot
   /// Wrench commands dropped on arrival because a scene change came first (not counted by the
   /// node, which took them).
   std::uint64_t stale_commands = 0;
+  /// One more for each change of the model's holders (a scene change, attach, detach): what
+  /// SimulationRunner::postHolderSamples is told; from 1.
+  std::uint64_t tracks_serial = 0;
+  /// Each tracked record's counts (Model::tracked() order) and its holder's orientation at the
+  /// state's time (the frame a frame anchor's wrench is expressed in).
+  std::vector<HolderStatus> holders;
+  std::vector<Eigen::Quaterniond> holder_orientations;
+  /// ~anchor_lag [s]: a held particle at time t is where its holder's sample stamped t - lag put it
+  double anchor_lag = 0;
 };
 
 /// Whether stepping is behind its real-time factor, with hysteresis: a single slow window of a
@@ -195,6 +205,16 @@ public:
   /// Refused naming `particle`, `force.x` .. or `duration` and the valid range; at most
   /// Perturbations::MAX_APPLIED_FORCES at once. A reset or scene change ends them all.
   RunnerReply applyForce(long particle, const Vec3& force, double duration);
+  /// ~attach: holds `particle` at `offset` [m] (in the frame's axes) of tf frame `frame` from now
+  /// on, a frame_anchor added to the running scene (Simulator::setConstraints): it rests where it
+  /// is until the frame's poses arrive (FrameAnchors), then follows them. Refused naming
+  /// `particle` (out of range, or already held: by a pin, an anchor or an attachment), `frame`
+  /// (empty) or `offset` (outside limits::COORDINATE), with nothing changed. Kept across ~pause;
+  /// a reset or scene change ends every attachment.
+  RunnerReply attach(long particle, const std::string& frame, const Vec3& offset);
+  /// ~detach: lets go of an attached `particle`: it goes on from the velocity it has. Refused
+  /// naming `particle` if it is not attached (a scene's own pins and anchors stay).
+  RunnerReply detach(long particle);
   /// Ends every force applyForce started (the reply says how many).
   RunnerReply clearForces();
   /// Pulls `particle` towards `target` [m] with a critically damped target spring (see
@@ -219,6 +239,13 @@ public:
   /// carried over (a settings change keeps the anchor's clock time); no clock yet, no steps.
   /// Paced by the clock alone (~real_time_factor unused); ~step refused.
   void followClock(std::int64_t clock_ns);
+  /// Thread-safe, not waited for: poses of the holder of track `track` (Model::tracked() order)
+  /// of the model with Snapshot::tracks_serial `tracks_serial`, stamped on the node's ROS clock.
+  /// A sample stamped s is where the held particle is at the sim time that stands for s +
+  /// ~anchor_lag (AnchorFollower), taken at the next chunk of steps; a sample farther than
+  /// ~anchor_max_jump from the one before projects the scene onto it (like ~set_state). Ignored
+  /// while paused or faulted.
+  void postHolderSamples(std::uint64_t tracks_serial, int track, std::vector<HolderSample> samples);
   /// The clock ~wrench_timeout is measured on [s] (the node's ROS time: wall, or /clock under
   /// /use_sim_time); steady wall seconds until set. Set before start().
   void setCommandClock(std::function<double()> now);
@@ -261,6 +288,15 @@ private:
     Now,
     Keep
   };
+  /// The sim time [s] that stands for ROS time `stamp_ns` (NaN: none yet): the /clock anchor
+  /// under ~follow_clock, the node's own clock with ~publish_clock, else the wall anchor scaled
+  /// by the real-time factor.
+  double simTimeOf(std::int64_t stamp_ns) const;
+  /// Takes the holder samples posted since the last chunk; projects after a teleport.
+  void followHolders();
+  /// Every holder's point at rest where it is now: the mapping from stamps to sim time moved (a
+  /// teleport, an unpause, a clock that went back), so earlier knots no longer stand for it.
+  void restHolders();
   /// The clock time [ns] the state stands for under ~follow_clock (-1 before the first clock).
   std::int64_t clockStandsFor() const;
   /// Wakes the loop after a post from another thread (taken under its lock: never between its
@@ -311,7 +347,13 @@ private:
   double anchor_clock_sim_ = 0;                   // sim time at the anchor [s]
   std::int64_t window_clock_ns_ = -1;             // the clock at the rate window's start
   std::uint64_t stale_commands_ = 0;              // see Snapshot::stale_commands
-  bool unpublished_ = false;                      // steps taken since the last snapshot
+  AnchorFollower holders_;                        // holder samples onto the tracks
+  std::vector<int> attachments_;                  // particles ~attach holds (scene order)
+  /// Replaces the running scene's constraints (an attachment made or ended), state kept.
+  RunnerReply changeHolders(const std::vector<Constraint>& constraints, const std::string& what);
+  std::uint64_t tracks_serial_ = 0;  // see Snapshot::tracks_serial
+  std::int64_t anchor_ros_ns_ = 0;   // the command clock at the wall anchor [ns]
+  bool unpublished_ = false;         // steps taken since the last snapshot
   std::unique_ptr<Simulator> simulator_;
   std::shared_ptr<const Model> model_copy_;
   std::uint64_t snapshot_serial_ = 0;  // 0: none yet, for readers

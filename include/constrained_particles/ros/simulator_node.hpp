@@ -6,6 +6,7 @@
 #include "constrained_particles/SimulatorConfig.h"
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/ros/anchor_wrenches.hpp"
+#include "constrained_particles/ros/frame_anchors.hpp"
 #include "constrained_particles/ros/compare_methods_server.hpp"
 #include "constrained_particles/ros/grab_markers.hpp"
 #include "constrained_particles/ros/markers.hpp"
@@ -15,7 +16,9 @@
 #include "constrained_particles/ros/wrench_commands.hpp"
 
 #include <constrained_particles/ApplyForce.h>
+#include <constrained_particles/Attach.h>
 #include <constrained_particles/ClearForces.h>
+#include <constrained_particles/Detach.h>
 #include <constrained_particles/ListScenes.h>
 #include <constrained_particles/Reset.h>
 #include <constrained_particles/SetChain.h>
@@ -109,6 +112,8 @@ private:
   bool stepCallback(Step::Request& request, Step::Response& response);
   bool applyForceCallback(ApplyForce::Request& request, ApplyForce::Response& response);
   bool clearForcesCallback(ClearForces::Request& request, ClearForces::Response& response);
+  bool attachCallback(Attach::Request& request, Attach::Response& response);
+  bool detachCallback(Detach::Request& request, Detach::Response& response);
   /// Applies the fields of a dynamic_reconfigure request that differ from what the server showed
   /// (so a request built on a stale view cannot undo a ~reset); false (and nothing changed) if
   /// any value is bad. `in_force` gets the settings then in force.
@@ -130,6 +135,7 @@ private:
   std::unique_ptr<GrabMarkers> grab_markers_;              // likewise
   std::unique_ptr<WrenchCommands> wrench_commands_;        // likewise
   std::unique_ptr<AnchorWrenches> anchor_wrenches_;        // publish() only
+  std::unique_ptr<FrameAnchors> frame_anchors_;            // reads runner_: goes first
 
   std::mutex publish_mutex_;  // publish() only: timer callbacks may overlap on the spinner
   std::optional<ros::Time> last_stamp_;  // the stamp of the last /tf and ~state sent

@@ -1,0 +1,133 @@
+#!/usr/bin/python3
+"""frame_anchor on wall time: a broadcaster that stops holds up nothing; a teleport projects."""
+import math
+import statistics
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+import tf2_ros
+from constrained_particles.msg import SimState
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import TransformStamped
+from tf2_msgs.msg import TFMessage
+from topic_recorder import Recorder
+from wall_clock import WallClockWaits
+
+NODE = "/simulator"
+LINK = 0.12  # hold_the_rope's links [m]
+
+
+class Broadcaster:
+    """Sends frame 'hand' at 30 Hz, stamped now, at where(t) until stopped."""
+
+    def __init__(self, where):
+        self.where = where
+        self.last = None  # the last position sent
+        self.running = True
+        self.tf = tf2_ros.TransformBroadcaster()
+        self.thread = threading.Thread(target=self.run, daemon=True)
+        self.thread.start()
+
+    def run(self):
+        start = time.monotonic()
+        while self.running and not rospy.is_shutdown():
+            t = TransformStamped()
+            t.header.stamp = rospy.Time.now()
+            t.header.frame_id = "world"
+            t.child_frame_id = "hand"
+            (t.transform.translation.x, t.transform.translation.y,
+             t.transform.translation.z) = self.last = self.where(time.monotonic() - start)
+            t.transform.rotation.w = 1.0
+            self.tf.sendTransform(t)
+            time.sleep(1.0 / 30.0)
+
+    def stop(self):
+        self.running = False
+        self.thread.join()
+
+
+def rate(items, start, end):
+    return len([1 for t in items if start <= t <= end]) / (end - start)
+
+
+class FrameAnchorWallTest(WallClockWaits, unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("frame_anchor_wall_test")
+        cls.states = Recorder(f"{NODE}/state", SimState, keep=5000)
+        cls.diagnostics = Recorder("/diagnostics", DiagnosticArray, keep=20)
+        cls.tf_times = []
+        cls.tf_sub = rospy.Subscriber("/tf", TFMessage, cls.on_tf, queue_size=100)
+        rospy.wait_for_service(f"{NODE}/reset", timeout=60.0)
+
+    @classmethod
+    def on_tf(cls, msg):
+        if any(t.child_frame_id == "particle_0" for t in msg.transforms):
+            cls.tf_times.append(time.monotonic())
+
+    def holder_status(self, since):
+        for array in reversed(self.diagnostics.since(since)):
+            for status in array.status:
+                for kv in status.values:
+                    if kv.key.startswith("frame_anchor 0"):
+                        return kv.value
+        return None
+
+    def test_a_stopped_broadcaster_holds_up_nothing(self):
+        # a circle of 0.2 m at 0.5 Hz about the start (0, 0, 1.5)
+        broadcaster = Broadcaster(lambda t: (0.2 * math.sin(math.pi * t),
+                                             0.2 * (1.0 - math.cos(math.pi * t)), 1.5))
+        self.wait_until(lambda: (self.holder_status(time.monotonic() - 1.5) or "").startswith(
+            "following"), "the node following frame 'hand'", poll=0.1)
+        time.sleep(1.0)
+        before_start = time.monotonic()
+        time.sleep(3.0)
+        before_end = time.monotonic()
+        # it followed the circle (0.4 m across) while it moved
+        xs = [s.positions[0].x for s in self.states.since(before_start, before_end)]
+        self.assertGreater(max(xs) - min(xs), 0.35)
+        self.assertLess(max(abs(x) for x in xs), 0.2 + 1e-9)
+        broadcaster.stop()
+        last = broadcaster.last  # the frame rests at its last pose
+        after_start = time.monotonic()
+        time.sleep(3.0)
+        after_end = time.monotonic()
+        tf_times = list(self.tf_times)
+        state_times = [t for t, _ in self.states.items]
+        for name, times in (("tf", tf_times), ("~state", state_times)):
+            before = rate(times, before_start, before_end)
+            after = rate(times, after_start, after_end)
+            self.assertGreater(before, 10.0, f"{name} at {before} Hz while the frame moved")
+            self.assertGreater(after, 0.7 * before,
+                               f"{name} fell from {before} to {after} Hz when the frame stopped")
+        # the held particle rests where the frame was last sent, ~anchor_lag after it stopped
+        rest = [s.positions[0] for s in self.states.since(after_end - 1.0)]
+        self.assertTrue(rest)
+        spread = max(math.dist((a.x, a.y, a.z), (rest[-1].x, rest[-1].y, rest[-1].z))
+                     for a in rest)
+        self.assertLess(spread, 1e-12, "the held particle still moves after its frame stopped")
+        self.assertLess(math.dist((rest[-1].x, rest[-1].y, rest[-1].z), last), 1e-12,
+                        "the held particle does not rest at the frame's last pose")
+        # a teleport: the frame jumps 2 m (more than ~anchor_max_jump) and the scene is projected
+        teleport_start = time.monotonic()
+        jumped = Broadcaster(lambda t: (2.0, 0.0, 1.5))
+        try:
+            status = self.wait_until(
+                lambda: (lambda v: v if v and "teleports 1" in v else None)(
+                    self.holder_status(teleport_start)), "a teleport counted", poll=0.1)
+            self.assertIn("teleports 1 (last", status)
+            state = self.wait_until(
+                lambda: (lambda s: s if s and abs(s.positions[0].x - 2.0) < 1e-9 else None)(
+                    self.states.latest()), "the held particle at the frame's new pose", poll=0.05)
+            for a, b in zip(state.positions, state.positions[1:]):
+                self.assertLess(abs(math.dist((a.x, a.y, a.z), (b.x, b.y, b.z)) - LINK), 1e-6)
+            self.assertEqual(state.status, SimState.STATUS_RUNNING)
+        finally:
+            jumped.stop()
+
+
+if __name__ == "__main__":
+    rostest.rosrun("constrained_particles", "frame_anchor_wall", FrameAnchorWallTest)
