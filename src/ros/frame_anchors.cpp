@@ -254,16 +254,26 @@ bool FrameAnchors::report(const Snapshot& snap,
     const std::string name =
         "frame_anchor " + std::to_string(holder.particle) + " (" +
         (holder.frame.empty() ? "topic " + holder.topic : "frame " + holder.frame) + ")";
+    const bool counted =
+        snap.tracks_serial == serial_ && holder.track < static_cast<int>(snap.holders.size());
     std::string value;
     if (!holder.missing.empty())
-    {
       value = "not followed: " + holder.missing;
+    else if (counted && snap.holders[holder.track].last_stamp < 0.0)
+      value = "waiting for its first pose: the particle rests where it is";
+    else if (const double silent =
+                 counted ? ros::Time::now().toSec() - snap.holders[holder.track].last_stamp : 0.0;
+             silent > STALE_AFTER + snap.anchor_lag)
+      value = "no new pose for " + formatValue(std::round(silent * 10.0) / 10.0) +
+              " s (its publisher stopped?): the particle rests at the last";
+    if (!value.empty())
+    {
       warning += (warning.empty() ? "" : "; ") + name + " " + value;
       warn = true;
     }
     else
       value = "following";
-    if (snap.tracks_serial == serial_ && holder.track < static_cast<int>(snap.holders.size()))
+    if (counted)
     {
       const HolderStatus& s = snap.holders[holder.track];
       value += "; samples taken " + std::to_string(s.taken) + ", late " + std::to_string(s.late) +

@@ -455,9 +455,10 @@ RunnerReply SimulationRunner::changeHolders(const std::vector<Constraint>& const
   }
   catch (const InvalidInput& e)
   {
+    // the request's field is its particle: the scene cannot hold (or free) that one
     RunnerReply reply;
-    reply.field = e.field();
-    reply.message = std::string(e.what()) + "; nothing changed";
+    reply.field = "particle";
+    reply.message = "particle: " + what + " refused: " + e.what();
     return reply;
   }
   abandonWindow();

@@ -31,6 +31,9 @@ class FrameAnchors
 public:
   /// Grid of the tf samples [s] (a 30 Hz broadcaster gives about 3 per broadcast interval).
   static constexpr double SAMPLE_PERIOD = 0.01;
+  /// A holder whose newest sample is this much older than ~anchor_lag [s] is reported stopped
+  /// (WARN): a moving or resting tf frame is broadcast all along.
+  static constexpr double STALE_AFTER = 1.0;
 
   FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame);
 
