@@ -13,6 +13,7 @@ Usage: rosrun constrained_particles hand.py [--amplitude 0.4] [--period 4] [--ra
 import argparse
 import math
 import sys
+import time
 
 import rospy
 import tf2_ros
@@ -36,6 +37,8 @@ def main():
     rospy.Subscriber(f"{args.node}/anchor_wrench/particle_{args.particle}", WrenchStamped,
                      lambda msg: latest.update(wrench=msg), queue_size=1)
     omega = 2.0 * math.pi / args.period
+    while rospy.Time.now().is_zero() and not rospy.is_shutdown():
+        time.sleep(0.05)  # under /use_sim_time, until the first /clock (wall-clock polling)
     start = rospy.Time.now()
     last_print = start
     rate = rospy.Rate(args.rate)

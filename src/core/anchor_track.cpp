@@ -7,9 +7,11 @@
 
 namespace constrained_particles
 {
-AnchorTrack::Append AnchorTrack::append(const AnchorSample& sample, double now, double lead)
+AnchorTrack::Append AnchorTrack::append(const AnchorSample& sample, double now, double lead,
+                                        double spacing)
 {
-  if (!knots_.empty() && !(sample.time > knots_.back().time))
+  if (!knots_.empty() &&
+      !(sample.time > knots_.back().time && sample.time >= knots_.back().time + spacing))
     return Append::Unordered;
   if (!(sample.time > now && sample.time >= now + lead))
     return Append::Late;

@@ -2,6 +2,7 @@
 /// @brief AnchorFollower: holder samples onto the simulator's anchor tracks.
 #include "constrained_particles/ros/anchor_follower.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -108,7 +109,7 @@ std::vector<std::pair<int, Vec3>> AnchorFollower::apply(
       knot.time = time;
       knot.position = sample.position;
       knot.orientation = sample.orientation;
-      switch (track.append(knot, now, lead))
+      switch (track.append(knot, now, std::max(lead, MIN_SPACING), MIN_SPACING))
       {
         case AnchorTrack::Append::Taken:
           ++status.taken;

@@ -15,18 +15,26 @@ constexpr std::int64_t SAMPLE_PERIOD_NS = 10000000;  // FrameAnchors::SAMPLE_PER
 constexpr std::int64_t MAX_BACKLOG_NS = 1000000000;  // a holder found late: from 1 s back at most
 }  // namespace
 
-FrameAnchors::FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame)
+FrameAnchors::FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame,
+                           std::string frame_prefix)
   : node_(std::move(node))
   , runner_(runner)
   , fixed_frame_(std::move(fixed_frame))
+  , frame_prefix_(std::move(frame_prefix))
   , buffer_(ros::Duration(10.0))
-  , listener_(buffer_)
   , spinner_(1, &queue_)
 {
   static_assert(SAMPLE_PERIOD == 0.01, "SAMPLE_PERIOD_NS is SAMPLE_PERIOD in ns");
   node_.setCallbackQueue(&queue_);
   timer_ = node_.createWallTimer(ros::WallDuration(SAMPLE_PERIOD), &FrameAnchors::sample, this);
   spinner_.start();
+}
+
+void FrameAnchors::listen()
+{
+  std::lock_guard<std::mutex> lock(listener_mutex_);
+  if (!listener_)
+    listener_ = std::make_unique<tf2_ros::TransformListener>(buffer_);
 }
 
 void FrameAnchors::update(const Snapshot& snap)
@@ -54,6 +62,20 @@ void FrameAnchors::update(const Snapshot& snap)
   }
   // subscriptions last: their callbacks take the lock and find the holders in place
   for (Holder& holder : holders_)
+  {
+    if (!holder.frame.empty() && holder.frame.rfind(frame_prefix_, 0) == 0)
+      holder.refused = "frame '" + holder.frame + "' is one of this node's particle frames " +
+                       "(~frame_prefix '" + frame_prefix_ + "'): it would follow itself";
+    std::string error;
+    if (!holder.topic.empty() && !ros::names::validate(holder.topic, error))
+      holder.refused = "topic '" + holder.topic + "' is not a valid ROS name (" + error + ")";
+    if (!holder.refused.empty())
+    {
+      ROS_WARN("simulator: frame_anchor on particle %d: %s: the particle is held where it is",
+               holder.particle, holder.refused.c_str());
+      continue;
+    }
+    listen();  // a frame, or a pose in another frame, is resolved through tf
     if (!holder.topic.empty())
     {
       const int track = holder.track;
@@ -62,6 +84,7 @@ void FrameAnchors::update(const Snapshot& snap)
           [this, track](const geometry_msgs::PoseStamped::ConstPtr& msg)
           { poseCallback(track, msg); });
     }
+  }
 }
 
 HolderSample FrameAnchors::toSample(const geometry_msgs::Transform& transform, const Vec3& offset,
@@ -81,14 +104,14 @@ void FrameAnchors::sample(const ros::WallTimerEvent&)
   std::lock_guard<std::mutex> lock(mutex_);
   for (Holder& holder : holders_)
   {
-    if (!holder.frame.empty())
+    if (!holder.frame.empty() && holder.refused.empty())
       sampleFrame(holder);
     // poses tf could not resolve at their stamp yet: again, the oldest given up after 1 s
     std::vector<geometry_msgs::PoseStamped> pending;
     pending.swap(holder.pending);
     const ros::Time now = ros::Time::now();
     for (const geometry_msgs::PoseStamped& pose : pending)
-      if (!takePose(holder, pose, (now - pose.header.stamp).toSec() > 1.0))
+      if (!takePose(holder, pose, std::abs((now - pose.header.stamp).toSec()) > 1.0))
         holder.pending.push_back(pose);
   }
 }
@@ -101,7 +124,7 @@ void FrameAnchors::sampleFrame(Holder& holder)
     // time 0: the newest transform tf can give, stamped with its time (0: a static chain)
     newest = buffer_.lookupTransform(fixed_frame_, holder.frame, ros::Time(0));
   }
-  catch (const tf2::TransformException& e)
+  catch (const std::exception& e)  // tf2::TransformException, or tf2's range errors
   {
     holder.found = false;
     holder.missing = e.what();
@@ -128,7 +151,10 @@ void FrameAnchors::sampleFrame(Holder& holder)
       newest_ns < holder.next_ns - 2 * SAMPLE_PERIOD_NS)
     holder.next_ns = newest_ns / SAMPLE_PERIOD_NS * SAMPLE_PERIOD_NS;
   std::vector<HolderSample> samples;
-  for (; holder.next_ns <= newest_ns; holder.next_ns += SAMPLE_PERIOD_NS)
+  // grid stamps half an interval short of the newest at most: a frame that stops then gets its
+  // last pose as a sample of its own (below), never closer than that to a grid sample
+  for (; holder.next_ns <= newest_ns - (fixed ? 0 : SAMPLE_PERIOD_NS / 2);
+       holder.next_ns += SAMPLE_PERIOD_NS)
   {
     geometry_msgs::TransformStamped at = newest;
     if (!fixed)
@@ -139,7 +165,7 @@ void FrameAnchors::sampleFrame(Holder& holder)
         stamp.fromNSec(static_cast<std::uint64_t>(holder.next_ns));
         at = buffer_.lookupTransform(fixed_frame_, holder.frame, stamp);
       }
-      catch (const tf2::TransformException&)
+      catch (const std::exception&)  // tf2::TransformException, or tf2's range errors
       {
         break;  // not inside what tf holds (yet): the next tick tries again
       }
@@ -152,22 +178,18 @@ void FrameAnchors::sampleFrame(Holder& holder)
     }
     samples.push_back(sample);
   }
-  // a frame whose broadcasts stopped: its last pose too (off the grid), so the particle comes to
-  // rest there and not at the grid point before it
-  if (!fixed && newest_ns == holder.newest_seen_ns)
+  // the newest pose itself (a broadcast), where it is half an interval past the last sample:
+  // a frame that stops then rests exactly at its last pose, never between it and a grid point
+  if (!fixed && (samples.empty() ? holder.posted_ns : samples.back().stamp_ns) <=
+                    newest_ns - SAMPLE_PERIOD_NS / 2)
   {
-    if (++holder.still_ticks == 3 &&
-        (samples.empty() ? holder.posted_ns : samples.back().stamp_ns) < newest_ns)
+    const HolderSample last = toSample(newest.transform, holder.offset, newest_ns);
+    if (last.position.allFinite() && last.orientation.coeffs().allFinite())
     {
-      const HolderSample last = toSample(newest.transform, holder.offset, newest_ns);
-      if (last.position.allFinite() && last.orientation.coeffs().allFinite())
-        samples.push_back(last);
+      samples.push_back(last);
+      const std::int64_t after = newest_ns + SAMPLE_PERIOD_NS / 2;
+      holder.next_ns = (after + SAMPLE_PERIOD_NS - 1) / SAMPLE_PERIOD_NS * SAMPLE_PERIOD_NS;
     }
-  }
-  else
-  {
-    holder.newest_seen_ns = newest_ns;
-    holder.still_ticks = 0;
   }
   if (!samples.empty())
   {
@@ -227,7 +249,7 @@ bool FrameAnchors::takePose(Holder& holder, const geometry_msgs::PoseStamped& ms
       holder.missing = e.what();
       return true;
     }
-    catch (const tf2::TransformException& e)
+    catch (const std::exception& e)  // tf2 throws std::runtime_error for stamps it cannot hold
     {
       ++holder.untransformable;
       holder.missing = e.what();
@@ -257,15 +279,18 @@ bool FrameAnchors::report(const Snapshot& snap,
     const bool counted =
         snap.tracks_serial == serial_ && holder.track < static_cast<int>(snap.holders.size());
     std::string value;
-    if (!holder.missing.empty())
+    if (!holder.refused.empty())
+      value = "not followed: " + holder.refused;
+    else if (!holder.missing.empty())
       value = "not followed: " + holder.missing;
     else if (counted && snap.holders[holder.track].last_stamp < 0.0)
       value = "waiting for its first pose: the particle rests where it is";
     else if (const double silent =
                  counted ? ros::Time::now().toSec() - snap.holders[holder.track].last_stamp : 0.0;
              silent > STALE_AFTER + snap.anchor_lag)
-      value = "no new pose for " + formatValue(std::round(silent * 10.0) / 10.0) +
-              " s (its publisher stopped?): the particle rests at the last";
+      value = "its newest pose is stamped " + formatValue(std::round(silent * 10.0) / 10.0) +
+              " s ago (its publisher stopped, or stamps on another clock?): the particle rests "
+              "at the last";
     if (!value.empty())
     {
       warning += (warning.empty() ? "" : "; ") + name + " " + value;
@@ -291,6 +316,18 @@ bool FrameAnchors::report(const Snapshot& snap,
         warn = true;
       }
       holder.logged_future = s.future;
+      // samples dropped since the last report, for any reason: a WARN while they keep coming
+      const std::uint64_t dropped =
+          s.late + s.out_of_range + holder.non_finite + holder.untransformable;
+      if (dropped > holder.logged_dropped)
+      {
+        warning += (warning.empty() ? "" : "; ") + name + ": " +
+                   std::to_string(dropped - holder.logged_dropped) +
+                   " samples dropped in the last second (late, out of range, non-finite or "
+                   "untransformable: see its counts)";
+        warn = true;
+      }
+      holder.logged_dropped = dropped;
       if (s.refused > holder.logged_refused)
       {
         ROS_WARN(

@@ -383,10 +383,41 @@ RunnerReply SimulationRunner::attach(long particle, const std::string& frame, co
                             ")";
             return reply;
           }
+        // a row between this particle and held ones only would have nothing left to move: its
+        // violation, made by the holders, could not be projected away (a fault, not a grip)
+        for (const RowRecord& record : model.rowRecords())
+        {
+          bool touches = false, free = false;
+          for (int b = record.first_block; b < record.first_block + record.rows * record.particles;
+               ++b)
+          {
+            const int i = model.blockParticle()[b];
+            touches = touches || i == particle;
+            free = free || (i != particle && model.inverseMasses()[i] > 0.0);
+          }
+          if (touches && !free)
+          {
+            reply.field = "particle";
+            reply.message = "particle = " + std::to_string(particle) + ": its " +
+                            kindOf(model.scene().constraints[record.constraint]) +
+                            " joins it to held particles only (pinned, anchored or attached): "
+                            "held too, nothing could move to keep it; grab a particle with a free "
+                            "neighbour";
+            return reply;
+          }
+        }
         if (frame.empty() || frame.front() == '/')
         {
           reply.field = "frame";
           reply.message = "frame = '" + frame + "', must name a tf frame (non-empty, no leading /)";
+          return reply;
+        }
+        if (frame.rfind(parameters_.frame_prefix, 0) == 0)
+        {
+          reply.field = "frame";
+          reply.message =
+              "frame = '" + frame + "' is one of this node's particle frames (~frame_prefix '" +
+              parameters_.frame_prefix + "'): a particle cannot follow the scene itself";
           return reply;
         }
         try

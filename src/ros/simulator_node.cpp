@@ -13,6 +13,8 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_eigen/tf2_eigen.h>
+
+#include <thread>
 #include <rosgraph_msgs/Clock.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/names.h>
@@ -146,8 +148,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   wrench_commands_ = std::make_unique<WrenchCommands>(nh_, *runner_, parameters_.frame_prefix);
   anchor_wrenches_ = std::make_unique<AnchorWrenches>(nh_, parameters_.frame_prefix);
   // holders' topics are named like any topic the node reads: relative to its namespace
-  frame_anchors_ =
-      std::make_unique<FrameAnchors>(ros::NodeHandle(), *runner_, parameters_.fixed_frame);
+  frame_anchors_ = std::make_unique<FrameAnchors>(
+      ros::NodeHandle(), *runner_, parameters_.fixed_frame, parameters_.frame_prefix);
   frame_anchors_->update(*first);
   compare_methods_ = std::make_unique<CompareMethodsServer>(
       nh_, *runner_,
@@ -632,14 +634,22 @@ bool SimulatorNode::attachCallback(Attach::Request& request, Attach::Response& r
     const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
     if (request.particle >= snap->state.positions.cols())
       return answer(response, runner_->attach(request.particle, request.frame, offset));
+    // a node with no holder yet listens from now: tf gets up to 1 s to hear of the frame
+    frame_anchors_->listen();
     try
     {
+      // polled on the wall clock: a sim-time timeout would never end under a stopped /clock
+      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+      while (!frame_anchors_->buffer().canTransform(parameters_.fixed_frame, request.frame,
+                                                    ros::Time(0)) &&
+             std::chrono::steady_clock::now() < deadline)
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
       const Eigen::Isometry3d frame =
           tf2::transformToEigen(frame_anchors_->buffer().lookupTransform(
               parameters_.fixed_frame, request.frame, ros::Time(0)));
       offset = frame.inverse() * Vec3(snap->state.positions.col(request.particle));
     }
-    catch (const tf2::TransformException& e)
+    catch (const std::exception& e)  // tf2::TransformException, or tf2's range errors
     {
       return refuse(response, "frame = '" + request.frame + "': keep_offset needs it in tf (" +
                                   e.what() + "); nothing changed");

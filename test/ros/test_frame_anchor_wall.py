@@ -10,8 +10,9 @@ import rospy
 import rostest
 import tf2_ros
 from constrained_particles.msg import SimState
+from constrained_particles.srv import Attach
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import TransformStamped, Vector3
 from tf2_msgs.msg import TFMessage
 from topic_recorder import Recorder
 from wall_clock import WallClockWaits
@@ -75,6 +76,20 @@ class FrameAnchorWallTest(WallClockWaits, unittest.TestCase):
                     if kv.key.startswith("frame_anchor 0"):
                         return kv.value
         return None
+
+    def test_attach_refusals(self):
+        attach = rospy.ServiceProxy(f"{NODE}/attach", Attach)
+        # particle 1's only link goes to particle 0, which the scene's frame_anchor holds
+        reply = attach(1, "hand", Vector3(), False)
+        self.assertFalse(reply.success)
+        self.assertTrue(reply.message.startswith("particle = 1: its link joins it to held"),
+                        reply.message)
+        # a particle frame of the node itself
+        reply = attach(5, "particle_3", Vector3(), False)
+        self.assertFalse(reply.success)
+        self.assertTrue(reply.message.startswith("frame = 'particle_3' is one of this node's"),
+                        reply.message)
+        self.assertEqual(list(self.states.latest().held_particles), [0])
 
     def test_a_stopped_broadcaster_holds_up_nothing(self):
         # a circle of 0.2 m at 0.5 Hz about the start (0, 0, 1.5)

@@ -51,7 +51,8 @@ public:
   /// being so short that its acceleration, ~1/h^2, explodes). Where the track stood still at
   /// `now` (no knot after it), a knot is first put at `now` where the point rests, so it sets off
   /// from there instead of jumping to the path the new knot makes.
-  Append append(const AnchorSample& sample, double now, double lead = 0.0);
+  /// `spacing` [s] >= 0: a knot closer than this to the last one is Unordered (the same reason).
+  Append append(const AnchorSample& sample, double now, double lead = 0.0, double spacing = 0.0);
   /// Forgets every knot: the point rests at `position` until the next append (a teleport).
   void restart(const Vec3& position);
   /// p(t), v(t), a(t) [m, m/s, m/s^2] at sim time `time`.

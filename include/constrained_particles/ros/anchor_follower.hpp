@@ -49,6 +49,9 @@ public:
   /// A sample whose time is this far [s] past the scene's time plus the lag is not of its clock
   /// (a holder on another clock, a wrong stamp): ignored and counted, never a frozen holder.
   static constexpr double FUTURE_LIMIT = 5.0;
+  /// Knots closer than this [s] are not taken (half FrameAnchors' 10 ms grid): the spline's
+  /// acceleration grows as 1/h^2 of its intervals, and a knot this close adds nothing.
+  static constexpr double MIN_SPACING = 0.005;
   /// Thread-safe, not waited for: samples of the holder with track index `track`
   /// (Model::tracked() order) of the model with serial `serial` (Snapshot::tracks_serial);
   /// samples for another model are dropped.

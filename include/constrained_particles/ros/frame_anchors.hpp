@@ -35,7 +35,12 @@ public:
   /// (WARN): a moving or resting tf frame is broadcast all along.
   static constexpr double STALE_AFTER = 1.0;
 
-  FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame);
+  /// `frame_prefix` the node's particle frames' (~frame_prefix): a holder may not be one.
+  FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame,
+               std::string frame_prefix);
+  /// Starts tf2's listener if it is not listening yet (only a node with a holder listens: every
+  /// /tf message a listener takes is one more way for tf2 to fail).
+  void listen();
 
   /// Follows the holders of `snap`'s model (a new Snapshot::tracks_serial: new subscriptions).
   void update(const Snapshot& snap);
@@ -57,17 +62,17 @@ private:
     int particle = 0;
     std::string frame, topic;
     Vec3 offset = Vec3::Zero();
-    std::int64_t next_ns = -1;         // the next grid stamp to sample [ns], -1: from the newest
-    std::int64_t posted_ns = -1;       // the newest stamp posted [ns]
-    std::int64_t newest_seen_ns = -1;  // tf's newest stamp at the last look [ns]
-    int still_ticks = 0;               // looks since tf's newest stamp last moved
-    bool found = false;                // the frame was in tf at the last look
-    bool warned = false;               // its absence was logged
-    std::string missing;               // why it is not followed now (tf's words), '' if it is
+    std::int64_t next_ns = -1;    // the next grid stamp to sample [ns], -1: from the newest
+    std::int64_t posted_ns = -1;  // the newest stamp posted [ns]
+    bool found = false;           // the frame was in tf at the last look
+    bool warned = false;          // its absence was logged
+    std::string missing;          // why it is not followed now (tf's words), '' if it is
     std::uint64_t non_finite = 0, untransformable = 0;
     std::uint64_t logged_jumps = 0;                   // teleports already logged
     std::uint64_t logged_refused = 0;                 // refused teleports already logged
     std::uint64_t logged_future = 0;                  // samples ahead of the clock already reported
+    std::uint64_t logged_dropped = 0;                 // dropped samples already reported
+    std::string refused;                              // why it is never followed ('' if it may be)
     std::vector<geometry_msgs::PoseStamped> pending;  // poses tf could not resolve yet
     ros::Subscriber subscriber;
   };
@@ -87,10 +92,12 @@ private:
   ros::NodeHandle node_;
   SimulationRunner& runner_;
   std::string fixed_frame_;
+  std::string frame_prefix_;
   tf2_ros::Buffer buffer_;
-  tf2_ros::TransformListener listener_;  // its own thread: tf never waits for the node's queue
-  std::mutex mutex_;                     // guards below: timer, pose callbacks and publish()
-  std::uint64_t serial_ = 0;             // Snapshot::tracks_serial followed
+  std::mutex listener_mutex_;                             // guards listener_'s creation
+  std::unique_ptr<tf2_ros::TransformListener> listener_;  // its own thread; made by listen()
+  std::mutex mutex_;          // guards below: timer, pose callbacks and publish()
+  std::uint64_t serial_ = 0;  // Snapshot::tracks_serial followed
   std::vector<Holder> holders_;
   ros::WallTimer timer_;
   ros::AsyncSpinner spinner_;  // last: stopped (destroyed) first
