@@ -91,7 +91,12 @@ HolderSample FrameAnchors::toSample(const geometry_msgs::Transform& transform, c
                                     std::int64_t stamp_ns)
 {
   // tf2_eigen does the message-to-Eigen conversion of the frame's pose
-  const Eigen::Isometry3d pose = tf2::transformToEigen(transform);
+  return toSample(tf2::transformToEigen(transform), offset, stamp_ns);
+}
+
+HolderSample FrameAnchors::toSample(const Eigen::Isometry3d& pose, const Vec3& offset,
+                                    std::int64_t stamp_ns)
+{
   HolderSample sample;
   sample.stamp_ns = stamp_ns;
   sample.position = pose * offset;
@@ -257,11 +262,9 @@ bool FrameAnchors::takePose(Holder& holder, const geometry_msgs::PoseStamped& ms
     }
   }
   holder.missing.clear();
-  HolderSample sample;
-  sample.stamp_ns = static_cast<std::int64_t>(msg.header.stamp.toNSec());
-  sample.position = in_fixed * holder.offset;
-  sample.orientation = Eigen::Quaterniond(in_fixed.rotation());
-  runner_.postHolderSamples(serial_, holder.track, { sample });
+  runner_.postHolderSamples(
+      serial_, holder.track,
+      { toSample(in_fixed, holder.offset, static_cast<std::int64_t>(msg.header.stamp.toNSec())) });
   return true;
 }
 

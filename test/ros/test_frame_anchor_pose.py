@@ -10,7 +10,7 @@ import tf2_ros
 from constrained_particles.msg import SimState
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TransformStamped
-from topic_recorder import Recorder
+from topic_recorder import Recorder, diagnostic_value
 from wall_clock import WallClockWaits
 
 NODE = "/simulator"
@@ -45,12 +45,7 @@ class FrameAnchorPoseTest(WallClockWaits, unittest.TestCase):
         cls.static.sendTransform(table)
 
     def holder_status(self, since):
-        for array in reversed(self.diagnostics.since(since)):
-            for status in array.status:
-                for kv in status.values:
-                    if kv.key.startswith("frame_anchor 0"):
-                        return kv.value
-        return None
+        return diagnostic_value(self.diagnostics, since, "frame_anchor 0")
 
     def hold(self, frame, x, y, z, seconds, bad=()):
         """Publishes the pose at 30 Hz for `seconds` (and the `bad` messages once, halfway)."""

@@ -14,7 +14,7 @@ from constrained_particles.srv import Attach
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TransformStamped, Vector3
 from tf2_msgs.msg import TFMessage
-from topic_recorder import Recorder
+from topic_recorder import Recorder, diagnostic_value
 from wall_clock import WallClockWaits
 
 NODE = "/simulator"
@@ -70,12 +70,7 @@ class FrameAnchorWallTest(WallClockWaits, unittest.TestCase):
             cls.tf_times.append(time.monotonic())
 
     def holder_status(self, since):
-        for array in reversed(self.diagnostics.since(since)):
-            for status in array.status:
-                for kv in status.values:
-                    if kv.key.startswith("frame_anchor 0"):
-                        return kv.value
-        return None
+        return diagnostic_value(self.diagnostics, since, "frame_anchor 0")
 
     def test_attach_refusals(self):
         attach = rospy.ServiceProxy(f"{NODE}/attach", Attach)

@@ -28,3 +28,14 @@ class Recorder:
     def latest(self):
         with self.lock:
             return self.items[-1][1] if self.items else None
+
+
+def diagnostic_value(recorder, since, key_prefix):
+    """The newest value, among the /diagnostics arrays `recorder` took since `since` (wall,
+    time.monotonic()), whose key starts with `key_prefix`; None if there is none."""
+    for array in reversed(recorder.since(since)):
+        for status in array.status:
+            for kv in status.values:
+                if kv.key.startswith(key_prefix):
+                    return kv.value
+    return None

@@ -85,6 +85,9 @@ private:
   /// The held point and orientation of a transform of the holder's frame into ~fixed_frame.
   static HolderSample toSample(const geometry_msgs::Transform& transform, const Vec3& offset,
                                std::int64_t stamp_ns);
+  /// As above, of the holder's pose in ~fixed_frame.
+  static HolderSample toSample(const Eigen::Isometry3d& pose, const Vec3& offset,
+                               std::int64_t stamp_ns);
 
   // the timer and the pose callbacks on a queue and thread of their own: service calls waiting
   // for the runner on the node's queue cannot hold up the sampling
