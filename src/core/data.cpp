@@ -18,6 +18,10 @@ void RowData::resize(const Model& model)
   bias.setZero(m);
   jacobian.assign(model.numBlocks(), Vec3::Zero());
   max_violation = 0.0;
+  // every contact starts off: the contact stage switches on those that touch (contact.hpp)
+  inactive.assign(model.numContacts() > 0 ? m : 0, 0);
+  for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables()))
+    inactive[contact.first_row] = 1;
 }
 
 Data::Data(const Model& model) : solver_(makeSolver(model))
@@ -32,6 +36,13 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   imposed.assign(model.eliminated().size(),
                  ImposedMotion{ Vec3::Zero(), Vec3::Zero(), Vec3::Zero() });
   tracks.assign(model.tracked().size(), AnchorTrack());  // Simulator rests them at the start
+  contacts.assign(model.numContacts(), ContactState{});
+  control.start_contacts = contacts;
+  const int contact_n = model.numContacts() > 0 ? n : 0;
+  friction_forces.setZero(3, contact_n);
+  friction_accelerations.setZero(3, contact_n);
+  frictionless_multipliers.setZero(model.numContacts() > 0 ? model.numRows() : 0);
+  contact_rhs.setZero(model.numContacts() > 0 ? model.numRows() : 0);
   constraint_forces.setZero(3, n);
   accelerations.setZero(3, n);
   multipliers.setZero(model.numMultipliers());

@@ -132,6 +132,10 @@ Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& 
   const EffectContext context{ scene.surfaces, state.time };
   evaluateRowRecords(model, state.time, state.positions, state.velocities, rows, nullptr);
   d.max_position_error = rows.max_violation;
+  // a contact's error is how far below its surface it is, whether its row acts or not
+  for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables()))
+    d.max_position_error = worseError(d.max_position_error,
+                                      penetration(contact.record, scene.surfaces, state.positions));
   rates.resize(model.numRows());
   for (const RowRecord& record : model.rowRecords())
     violationRates(scene.constraints[record.constraint], context, state.positions, state.velocities,

@@ -447,6 +447,9 @@ PathChoice choosePathOf(const Model& model, StagePaths paths, const std::string&
     return { ForwardPath::Generic, "StagePaths::Generic asks for the generic stages" };
   if (m == 0)
     return { ForwardPath::Generic, "no constraint rows to solve" };
+  if (model.numContacts() > 0)
+    return { ForwardPath::Generic,
+             "surface_contact rows switch on and off: the generic stages and a sparse solve" };
   if (model.solveMethod() == SolveMethod::Tridiagonal)
     return { ForwardPath::Generic, "a chain, but " + chain_why_not };
   if (model.solveMethod() == SolveMethod::Tree && !model.solvesTreeByRows())
@@ -571,8 +574,37 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     }
 
   const bool tridiagonal = isTridiagonal(model);
+  model.contacts_ = static_cast<int>(
+      std::get<std::vector<KindRecord<SurfaceContact>>>(model.kind_tables_).size());
+  for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kind_tables_))
+  {
+    for (const auto& row : std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kind_tables_))
+      if (row.record.particle == contact.record.particle &&
+          row.record.surface == contact.record.surface)
+        throw InvalidInput("constraints[" + std::to_string(contact.constraint) + "].particle",
+                           "= " + std::to_string(contact.record.particle) + " slides on surface " +
+                               std::to_string(row.record.surface) + " already (constraints[" +
+                               std::to_string(row.constraint) +
+                               "] holds it both ways): a contact with it too is redundant");
+    if (!(w[contact.record.particle] > 0.0))
+      throw InvalidInput("constraints[" + std::to_string(contact.constraint) + "].particle",
+                         "= " + std::to_string(contact.record.particle) +
+                             " is held by a pin or anchor: a held particle cannot touch a surface");
+  }
   if (model.numRows() == 0)
     model.method_ = SolveMethod::None;  // nothing to solve, whatever was asked
+  else if (model.contacts_ > 0 && (method == SolveMethod::Automatic ||
+                                   method == SolveMethod::Sparse || method == SolveMethod::Dense))
+  {
+    // rows switching on and off (an inactive one an identity row, RowData::inactive): the
+    // sparse LDL^T keeps a chain on a surface O(n) (its row graph is a forest, so the ordering
+    // leaves no fill); the fused and tree solves do not take inactive rows yet
+    model.method_ = method == SolveMethod::Dense ? SolveMethod::Dense : SolveMethod::Sparse;
+  }
+  else if (model.contacts_ > 0)
+    throw InvalidInput("solve_method", std::string("= ") + solveMethodName(method) +
+                                           ", but the scene has surface_contact rows, which "
+                                           "switch on and off; use automatic, sparse or dense");
   else if (method == SolveMethod::Automatic)
   {
     if (model.numRows() == 1)

@@ -1,5 +1,6 @@
 #include "constrained_particles/core/simulator.hpp"
 
+#include "contact.hpp"
 #include "stabilization.hpp"
 #include "stages.hpp"
 
@@ -65,6 +66,11 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
                  else
                    in += p;
                });
+  // friction, at its last stage's value (contact.hpp): it only dissipates
+  const auto& contacts = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
+  for (std::size_t k = 0; k < contacts.size(); ++k)
+    dissipated -=
+        data.contacts[k].friction_force.dot(x.velocities.col(contacts[k].record.particle));
 }
 
 // The power the driven anchors put in through their reactions [W]: sum_k r_k . v_k, r_k = m a -
@@ -259,6 +265,13 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
   data.statistics = StepStatistics{};
   data.statistics.solve.method = model.solveMethod();
   const StepStatistics& taken = data.statistics;
+  if (model.numContacts() > 0)
+  {
+    // every attempt starts from the modes the step started with (chooseContactModes)
+    data.contacts = data.control.start_contacts;
+    writeContactRows(model, data);
+    data.control.contact_loss = 0.0;
+  }
   for (int j = 1; j <= substeps; ++j)
   {
     // each sub-step takes h exactly (dt / 2^k is exact; (t + dt) - t is not, and its round-off
@@ -284,6 +297,8 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
       data.control.end_position_error = -1.0;
     }
     x.time = end;
+    if (model.numContacts() > 0)  // a contact that went below its surface: an impact
+      data.control.contact_loss += resolveImpacts(model, data, sub, x);
     // one sweep for the finiteness and energy checks (the same values as three)
     const StepCheckSums sums =
         conservative_ ? stepCheckSums(model, x, data.applied_forces, appliedForceSum(data))
@@ -369,6 +384,8 @@ void Simulator::bookStep(double dt, bool end_energies)
   ledger.work_in += 0.5 * dt * (ledger.power_in + in);
   ledger.work_in_moved += 0.5 * dt * (std::abs(ledger.power_in) + std::abs(in));
   ledger.dissipated += 0.5 * dt * (ledger.power_dissipated + dissipated);
+  ledger.dissipated += data.control.contact_loss;  // the step's impacts (resolveImpacts)
+  data.control.contact_loss = 0.0;
   ledger.power_in = in;
   ledger.power_dissipated = dissipated;
 }
@@ -380,7 +397,10 @@ void Simulator::readSceneKind()
     driven_ = driven_ || isDriven(constraint);
   // a driven anchor (a time-dependent kind) or a force from outside does work on the system:
   // its energy is not kept
-  conservative_ = !driven_ && forcesConservative(model_->scene()) && data_->perturbations.empty();
+  // contacts only take energy out (impacts, friction), but a projection after an impact may put
+  // back a little potential energy (m g times the depth it went below): the rise check is off
+  conservative_ = !driven_ && forcesConservative(model_->scene()) && data_->perturbations.empty() &&
+                  model_->numContacts() == 0;
   has_stiffness_ = hasStiffness(*model_, data_->perturbations);
 }
 
@@ -453,6 +473,7 @@ void Simulator::markStart()
     control.start = x;
   else
     control.start.time = x.time;
+  control.start_contacts = data.contacts;
   if (conservative_ && control.end_energies_current)
   {
     // the last step ended here with these forces, and its checks measured them
@@ -607,6 +628,13 @@ StepStatistics Simulator::step(int count)
   total.solve.method = model_->solveMethod();
   for (int k = 0; k < count; ++k)
   {
+    if (model_->numContacts() > 0)
+    {
+      // the active set at the step's start; stopping a sticking contact's slide is dissipation
+      data.ledger.dissipated += chooseContactModes(*model_, data, settings_);
+      data.control.multipliers_current = false;
+      data.control.end_energies_current = false;
+    }
     StepPlan plan = planStep(total);
     markStart();
     const StepOutcome outcome = takeStep(plan, total);

@@ -2,6 +2,7 @@
 
 #include "constrained_particles/core/diagnostics.hpp"
 
+#include "contact.hpp"
 #include "solvers/solver.hpp"
 #include "stabilization.hpp"
 
@@ -26,6 +27,15 @@ void evaluateKind(const std::vector<KindRecord<Kind>>& table, const Model& model
           RowBlock{ rows.value.data() + entry.first_row, rows.jdot_v.data() + entry.first_row,
                     rows.violation.data() + entry.first_row,
                     rows.jacobian.data() + entry.first_block });
+      if constexpr (IsUnilateral<Kind>::value)
+        for (int r = 0; r < Kind::ROWS; ++r)
+          if (rows.inactive[entry.first_row + r])  // switched off: an identity row (contact.hpp)
+          {
+            const int row = entry.first_row + r;
+            rows.value[row] = rows.jdot_v[row] = rows.violation[row] = 0.0;
+            for (int k = 0; k < Kind::PARTICLES; ++k)
+              rows.jacobian[entry.first_block + r * Kind::PARTICLES + k].setZero();
+          }
       for (int r = 0; r < Kind::ROWS; ++r)
       {
         const int row = entry.first_row + r, first = entry.first_block + r * Kind::PARTICLES;
@@ -263,7 +273,10 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
     baumgarteBias(settings, data.rows);
     bias = &data.rows.bias;
   }
-  const SolveReport report = constraintForceStage(model, data, bias);
+  // a scene with contacts adds their friction, solved with the rows (contact.hpp)
+  const SolveReport report = model.numContacts() > 0
+                                 ? contactForceStage(model, data, velocities, bias)
+                                 : constraintForceStage(model, data, bias);
   accelerationStage(model, data, accelerations);
   return report;
 }

@@ -71,6 +71,42 @@ double arrowForceFloor(const Model& model)
   return ARROW_FORCE_FLOOR * mass * 9.81;
 }
 
+visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& header,
+                                                    const Model& model, const Points& positions,
+                                                    const std::vector<ContactState>& contacts,
+                                                    double scale)
+{
+  visualization_msgs::MarkerArray array;
+  const auto& table = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
+  for (std::size_t k = 0; k < table.size() && k < contacts.size(); ++k)
+  {
+    const ContactState& contact = contacts[k];
+    const Eigen::Vector3d start = positions.col(table[k].record.particle);
+    const ContactFrame frame =
+        contactFrame(table[k].record, model.scene().surfaces, positions, positions);
+    const Eigen::Vector3d forces[2] = { contact.normal_force * frame.normal.normalized(),
+                                        contact.friction_force };
+    const int id = 2 * static_cast<int>(k);
+    for (int a = 0; a < 2; ++a)
+    {
+      const Eigen::Vector3d end = start + scale * forces[a];
+      if (contact.mode == ContactMode::Separated || !end.allFinite() || !start.allFinite())
+      {
+        array.markers.push_back(deleteMarker(header, CONTACT_FORCE_NAMESPACE, id + a));
+        continue;
+      }
+      visualization_msgs::Marker m =
+          makeMarker(header, CONTACT_FORCE_NAMESPACE, id + a, visualization_msgs::Marker::ARROW);
+      m.points = { tf2::toMsg(start), tf2::toMsg(end) };
+      m.scale.x = 0.015;  // shaft diameter [m]
+      m.scale.y = 0.03;   // head diameter [m]
+      m.color = a == 0 ? color(0.1f, 0.8f, 0.2f, 1.0f) : color(1.0f, 0.55f, 0.0f, 1.0f);
+      array.markers.push_back(m);
+    }
+  }
+  return array;
+}
+
 visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& header,
                                                        const Points& positions,
                                                        const Points& forces, double scale,

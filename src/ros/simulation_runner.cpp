@@ -1144,6 +1144,7 @@ void SimulationRunner::makeSnapshot()
   s->state = simulator_->state();
   s->constraint_forces = forces_;
   s->multipliers = multipliers_;
+  s->contacts = simulator_->data().contacts;
   s->diagnostics = simulator_->diagnostics();
   s->ledger = simulator_->energyLedger();
   s->forward_path = simulator_->forwardPath();

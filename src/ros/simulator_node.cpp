@@ -369,6 +369,22 @@ void SimulatorNode::publish()
         msg.held_particles.push_back(anchor->particle);
         msg.holders.push_back(anchor->frame.empty() ? anchor->topic : anchor->frame);
       }
+    const auto& contacts =
+        std::get<std::vector<KindRecord<SurfaceContact>>>(snap->model->kindTables());
+    for (std::size_t k = 0; k < contacts.size() && k < snap->contacts.size(); ++k)
+      if (const ContactState& contact = snap->contacts[k]; contact.mode != ContactMode::Separated &&
+                                                           std::isfinite(contact.normal_force) &&
+                                                           contact.friction_force.allFinite())
+      {
+        msg.contact_particles.push_back(contacts[k].record.particle);
+        msg.contact_modes.push_back(contact.mode == ContactMode::Sticking
+                                        ? SimState::CONTACT_STICKING
+                                        : SimState::CONTACT_SLIDING);
+        msg.contact_normal_forces.push_back(contact.normal_force);
+        geometry_msgs::Vector3 friction;
+        tf2::toMsg(contact.friction_force, friction);
+        msg.contact_friction_forces.push_back(friction);
+      }
     state_publisher_.publish(msg);
   }
   if (force_marker_publisher_.getNumSubscribers() > 0)
@@ -383,11 +399,17 @@ void SimulatorNode::publish()
     }
     if (now > stale_arrows_until_)
       stale_arrows_ = 0;
-    force_marker_publisher_.publish(
-        constraintForceMarkers(header, snap->state.positions, snap->constraint_forces,
-                               arrowScale(parameters_.force_scale, snap->constraint_forces,
-                                          snap->region.radius(), arrowForceFloor(*snap->model)),
-                               std::max(published_arrows_, stale_arrows_)));
+    const double scale = arrowScale(parameters_.force_scale, snap->constraint_forces,
+                                    snap->region.radius(), arrowForceFloor(*snap->model));
+    visualization_msgs::MarkerArray arrows =
+        constraintForceMarkers(header, snap->state.positions, snap->constraint_forces, scale,
+                               std::max(published_arrows_, stale_arrows_));
+    // the contacts' normal and friction forces beside the totals (they are in them)
+    const visualization_msgs::MarkerArray contact_arrows =
+        contactForceMarkers(header, *snap->model, snap->state.positions, snap->contacts, scale);
+    arrows.markers.insert(arrows.markers.end(), contact_arrows.markers.begin(),
+                          contact_arrows.markers.end());
+    force_marker_publisher_.publish(arrows);
     published_arrows_ = n;
   }
   if (scene_marker_publisher_.getNumSubscribers() > 0)

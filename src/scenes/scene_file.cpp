@@ -235,8 +235,10 @@ template <typename Variant>
 struct RecordReader
 {
   const std::vector<NamedSurface>& surfaces;
+  int num_particles;  ///< the scene's, for `particles: all`
 
-  // records of `kind`; a record with a `particle` field may list `particles` instead
+  // records of `kind`; a record with a `particle` field may list `particles` instead, or give
+  // `particles: all`
   template <typename Kind>
   bool tryKind(const std::string& kind, const Where& where, const YAML::Node& node,
                std::vector<Variant>& out)
@@ -274,8 +276,12 @@ struct RecordReader
     {
       if (node["particle"])
         fail(where / "particles", node["particles"], "and particle are exclusive: give one");
-      requireSequence(where / "particles", node["particles"], "particle indices");
-      for (std::size_t k = 0; k < node["particles"].size(); ++k)
+      const bool all = node["particles"].IsScalar() && node["particles"].as<std::string>() == "all";
+      if (!all)
+        requireSequence(where / "particles", node["particles"], "particle indices, or all");
+      const std::size_t count =
+          all ? static_cast<std::size_t>(num_particles) : node["particles"].size();
+      for (std::size_t k = 0; k < count; ++k)
       {
         Kind copy = record;
         forEachField<Kind>(
@@ -283,7 +289,9 @@ struct RecordReader
             {
               if constexpr (std::is_same_v<std::decay_t<decltype(copy.*(spec.member))>, int>)
                 if (std::string(spec.name) == "particle")
-                  copy.*(spec.member) = readInt((where / "particles")[k], node["particles"][k]);
+                  copy.*(spec.member) =
+                      all ? static_cast<int>(k)
+                          : readInt((where / "particles")[k], node["particles"][k]);
             });
         out.push_back(copy);
       }
@@ -313,11 +321,11 @@ struct RecordReader
 // validation messages.
 template <typename Variant>
 void readRecords(const Where& where, const YAML::Node& list,
-                 const std::vector<NamedSurface>& surfaces, std::vector<Variant>& out,
-                 std::vector<std::string>& where_of)
+                 const std::vector<NamedSurface>& surfaces, int num_particles,
+                 std::vector<Variant>& out, std::vector<std::string>& where_of)
 {
   requireSequence(where, list, "records, each a map with a type");
-  RecordReader<Variant> reader{ surfaces };
+  RecordReader<Variant> reader{ surfaces, num_particles };
   for (std::size_t k = 0; k < list.size(); ++k)
   {
     const YAML::Node node = list[k];
@@ -426,6 +434,8 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
       d.chains.push_back(parseDescribed<ChainSpec>(at, chains[k], "a chain", d.surfaces));
       if (!d.chains.back().surface.empty())
         surfaceIndex(at / "surface", chains[k]["surface"], d.surfaces);
+      if (!d.chains.back().contact.empty())
+        surfaceIndex(at / "contact", chains[k]["contact"], d.surfaces);
     }
   }
   if (d.numParticles() == 0)
@@ -441,14 +451,14 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
   std::vector<std::string> where_of;
   if (const YAML::Node forces = root["forces"])
   {
-    readRecords(top / "forces", forces, d.surfaces, d.forces, where_of);
+    readRecords(top / "forces", forces, d.surfaces, n, d.forces, where_of);
     for (std::size_t k = 0; k < d.forces.size(); ++k)
       validateForce(d.forces[k], n, where_of[k]);
   }
   where_of.clear();
   if (const YAML::Node constraints = root["constraints"])
   {
-    readRecords(top / "constraints", constraints, d.surfaces, d.constraints, where_of);
+    readRecords(top / "constraints", constraints, d.surfaces, n, d.constraints, where_of);
     for (std::size_t k = 0; k < d.constraints.size(); ++k)
       validateConstraint(d.constraints[k], n, num_surfaces, where_of[k], true);
   }
@@ -652,10 +662,14 @@ BuiltScene buildScene(const SceneDescription& d)
   {
     const int first = next;
     Vec3 start = chain.start, velocity = chain.velocity;
-    int surface = -1;
-    for (std::size_t k = 0; k < d.surfaces.size() && surface < 0; ++k)
-      if (!chain.surface.empty() && d.surfaces[k].name == chain.surface)
-        surface = static_cast<int>(k);
+    auto indexOf = [&d](const std::string& name)
+    {
+      for (std::size_t k = 0; k < d.surfaces.size(); ++k)
+        if (!name.empty() && d.surfaces[k].name == name)
+          return static_cast<int>(k);
+      return -1;
+    };
+    const int surface = indexOf(chain.surface), contact = indexOf(chain.contact);
     if (surface >= 0)
       placeOnSurface(d.surfaces[surface].surface, start, velocity);
     const Vec3 step = chain.link_length * chain.direction.normalized();
@@ -676,6 +690,13 @@ BuiltScene buildScene(const SceneDescription& d)
       scene.constraints.push_back(SurfaceConstraint{ first, surface });
     for (int i = first; i + 1 < next; ++i)
       scene.constraints.push_back(LinkConstraint{ i, i + 1, chain.link_length });
+    // a particle sliding on the surface already (a row both ways), or pinned, takes no contact
+    if (contact >= 0)
+      for (int i = first; i < next; ++i)
+        if (!((i == first && (contact == surface || chain.pin_first)) ||
+              (i == next - 1 && chain.pin_last)))
+          scene.constraints.push_back(
+              SurfaceContact{ i, contact, chain.friction, chain.restitution });
     if (chain.pin_first)
       scene.constraints.push_back(PinConstraint{ first, start });
     if (chain.pin_last)
@@ -709,6 +730,20 @@ BuiltScene buildScene(const SceneDescription& d)
                                  "; a surface must be defined, and its height and slope in "
                                  "range, where its particles start");
       }
+  // a contact's particle starts on or above its surface: below it, the first step would have to
+  // lift it out (an impact as deep as the start is wrong), so the file is refused, saying where
+  for (const Constraint& constraint : scene.constraints)
+    if (const auto* contact = std::get_if<SurfaceContact>(&constraint))
+    {
+      const double depth = penetration(*contact, scene.surfaces, state.positions);
+      if (depth > CONTACT_START_DEPTH)
+        throw InvalidInput(
+            "particle " + std::to_string(contact->particle) + " position.z",
+            "= " + formatValue(state.positions(2, contact->particle)) +
+                " where the scene places it, " + formatValue(depth) + " m below surface '" +
+                d.surfaces[contact->surface].name +
+                "', which its surface_contact keeps it above; start it on or above the surface");
+    }
   // a value taken from the start (an angle) is checked like one written in the file
   for (std::size_t k = 0; k < d.constraints.size(); ++k)
     validateConstraint(scene.constraints[first_own + k], n, static_cast<int>(scene.surfaces.size()),

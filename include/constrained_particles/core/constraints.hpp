@@ -20,6 +20,7 @@
 #include "constrained_particles/core/effects/point_on_line.hpp"
 #include "constrained_particles/core/effects/point_on_plane.hpp"
 #include "constrained_particles/core/effects/surface_constraint.hpp"
+#include "constrained_particles/core/effects/surface_contact.hpp"
 
 #include <type_traits>
 #include <variant>
@@ -27,9 +28,10 @@
 namespace constrained_particles
 {
 /// One constraint of a scene: the registry of constraint kinds.
-using Constraint = std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
-                                PointOnLineConstraint, PointOnPlaneConstraint,
-                                MovingAnchorConstraint, CollinearConstraint, FrameAnchorConstraint>;
+using Constraint =
+    std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
+                 PointOnLineConstraint, PointOnPlaneConstraint, MovingAnchorConstraint,
+                 CollinearConstraint, FrameAnchorConstraint, SurfaceContact>;
 
 /// Number of constraint kinds.
 constexpr int NUM_CONSTRAINT_KINDS = static_cast<int>(std::variant_size_v<Constraint>);

@@ -31,9 +31,35 @@ struct RowData
   Eigen::VectorXd bias;        ///< Baumgarte term 2 zeta omega Cdot + omega^2 C (m), [C]/s^2
   std::vector<Vec3> jacobian;  ///< dC/dp blocks (b), [C]/m, row r's from model.rowStart()[r]
   double max_violation = 0.0;  ///< largest violation [m], infinite if any is NaN
+  /// Rows the contact stage has switched off (m, 1 = off; empty in scenes without contacts):
+  /// evaluated as zero (C, J, Jdot v, violation), and solved as identity rows, so their
+  /// multiplier is 0 and the others' solve is the one without them.
+  std::vector<std::uint8_t> inactive;
 
   /// Sized for the model's rows and blocks, zeroed.
   void resize(const Model& model);
+};
+
+/// What a surface contact does during a step (contact.hpp): the contact stage's choice at the
+/// step's start, kept through its stages.
+enum class ContactMode : std::uint8_t
+{
+  Separated,  ///< its rows are off: above the surface, leaving it, or pulled from it
+  Sliding,    ///< the row acts (lambda_n >= 0); friction mu |f_n| against the slip
+  Sticking,   ///< the row acts; friction cancels the tangential force, up to mu |f_n|
+};
+
+/// One surface contact's state (Model::numContacts(), in its kind table's order).
+struct ContactState
+{
+  ContactMode mode = ContactMode::Separated;
+  /// Unit direction of the friction force while sliding slower than CONTACT_SPEED: the holding
+  /// force's when it began to slip (then -v_t^ as it moves)
+  Vec3 slip_direction = Vec3::Zero();
+  double normal_force = 0.0;           ///< |f_n| = lambda_n |J_n| at the last stage [N]
+  Vec3 friction_force = Vec3::Zero();  ///< f_t at the last stage [N]
+  /// Sticking: the friction the particle needs to stay, over mu |f_n| (> 1: it slips)
+  double friction_demand = 0.0;
 };
 
 /// Stage buffers of the integrators, by name, each 3 x n.
@@ -83,6 +109,10 @@ struct StepControl
   /// The integrator overdrew the energy budget: the stiff-safe method (STIFF_FALLBACK) retook
   /// that step and takes every step until the ledger is opened again or the settings change.
   bool budget_fallback = false;
+  /// The contacts' modes at `start` (attempts start from them again)
+  std::vector<ContactState> start_contacts;
+  /// Energy the contacts' velocity jumps (impacts) took out in this attempt [J], for the ledger
+  double contact_loss = 0.0;
   double budget_fallback_time = 0.0;  ///< the start of the step it began with [s]
 };
 
@@ -220,6 +250,12 @@ public:
   /// Each tracked record's path (Model::tracked(), t), written between steps by whoever samples
   /// its holder (Simulator::tracks()); each rests at its particle's start until then.
   std::vector<AnchorTrack> tracks;
+  /// Each surface contact's mode and forces (Model::numContacts(); contact.hpp)
+  std::vector<ContactState> contacts;
+  /// The contact stage's buffers: friction forces [N] and W times them [m/s^2] (3 x n), the
+  /// frictionless multipliers and a solve's right-hand side (m); empty without contacts
+  Points friction_forces, friction_accelerations;
+  Eigen::VectorXd frictionless_multipliers, contact_rhs;
   Eigen::VectorXd multipliers;  ///< lambda (m), then each eliminated reaction [N] (3 e)
   /// Right-hand side, then solution, of a solve (m); the fused projections solve in place in
   /// it and fused.velocity_rhs, so after one it holds the last check's forward-substituted C

@@ -64,6 +64,10 @@ constexpr Range GRAVITY{ -1e4, false, 1e4, "m/s^2", false };
 constexpr Range DAMPING{ 0.0, false, 1e6, "N s/m", false };
 /// Quadratic drag c [kg/m] in f = -c |v| v.
 constexpr Range DRAG{ 0.0, false, 1e6, "kg/m", false };
+/// Coulomb's friction coefficient mu [1] of a contact (rubber on concrete is about 1).
+constexpr Range FRICTION{ 0.0, false, 10.0, "1", false };
+/// Newton's coefficient of restitution e [1] of a contact: 0 inelastic, 1 elastic.
+constexpr Range RESTITUTION{ 0.0, false, 1.0, "1", false };
 /// A constant force component [N].
 constexpr Range FORCE{ -1e9, false, 1e9, "N", false };
 /// Spring stiffness k [N/m].

@@ -403,6 +403,13 @@ public:
   {
     return chain_unlinked_;
   }
+  /// Number of SurfaceContact records (their kind table's order is Data::contacts'): their rows
+  /// switch on and off (contact.hpp), so the scene takes the generic stages and a sparse or dense
+  /// solve.
+  int numContacts() const
+  {
+    return contacts_;
+  }
   /// Throws InvalidInput unless the state has this model's particle count and is finite.
   /// @param field name used in messages, e.g. "state"
   void validateState(const State& state, const std::string& field = "state") const;
@@ -439,6 +446,7 @@ private:
   std::vector<int> chain_unlinked_;
   int chain_surface_rows_ = 0;
   std::vector<int> chain_surface_records_;
+  int contacts_ = 0;
   PathChoice path_;
 };
 

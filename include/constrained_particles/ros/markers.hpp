@@ -2,6 +2,7 @@
 /// @brief rviz markers: constraint-force arrows and the scene (particles, links, surface mesh).
 #pragma once
 
+#include "constrained_particles/core/data.hpp"
 #include "constrained_particles/core/model.hpp"
 #include "constrained_particles/core/limits.hpp"
 
@@ -12,6 +13,8 @@ namespace constrained_particles
 {
 /// Namespace of the constraint-force arrows; marker id = particle index.
 constexpr const char* CONSTRAINT_FORCE_NAMESPACE = "constraint_forces";
+/// rviz namespace of the surface contacts' normal and friction force arrows.
+constexpr const char* CONTACT_FORCE_NAMESPACE = "contact_forces";
 /// With ~force_scale 0 the largest arrow is this share of the region's radius [1].
 constexpr double FORCE_ARROW_FRACTION = 0.15;
 
@@ -38,6 +41,14 @@ visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& h
                                                        const Points& positions,
                                                        const Points& forces, double scale,
                                                        int previous_count);
+
+/// Two ARROWs per surface contact (ids 2k, 2k + 1; ns CONTACT_FORCE_NAMESPACE), from its particle
+/// along its normal force (green) and its friction (orange) [N], `scale` [m/N]; a contact that does
+/// not act, or a non-finite force, is a DELETE of its arrows.
+visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& header,
+                                                    const Model& model, const Points& positions,
+                                                    const std::vector<ContactState>& contacts,
+                                                    double scale);
 
 /// The scene's surfaces as one TRIANGLE_LIST mesh (ns "surface", id 0) over the region's x-y
 /// extent, `cells` cells per side (2 triangles each; cells where a formula is undefined left out),

@@ -59,6 +59,8 @@ struct Snapshot
   /// after a reset or teleport, at the new state).
   Points constraint_forces;
   Eigen::VectorXd multipliers;
+  /// Each surface contact's mode and forces at the last evaluation (Data::contacts)
+  std::vector<ContactState> contacts;
   Diagnostics diagnostics;  ///< errors and energies of `state`
   EnergyLedger ledger;      ///< the energy account since the last reset, teleport or force change
   /// The integrator overdrew ~energy_budget: fast_projection takes the steps (StepControl::

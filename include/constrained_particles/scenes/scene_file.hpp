@@ -48,6 +48,9 @@ struct ChainSpec
   bool pin_first = false;                ///< pin the first particle where it starts
   bool pin_last = false;                 ///< pin the last particle where it starts
   std::string surface;                   ///< if set, the first particle slides on this surface
+  std::string contact;       ///< if set, every particle stays on or above it (surface_contact)
+  double friction = 0.0;     ///< the contacts' Coulomb mu [1]
+  double restitution = 0.0;  ///< the contacts' Newton e [1]
 
   static constexpr auto fields()
   {
@@ -68,7 +71,14 @@ struct ChainSpec
         field("pin_last", &ChainSpec::pin_last, FieldKind::Flag, nullptr,
               "pin the last particle where it starts"),
         field("surface", &ChainSpec::surface, FieldKind::Surface, nullptr,
-              "the first particle slides on this surface"));
+              "the first particle slides on this surface"),
+        field("contact", &ChainSpec::contact, FieldKind::Surface, nullptr,
+              "every particle stays on or above this surface (a surface_contact each; not the "
+              "first, if it slides on it)"),
+        field("friction", &ChainSpec::friction, FieldKind::Number, &limits::FRICTION,
+              "the contacts' Coulomb mu"),
+        field("restitution", &ChainSpec::restitution, FieldKind::Number, &limits::RESTITUTION,
+              "the contacts' Newton e"));
   }
 };
 

@@ -34,6 +34,10 @@ protected:
         for (int b = start[i]; b < start[i + 1]; ++b)
           assembled_(incidence[a].row, incidence[b].row) +=
               w[i] * rows.jacobian[incidence[a].block].dot(rows.jacobian[incidence[b].block]);
+    // a switched-off contact row (zero blocks) is the identity row: its multiplier is 0
+    for (std::size_t r = 0; r < rows.inactive.size(); ++r)
+      if (rows.inactive[r])
+        assembled_(r, r) = 1.0;
     max_diagonal_ = assembled_.rows() > 0 ? assembled_.diagonal().maxCoeff() : 0.0;
   }
 

@@ -71,6 +71,10 @@ protected:
       values[t.slot] += w[t.particle] * rows.jacobian[t.block_a].dot(rows.jacobian[t.block_b]);
     for (int r = 0; r < diagonal_.size(); ++r)
       diagonal_[r] = values[diagonal_slot_[r]];
+    // a switched-off contact row (zero blocks) is the identity row: its multiplier is 0
+    for (std::size_t r = 0; r < rows.inactive.size(); ++r)
+      if (rows.inactive[r])
+        diagonal_[r] = values[diagonal_slot_[r]] = 1.0;
     // the factor's pivots come in the ordering's sequence: compare each with its own diagonal
     for (int r = 0; r < diagonal_.size(); ++r)
       permuted_diagonal_[ldlt_.permutationP().indices()[r]] = diagonal_[r];

@@ -1,0 +1,276 @@
+#include "contact.hpp"
+
+#include "constrained_particles/core/diagnostics.hpp"
+
+#include "solvers/solver.hpp"
+#include "stabilization.hpp"
+#include "stages.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace constrained_particles
+{
+namespace
+{
+using ContactTable = std::vector<KindRecord<SurfaceContact>>;
+
+const ContactTable& contactTable(const Model& model)
+{
+  return std::get<ContactTable>(model.kindTables());
+}
+
+bool acts(const ContactState& contact)
+{
+  return contact.mode != ContactMode::Separated;
+}
+
+// The friction force [N] an acting contact exerts at multiplier `lambda` (its row's J `normal`):
+// sliding, mu |f_n| against the tangential velocity `v_t` (below CONTACT_SPEED along its slip
+// direction); sticking, minus the tangential part of `other` (the particle's other forces), at
+// most mu |f_n| (its demand, the ratio, kept in `contact`)
+Vec3 frictionForce(const SurfaceContact& record, ContactState& contact, const Vec3& normal,
+                   double lambda, const Vec3& v, const Vec3& other)
+{
+  const double normal_force = std::max(lambda, 0.0) * normal.norm();
+  const double limit = record.friction * normal_force;
+  auto tangential = [&normal](const Vec3& x)
+  { return Vec3(x - normal * (normal.dot(x) / normal.squaredNorm())); };
+  if (contact.mode == ContactMode::Sliding)
+  {
+    const Vec3 v_t = tangential(v);
+    const double speed = v_t.norm();
+    if (speed > CONTACT_SPEED)
+      return -limit / speed * v_t;
+    const Vec3 slip = tangential(contact.slip_direction);
+    return slip.norm() > 0.0 ? Vec3(limit / slip.norm() * slip) : Vec3::Zero();
+  }
+  const Vec3 needed = -tangential(other);
+  const double size = needed.norm();
+  contact.friction_demand =
+      size == 0.0 ? 0.0 : (limit > 0.0 ? size / limit : std::numeric_limits<double>::infinity());
+  return contact.friction_demand > 1.0 ? Vec3(limit / size * needed) : needed;
+}
+
+// Each contact's normal force from the multipliers, friction from data.contacts' friction_force
+void recordNormalForces(const Model& model, Data& data)
+{
+  const ContactTable& table = contactTable(model);
+  for (std::size_t k = 0; k < table.size(); ++k)
+  {
+    ContactState& contact = data.contacts[k];
+    contact.normal_force = acts(contact) ? data.multipliers[table[k].first_row] *
+                                               data.rows.jacobian[table[k].first_block].norm()
+                                         : 0.0;
+    if (!acts(contact) || table[k].record.friction == 0.0)
+      contact.friction_force.setZero();
+  }
+}
+
+}  // namespace
+
+void writeContactRows(const Model& model, Data& data)
+{
+  const ContactTable& table = contactTable(model);
+  for (std::size_t k = 0; k < table.size(); ++k)
+  {
+    const std::uint8_t off = acts(data.contacts[k]) ? 0 : 1;
+    data.rows.inactive[table[k].first_row] = off;
+    data.trial_rows.inactive[table[k].first_row] = off;
+  }
+}
+
+SolveReport contactForceStage(const Model& model, Data& data, const Points& velocities,
+                              const Eigen::VectorXd* bias)
+{
+  const SolveReport report = constraintForceStage(model, data, bias);
+  const ContactTable& table = contactTable(model);
+  bool friction = false;
+  for (std::size_t k = 0; k < table.size(); ++k)
+    friction = friction || (acts(data.contacts[k]) && table[k].record.friction > 0.0);
+  if (!friction)
+  {
+    recordNormalForces(model, data);
+    return report;
+  }
+  // friction enters as a force f: (J W J^T) lambda = b - J W f, so lambda = lambda_0 - (J W
+  // J^T)^-1 J W f with the factorisation already made; iterated to a fixed point (staggered)
+  const int m = model.numRows();
+  const auto& w = model.inverseMasses();
+  data.frictionless_multipliers = data.multipliers.head(m);
+  for (int iteration = 0; iteration < MAX_FRICTION_ITERATIONS; ++iteration)
+  {
+    double change = 0.0, scale = 0.0;
+    data.friction_forces.setZero();
+    for (std::size_t k = 0; k < table.size(); ++k)
+    {
+      ContactState& contact = data.contacts[k];
+      const SurfaceContact& record = table[k].record;
+      if (!acts(contact) || record.friction == 0.0)
+        continue;
+      const int i = record.particle;
+      const Vec3& normal = data.rows.jacobian[table[k].first_block];
+      const double lambda = data.multipliers[table[k].first_row];
+      // the particle's other forces: applied and J^T lambda (data.constraint_forces has no
+      // friction yet), less this contact's own normal force, which has no tangential part
+      const Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
+      const Vec3 f = frictionForce(record, contact, normal, lambda, velocities.col(i), other);
+      change = std::max(change, (f - contact.friction_force).norm());
+      scale = std::max(scale, std::max(lambda, 0.0) * normal.norm());
+      contact.friction_force = f;
+      data.friction_forces.col(i) += f;
+    }
+    if (iteration > 0 && change <= FRICTION_TOLERANCE * scale)
+      break;
+    for (int i = 0; i < model.numParticles(); ++i)
+      data.friction_accelerations.col(i) = w[i] * data.friction_forces.col(i);
+    multiplyJacobian(model, data.rows, data.friction_accelerations, data.contact_rhs);
+    data.solver().solveInPlace(data.contact_rhs);
+    data.multipliers.head(m) = data.frictionless_multipliers - data.contact_rhs;
+    data.constraint_forces.setZero();
+    addJacobianTranspose(model, data.rows, data.multipliers.head(m), 1.0, data.constraint_forces);
+    addEliminatedReactions(model, data);
+  }
+  data.constraint_forces += data.friction_forces;  // on free particles only: no reaction changes
+  recordNormalForces(model, data);
+  return report;
+}
+
+double chooseContactModes(const Model& model, Data& data, const StepSettings& settings)
+{
+  State& x = data.state;
+  const ContactTable& table = contactTable(model);
+  const auto& w = model.inverseMasses();
+  const double gap = contactGap(settings);
+  for (std::size_t k = 0; k < table.size(); ++k)
+  {
+    const SurfaceContact& record = table[k].record;
+    ContactState& contact = data.contacts[k];
+    const int i = record.particle;
+    const ContactFrame frame =
+        contactFrame(record, model.scene().surfaces, x.positions, x.velocities);
+    const Vec3 v = x.velocities.col(i);
+    if (!(frame.gap <= gap && frame.normalSpeed(v) <= CONTACT_SPEED))
+    {
+      contact.mode = ContactMode::Separated;
+      continue;
+    }
+    // a candidate to stick if friction could stop its slide within the step (Coulomb over one
+    // step); it sticks if the solve below finds friction enough to hold it
+    const double speed = frame.tangential(v).norm();
+    const double stop = settings.dt * w[i] * record.friction * std::max(contact.normal_force, 0.0);
+    contact.mode = record.friction > 0.0 && speed <= std::max(CONTACT_SPEED, stop)
+                       ? ContactMode::Sticking
+                       : ContactMode::Sliding;
+  }
+  writeContactRows(model, data);
+  data.noteStateChange();
+  for (std::size_t iteration = 0; iteration < 2 * table.size() + 4; ++iteration)
+  {
+    data.stages.p_stage = x.positions;
+    data.stages.v_stage = x.velocities;
+    forward(model, data, settings, x.time, data.stages.p_stage, data.stages.v_stage,
+            data.accelerations);
+    // Baraff's active set: the most negative multiplier leaves, one at a time
+    int worst = -1;
+    double most_negative = 0.0;
+    for (std::size_t k = 0; k < table.size(); ++k)
+      if (acts(data.contacts[k]) && data.multipliers[table[k].first_row] < most_negative)
+      {
+        most_negative = data.multipliers[table[k].first_row];
+        worst = static_cast<int>(k);
+      }
+    if (worst >= 0)
+    {
+      data.contacts[worst].mode = ContactMode::Separated;
+      writeContactRows(model, data);
+      continue;
+    }
+    bool slips = false;
+    for (ContactState& contact : data.contacts)
+      if (contact.mode == ContactMode::Sticking && contact.friction_demand > 1.0)
+      {
+        // more than friction can hold: it slides the way friction, at its limit, held it
+        contact.mode = ContactMode::Sliding;
+        contact.slip_direction = contact.friction_force.normalized();
+        slips = true;
+      }
+    if (!slips)
+      break;
+  }
+  // the sticking contacts stop: their tangential velocity goes, and the rows take the change
+  const double kinetic_before = kineticEnergy(model, x);
+  bool stopped = false;
+  for (std::size_t k = 0; k < table.size(); ++k)
+    if (data.contacts[k].mode == ContactMode::Sticking)
+    {
+      const int i = table[k].record.particle;
+      const ContactFrame frame =
+          contactFrame(table[k].record, model.scene().surfaces, x.positions, x.velocities);
+      const Vec3 v_t = frame.tangential(x.velocities.col(i));
+      stopped = stopped || v_t.norm() > 0.0;
+      x.velocities.col(i) -= v_t;
+    }
+  if (!stopped)
+    return 0.0;
+  projectVelocities(model, data, x.time, x.positions, x.velocities, false, false);
+  return kinetic_before - kineticEnergy(model, x);
+}
+
+double resolveImpacts(const Model& model, Data& data, const StepSettings& settings, State& x)
+{
+  const ContactTable& table = contactTable(model);
+  Eigen::VectorXd& restitution = data.contact_rhs;
+  double before = NAN;
+  // a projection onto the new rows moves the particles they are linked to, which may take another
+  // contact below its surface: again, until none is (each round switches one on at least)
+  for (std::size_t round = 0; round <= table.size(); ++round)
+  {
+    restitution.setZero();
+    bool impact = false, bounce = false;
+    for (std::size_t k = 0; k < table.size(); ++k)
+    {
+      ContactState& contact = data.contacts[k];
+      if (acts(contact))
+        continue;
+      const SurfaceContact& record = table[k].record;
+      const ContactFrame frame =
+          contactFrame(record, model.scene().surfaces, x.positions, x.velocities);
+      if (!(frame.gap < -settings.projection_tolerance))
+        continue;
+      contact.mode = ContactMode::Sliding;
+      impact = true;
+      const double approach = -frame.normalSpeed(x.velocities.col(record.particle));
+      if (record.restitution > 0.0 && approach > BOUNCE_SPEED)
+      {
+        restitution[table[k].first_row] = record.restitution;
+        bounce = true;
+      }
+    }
+    if (!impact)
+      break;
+    if (std::isnan(before))
+      before = kineticEnergy(model, x) + potentialEnergy(model, x);
+    writeContactRows(model, data);
+    projectStep(model, data, ForwardPath::Generic, x.time, x.positions, x.velocities,
+                settings.projection_tolerance, settings.projection_max_iterations);
+    if (bounce)
+    {
+      // data.rhs holds the velocity projection's multipliers (the impulses over W): Newton's law
+      // scales a bouncing contact's by 1 + e, so its normal speed leaves at e times it came in
+      restitution = restitution.cwiseProduct(data.rhs);
+      addInverseMassJacobianTranspose(model, data.rows, restitution, -1.0, x.velocities);
+      for (std::size_t k = 0; k < table.size(); ++k)
+        if (restitution[table[k].first_row] != 0.0)
+          data.contacts[k].mode = ContactMode::Separated;
+      writeContactRows(model, data);
+    }
+    data.noteStateChange();
+  }
+  if (std::isnan(before))
+    return 0.0;
+  return before - (kineticEnergy(model, x) + potentialEnergy(model, x));
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,71 @@
+/// @file contact.hpp
+/// @brief The contact stage: which surface contacts act (an active set chosen at each step's
+/// start), their Coulomb friction (solved with the rows, staggered), and impacts (a velocity
+/// projection after a step that went below a surface). docs/physics.md, "Contact". Private to
+/// the core.
+///
+/// Between impacts a contact's row is an equality while it acts, so the stages, integrators and
+/// projections are the bilateral ones: the motion is as exact as theirs. The complementarity
+/// lambda_n >= 0, C >= 0, lambda_n C = 0 is kept at the acceleration level at each step's start
+/// (Baraff 1994, "Fast contact force computation for nonpenetrating rigid bodies": drop the
+/// most negative multiplier, solve again), and at the velocity level at an impact (Moreau 1988:
+/// the inelastic impulse is the projection of the velocities onto the active rows; Newton's
+/// restitution scales it by 1 + e). Friction is a force in the tangent plane, iterated with the
+/// solve to a fixed point (Kaufman, Sueda, James, Pai 2008, staggered projections), so the
+/// matrix stays J W J^T of the rows (symmetric, a chain's still a forest).
+#pragma once
+
+#include "constrained_particles/core/data.hpp"
+#include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/settings.hpp"
+
+namespace constrained_particles
+{
+/// Normal or tangential speed below which a contact counts as at rest relative to its surface
+/// [m/s]: it touches if it approaches no faster (and its gap is within contactGap()), it may
+/// stick if it slides no faster (or no faster than friction stops it within the step).
+constexpr double CONTACT_SPEED = 1e-6;
+/// Approach speed below which an impact is inelastic whatever its restitution [m/s]: a bouncing
+/// particle comes to rest after finitely many bounces.
+constexpr double BOUNCE_SPEED = 1e-3;
+/// Friction fixed-point iterations per stage at most; it stops when no friction force changes by
+/// more than FRICTION_TOLERANCE of the largest normal force.
+constexpr int MAX_FRICTION_ITERATIONS = 100;
+constexpr double FRICTION_TOLERANCE = 1e-13;
+
+/// A contact touches if its gap is at most this [m]: 10 projection tolerances, so a contact the
+/// projection holds on its surface is touching.
+inline double contactGap(const StepSettings& settings)
+{
+  return 10.0 * settings.projection_tolerance;
+}
+
+/// Writes the contacts' modes into data.rows.inactive and data.trial_rows.inactive (a row acts
+/// unless its contact is ContactMode::Separated).
+void writeContactRows(const Model& model, Data& data);
+
+/// The constraint-force stage of a scene with contacts: constraintForceStage() (the rows, the
+/// acting contacts' included), then each acting contact's friction: sliding, mu |f_n| against
+/// the tangential velocity (or along ContactState::slip_direction below CONTACT_SPEED);
+/// sticking, minus the tangential force on the particle, at most mu |f_n|. Friction enters the
+/// right-hand side as J W f, solved again with the same factorisation until it stops changing.
+/// data.constraint_forces include it; data.contacts get each contact's forces.
+SolveReport contactForceStage(const Model& model, Data& data, const Points& velocities,
+                              const Eigen::VectorXd* bias);
+
+/// The active set at the state's start of a step: contacts within contactGap() and approaching
+/// no faster than CONTACT_SPEED act (sticking if they slide slower than friction stops them in
+/// one step, their tangential velocity then removed), then, solving at the state, the one with
+/// the most negative multiplier is switched off, or a sticking one whose friction demand is over
+/// 1 slides, until neither is left. Returns the kinetic energy the removed tangential velocities
+/// took out [J] (the ledger's dissipation).
+double chooseContactModes(const Model& model, Data& data, const StepSettings& settings);
+
+/// After a step's projection at `time`: each contact that is off and below its surface by more
+/// than the projection tolerance is switched on and the state projected onto the rows
+/// (positions, then velocities: the inelastic impulse), then for contacts with restitution e and
+/// an approach speed over BOUNCE_SPEED the impulse is scaled by 1 + e and the contact switched
+/// off again. Returns the energy the impacts took out [J] (T + U before less after).
+double resolveImpacts(const Model& model, Data& data, const StepSettings& settings, State& state);
+
+}  // namespace constrained_particles

@@ -1,0 +1,277 @@
+/// @file test_contact.cpp
+/// @brief surface_contact against closed forms: a bead leaves a dome where the energy balance
+/// says, a particle on a ramp sticks or slides by Coulomb's law, a chain resting on a plane
+/// carries its weight on its contacts, a chain dropped on a plane comes to rest with its energy
+/// never rising, and a ball bounces to e^2 of its height.
+#include "test_helpers.hpp"
+
+#include "constrained_particles/core/diagnostics.hpp"
+#include "constrained_particles/core/simulator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace constrained_particles;
+using constrained_particles::testing::G;
+
+namespace
+{
+StepSettings settingsOf(double dt)
+{
+  StepSettings settings;
+  settings.dt = dt;
+  settings.integrator = "rk4";
+  return settings;
+}
+
+SurfaceContact contactOf(int particle, double friction = 0.0, double restitution = 0.0)
+{
+  SurfaceContact contact;
+  contact.particle = particle;
+  contact.surface = 0;
+  contact.friction = friction;
+  contact.restitution = restitution;
+  return contact;
+}
+
+// the plane z = slope x
+Surface planeOf(double slope)
+{
+  return makeSurface(SurfaceType::Plane, { slope, 0.0, 0.0 });
+}
+
+// n particles of 1 kg, `link` [m] apart along x at height z, each with a contact on surface 0
+Scene chainOnSurface(int n, double link, const Surface& surface, double friction, State& start,
+                     double z = 0.0, double tilt = 0.0)
+{
+  Scene scene;
+  scene.masses.assign(n, 1.0);
+  scene.surfaces = { surface };
+  scene.forces = { GravityForce{} };
+  start.positions.setZero(3, n);
+  start.velocities.setZero(3, n);
+  for (int i = 0; i < n; ++i)
+  {
+    start.positions.col(i) = Vec3(link * i * std::cos(tilt), 0.0, z + link * i * std::sin(tilt));
+    scene.constraints.push_back(contactOf(i, friction));
+  }
+  for (int i = 0; i + 1 < n; ++i)
+    scene.constraints.push_back(LinkConstraint{ i, i + 1, link });
+  return scene;
+}
+
+double worstLinkError(const Simulator& sim, int n, double link)
+{
+  double worst = 0.0;
+  const Points& p = sim.state().positions;
+  for (int i = 0; i + 1 < n; ++i)
+    worst = std::max(worst, std::abs((p.col(i + 1) - p.col(i)).norm() - link));
+  return worst;
+}
+
+double energyOf(const Simulator& sim)
+{
+  return kineticEnergy(sim.model(), sim.state()) + potentialEnergy(sim.model(), sim.state());
+}
+}  // namespace
+
+// A bead released at speed v0 from the top of a sphere of radius R leaves it where gravity's
+// normal part no longer holds it on: cos(theta) = (2 + v0^2 / (g R)) / 3, z = R cos(theta).
+TEST(SurfaceContact, BeadLeavesADomeWhereTheEnergyBalanceSays)
+{
+  const double radius = 1.0, v0 = 0.05;
+  Scene scene;
+  scene.masses = { 1.0 };
+  scene.surfaces = { makeExpressionSurface("sqrt(1 - x^2 - y^2)") };
+  scene.forces = { GravityForce{} };
+  scene.constraints = { contactOf(0) };
+  State start;
+  start.positions = Vec3(0.0, 0.0, radius);
+  start.velocities = Vec3(v0, 0.0, 0.0);
+  Simulator sim(scene, start, settingsOf(1e-4));
+  double last_force = -1.0, last_z = 0.0, left_at = NAN;
+  for (int k = 0; k < 20000 && std::isnan(left_at); ++k)
+  {
+    ASSERT_EQ(sim.step().failed_check, StepCheck::None) << k;
+    const ContactState& contact = sim.data().contacts[0];
+    const double z = sim.state().positions(2, 0);
+    // the multiplier crosses 0 between two steps: the height there, interpolated
+    if (last_force > 0.0 && contact.normal_force <= 0.0)
+      left_at = last_z + (z - last_z) * last_force / (last_force - contact.normal_force);
+    if (contact.mode == ContactMode::Separated && std::isnan(left_at))
+      FAIL() << "switched off at z = " << z << " before its force was seen crossing 0";
+    last_force = contact.normal_force;
+    last_z = z;
+  }
+  ASSERT_FALSE(std::isnan(left_at)) << "the bead never left the dome";
+  const double expected = radius * (2.0 + v0 * v0 / (G * radius)) / 3.0;
+  EXPECT_NEAR(left_at, expected, 1e-4 * radius);
+  // and it flies clear of the dome: never below it again before it falls past its equator
+  const Surface& dome = sim.model().scene().surfaces[0];
+  double lowest_gap = INFINITY;
+  while (sim.state().positions(2, 0) > 0.2)
+  {
+    sim.step();
+    const Vec3 p = sim.state().positions.col(0);
+    if (p.head<2>().norm() < 0.999)
+      lowest_gap = std::min(lowest_gap, p.z() - evaluateSurface(dome, p.x(), p.y()).z);
+    ASSERT_EQ(sim.data().contacts[0].mode, ContactMode::Separated);
+  }
+  EXPECT_GT(lowest_gap, -1e-12);
+}
+
+// On a plane inclined at alpha, a particle at rest sticks while tan(alpha) <= mu, friction
+// holding m g sin(alpha); otherwise it slides with a = g (sin(alpha) - mu cos(alpha)).
+TEST(SurfaceContact, RampSticksOrSlidesByCoulombsLaw)
+{
+  const double slope = 0.5;  // tan(alpha)
+  const double alpha = std::atan(slope);
+  for (const double mu : { 0.6, 0.5 + 1e-6, 0.3, 0.0 })
+  {
+    Scene scene;
+    scene.masses = { 2.0 };
+    scene.surfaces = { planeOf(slope) };
+    scene.forces = { GravityForce{} };
+    scene.constraints = { contactOf(0, mu) };
+    State start;
+    start.positions = Vec3(0.0, 0.0, 0.0);
+    start.velocities = Vec3::Zero();
+    Simulator sim(scene, start, settingsOf(1e-3));
+    const int steps = 1000;
+    ASSERT_EQ(sim.step(steps).failed_check, StepCheck::None) << mu;
+    const double t = steps * 1e-3;
+    const Vec3 down_slope = -Vec3(std::cos(alpha), 0.0, std::sin(alpha));
+    const Vec3 p = sim.state().positions.col(0);
+    const ContactState& contact = sim.data().contacts[0];
+    EXPECT_NEAR(contact.normal_force, 2.0 * G * std::cos(alpha), 1e-9 * 2.0 * G) << mu;
+    if (slope <= mu)
+    {
+      EXPECT_EQ(contact.mode, ContactMode::Sticking) << mu;
+      EXPECT_LE(p.norm(), 1e-12) << mu;
+      EXPECT_NEAR(contact.friction_force.norm(), 2.0 * G * std::sin(alpha), 1e-9 * 2.0 * G) << mu;
+    }
+    else
+    {
+      EXPECT_EQ(contact.mode, ContactMode::Sliding) << mu;
+      const double a = G * (std::sin(alpha) - mu * std::cos(alpha));
+      EXPECT_NEAR(p.dot(down_slope), 0.5 * a * t * t, 1e-9 * 0.5 * a * t * t) << mu;
+      EXPECT_LE((p - p.dot(down_slope) * down_slope).norm(), 1e-9) << mu;
+    }
+  }
+}
+
+// A chain lying on a plane: the normal forces carry its weight, n m g, links exact, no particle
+// below the plane by more than the projection's tolerance.
+TEST(SurfaceContact, ChainRestingOnAPlaneCarriesItsWeight)
+{
+  const int n = 30;
+  const double link = 0.1;
+  State start;
+  const Scene scene = chainOnSurface(n, link, planeOf(0.0), 0.4, start);
+  const StepSettings settings = settingsOf(1e-3);
+  Simulator sim(scene, start, settings);
+  for (int k = 0; k < 200; ++k)
+  {
+    ASSERT_EQ(sim.step().failed_check, StepCheck::None);
+    double sum = 0.0;
+    for (const ContactState& contact : sim.data().contacts)
+    {
+      EXPECT_NE(contact.mode, ContactMode::Separated);
+      sum += contact.normal_force;
+    }
+    ASSERT_NEAR(sum, n * G, 1e-9 * n * G) << k;
+    ASSERT_LE(worstLinkError(sim, n, link), 1e-9);
+    ASSERT_GE(sim.state().positions.row(2).minCoeff(), -settings.projection_tolerance);
+  }
+}
+
+// A tilted chain dropped on a plane (friction 0.5, inelastic) lands particle by particle and
+// comes to rest on it; its energy never rises, the ledger books what the impacts and friction
+// took, and no particle is below the plane by more than 1e-9 m after any step.
+TEST(SurfaceContact, DroppedChainComesToRestEnergyNeverRising)
+{
+  const int n = 10;
+  const double link = 0.1;
+  State start;
+  const Scene scene = chainOnSurface(n, link, planeOf(0.0), 0.5, start, 0.3, 0.3);
+  start.velocities.row(0).setConstant(0.8);  // sliding along x as it lands
+  Simulator sim(scene, start, settingsOf(1e-3));
+  double energy = energyOf(sim);
+  const double initial = energy;
+  for (int k = 0; k < 4000; ++k)
+  {
+    ASSERT_EQ(sim.step().failed_check, StepCheck::None) << k;
+    const double now = energyOf(sim);
+    ASSERT_LE(now, energy + 1e-9 * initial) << "step " << k;
+    energy = now;
+    ASSERT_GE(sim.state().positions.row(2).minCoeff(), -1e-9) << k;
+    ASSERT_LE(worstLinkError(sim, n, link), 1e-9) << k;
+  }
+  EXPECT_LE(kineticEnergy(sim.model(), sim.state()), 1e-12);
+  for (const ContactState& contact : sim.data().contacts)
+    EXPECT_EQ(contact.mode, ContactMode::Sticking);
+  // what left the system is in the ledger as dissipation, to a fraction of it
+  const EnergyLedger& ledger = sim.energyLedger();
+  EXPECT_NEAR(ledger.dissipated, initial - energy, 1e-2 * (initial - energy));
+}
+
+// A ball dropped from h onto a plane with restitution e bounces to e^2 h; below BOUNCE_SPEED an
+// impact is inelastic, so it comes to rest.
+TEST(SurfaceContact, BallBouncesToRestitutionSquaredHeight)
+{
+  const double h = 1.0, e = 0.5;
+  Scene scene;
+  scene.masses = { 1.0 };
+  scene.surfaces = { planeOf(0.0) };
+  scene.forces = { GravityForce{} };
+  scene.constraints = { contactOf(0, 0.0, e) };
+  State start;
+  start.positions = Vec3(0.0, 0.0, h);
+  start.velocities = Vec3::Zero();
+  Simulator sim(scene, start, settingsOf(1e-4));
+  // first bounce: its top after the impact
+  bool bounced = false;
+  double top = 0.0;
+  for (int k = 0; k < 20000; ++k)
+  {
+    sim.step();
+    const double z = sim.state().positions(2, 0), vz = sim.state().velocities(2, 0);
+    if (!bounced && vz > 0.0)
+      bounced = true;
+    if (bounced)
+      top = std::max(top, z);
+    if (bounced && vz < 0.0)
+      break;
+  }
+  ASSERT_TRUE(bounced);
+  // the impact is found a step late, at most v dt below the plane: the bounce height's error is
+  // of order 2 v dt / v_impact of it
+  EXPECT_NEAR(top, e * e * h, 2e-3 * h);
+  sim.step(100000);
+  EXPECT_LE(kineticEnergy(sim.model(), sim.state()), 1e-12);
+  EXPECT_NE(sim.data().contacts[0].mode, ContactMode::Separated);
+}
+
+// A contact's solve is sparse or dense; asking for another names the field.
+TEST(SurfaceContact, RefusesSolvesThatCannotSwitchRows)
+{
+  Scene scene;
+  scene.masses = { 1.0 };
+  scene.surfaces = { planeOf(0.0) };
+  scene.forces = { GravityForce{} };
+  scene.constraints = { contactOf(0) };
+  EXPECT_THROW(Model::compile(scene, SolveMethod::Tree), InvalidInput);
+  EXPECT_EQ(Model::compile(scene).solveMethod(), SolveMethod::Sparse);
+  EXPECT_EQ(Model::compile(scene, SolveMethod::Dense).solveMethod(), SolveMethod::Dense);
+  scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  try
+  {
+    Model::compile(scene);
+    FAIL() << "a held particle with a contact was accepted";
+  }
+  catch (const InvalidInput& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("particle"), std::string::npos) << e.what();
+  }
+}
