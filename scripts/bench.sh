@@ -13,6 +13,9 @@
 #        scripts/bench.sh --kernel         (only the chain step against the minimum-work
 #                                          kernel, bench/kernel_ratio.cpp: docs/bench/kernel.csv
 #                                          and kernel.txt, about 3 minutes)
+#        scripts/bench.sh --contact        (only what contact costs: a chain lying on a plane,
+#                                          bench/contact_chain.cpp: docs/bench/contact.csv and
+#                                          contact.txt, about a minute)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 QUICK=()
@@ -27,6 +30,8 @@ elif [[ "${1:-}" == "--stability" ]]; then
   ONLY_SCENES=2
 elif [[ "${1:-}" == "--kernel" ]]; then
   ONLY_SCENES=3
+elif [[ "${1:-}" == "--contact" ]]; then
+  ONLY_SCENES=4
 elif [[ "${1:-}" == "--cores" ]]; then
   exec bash "$ROOT/scripts/compare_cores.sh" ${2:-} --csv "$OUT/cores.csv"
 fi
@@ -57,6 +62,12 @@ if ((ONLY_SCENES == 3)); then
   unstamp kernel
   "$BIN/bench_kernel" --out "$OUT" | tee "$OUT/kernel.txt"
   stamp kernel
+  exit 0
+fi
+if ((ONLY_SCENES == 4)); then
+  unstamp contact
+  "$BIN/bench_contact" --out "$OUT" | tee "$OUT/contact.txt"
+  stamp contact
   exit 0
 fi
 if ((ONLY_SCENES == 2)); then

@@ -42,7 +42,10 @@ Vec3 frictionForce(const SurfaceContact& record, ContactState& contact, const Ve
     const Vec3 v_t = tangential(v);
     const double speed = v_t.norm();
     if (speed > CONTACT_SPEED)
-      return -limit / speed * v_t;
+    {
+      contact.slip_direction = -v_t / speed;  // where friction pulls if it slows below
+      return limit * contact.slip_direction;
+    }
     const Vec3 slip = tangential(contact.slip_direction);
     return slip.norm() > 0.0 ? Vec3(limit / slip.norm() * slip) : Vec3::Zero();
   }
@@ -70,11 +73,21 @@ void recordNormalForces(const Model& model, Data& data)
 
 }  // namespace
 
+void separateContacts(const Model& model, Data& data)
+{
+  data.contacts.assign(data.contacts.size(), ContactState{});
+  data.control.start_contacts = data.contacts;
+  writeContactRows(model, data);
+}
+
 void writeContactRows(const Model& model, Data& data)
 {
   const ContactTable& table = contactTable(model);
+  const auto& w = model.inverseMasses();
   for (std::size_t k = 0; k < table.size(); ++k)
   {
+    if (!(w[table[k].record.particle] > 0.0))  // held: no free block, the row stays off
+      data.contacts[k].mode = ContactMode::Separated;
     const std::uint8_t off = acts(data.contacts[k]) ? 0 : 1;
     data.rows.inactive[table[k].first_row] = off;
     data.trial_rows.inactive[table[k].first_row] = off;
@@ -101,7 +114,7 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
   data.frictionless_multipliers = data.multipliers.head(m);
   for (int iteration = 0; iteration < MAX_FRICTION_ITERATIONS; ++iteration)
   {
-    double change = 0.0, scale = 0.0;
+    double change = 0.0, scale = 0.0, largest = 0.0;
     data.friction_forces.setZero();
     for (std::size_t k = 0; k < table.size(); ++k)
     {
@@ -117,9 +130,19 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
       const Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
       const Vec3 f = frictionForce(record, contact, normal, lambda, velocities.col(i), other);
       change = std::max(change, (f - contact.friction_force).norm());
+      largest = std::max(largest, f.norm());
       scale = std::max(scale, std::max(lambda, 0.0) * normal.norm());
       contact.friction_force = f;
       data.friction_forces.col(i) += f;
+    }
+    // the multipliers are of the forces just computed (none yet, or the last round's); friction
+    // at rounding's level (a chain at rest on a level plane) is none
+    if (iteration == 0 && largest <= FRICTION_TOLERANCE * scale)
+    {
+      data.friction_forces.setZero();
+      for (ContactState& contact : data.contacts)
+        contact.friction_force.setZero();
+      break;
     }
     if (iteration > 0 && change <= FRICTION_TOLERANCE * scale)
       break;
@@ -151,9 +174,13 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
     const ContactFrame frame =
         contactFrame(record, model.scene().surfaces, x.positions, x.velocities);
     const Vec3 v = x.velocities.col(i);
-    if (!(frame.gap <= gap && frame.normalSpeed(v) <= CONTACT_SPEED))
+    // touching: on the surface, neither leaving it nor approaching it (an approach within the
+    // gap ends in an impact, resolveImpacts, which restitution and the ledger see)
+    const double normal_speed = frame.normalSpeed(v);
+    if (!(w[i] > 0.0 && frame.gap <= gap && std::abs(normal_speed) <= CONTACT_SPEED))
     {
       contact.mode = ContactMode::Separated;
+      contact.slip_direction.setZero();
       continue;
     }
     // a candidate to stick if friction could stop its slide within the step (Coulomb over one
@@ -232,19 +259,27 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
     for (std::size_t k = 0; k < table.size(); ++k)
     {
       ContactState& contact = data.contacts[k];
-      if (acts(contact))
-        continue;
       const SurfaceContact& record = table[k].record;
+      if (acts(contact) || !(model.inverseMasses()[record.particle] > 0.0))
+        continue;
       const ContactFrame frame =
           contactFrame(record, model.scene().surfaces, x.positions, x.velocities);
       if (!(frame.gap < -settings.projection_tolerance))
         continue;
       contact.mode = ContactMode::Sliding;
       impact = true;
-      const double approach = -frame.normalSpeed(x.velocities.col(record.particle));
-      if (record.restitution > 0.0 && approach > BOUNCE_SPEED)
+      const Vec3 v = x.velocities.col(record.particle);
+      // slower than twice what the applied forces give in a step is a particle at rest
+      // landing again within the step: inelastic (else a bounce and the projection's lift
+      // cycle for ever)
+      const double resting =
+          std::max(BOUNCE_SPEED, 2.0 * settings.dt *
+                                     std::abs(frame.normal.normalized().dot(
+                                         data.free_accelerations.col(record.particle))));
+      if (record.restitution > 0.0 && -frame.normalSpeed(v) > resting)
       {
-        restitution[table[k].first_row] = record.restitution;
+        // the row's rate out of the impact: e times the rate in, J v- < 0
+        restitution[table[k].first_row] = -record.restitution * frame.normal.dot(v);
         bounce = true;
       }
     }
@@ -257,13 +292,16 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
                 settings.projection_tolerance, settings.projection_max_iterations);
     if (bounce)
     {
-      // data.rhs holds the velocity projection's multipliers (the impulses over W): Newton's law
-      // scales a bouncing contact's by 1 + e, so its normal speed leaves at e times it came in
-      restitution = restitution.cwiseProduct(data.rhs);
-      addInverseMassJacobianTranspose(model, data.rows, restitution, -1.0, x.velocities);
+      // Newton's law: each bouncing row leaves at e times its rate in, every other row at rest
+      // (links exact): J W J^T x = those rates, with the velocity projection's factorisation
+      // (of these rows at these positions), and v += W J^T x
+      data.solver().solveInPlace(restitution);
+      addInverseMassJacobianTranspose(model, data.rows, restitution, 1.0, x.velocities);
       for (std::size_t k = 0; k < table.size(); ++k)
-        if (restitution[table[k].first_row] != 0.0)
-          data.contacts[k].mode = ContactMode::Separated;
+        if (data.contacts[k].mode != ContactMode::Separated &&
+            contactFrame(table[k].record, model.scene().surfaces, x.positions, x.velocities)
+                    .normalSpeed(x.velocities.col(table[k].record.particle)) > CONTACT_SPEED)
+          data.contacts[k].mode = ContactMode::Separated;  // leaving: off
       writeContactRows(model, data);
     }
     data.noteStateChange();

@@ -25,8 +25,9 @@ namespace constrained_particles
 /// [m/s]: it touches if it approaches no faster (and its gap is within contactGap()), it may
 /// stick if it slides no faster (or no faster than friction stops it within the step).
 constexpr double CONTACT_SPEED = 1e-6;
-/// Approach speed below which an impact is inelastic whatever its restitution [m/s]: a bouncing
-/// particle comes to rest after finitely many bounces.
+/// Approach speed below which an impact is inelastic whatever its restitution [m/s] (and below
+/// twice the normal speed the applied forces give in a step): a bouncing particle comes to rest
+/// after finitely many bounces.
 constexpr double BOUNCE_SPEED = 1e-3;
 /// Friction fixed-point iterations per stage at most; it stops when no friction force changes by
 /// more than FRICTION_TOLERANCE of the largest normal force.
@@ -40,8 +41,13 @@ inline double contactGap(const StepSettings& settings)
   return 10.0 * settings.projection_tolerance;
 }
 
+/// Every contact off, its forces 0 (and so at the step's start: StepControl::start_contacts): the
+/// state was replaced from outside (a reset, a teleport), so the next step's start chooses again.
+void separateContacts(const Model& model, Data& data);
+
 /// Writes the contacts' modes into data.rows.inactive and data.trial_rows.inactive (a row acts
-/// unless its contact is ContactMode::Separated).
+/// unless its contact is ContactMode::Separated, or its particle is held: a pin, an anchor or an
+/// attachment holds it, and its contact waits until it is let go).
 void writeContactRows(const Model& model, Data& data);
 
 /// The constraint-force stage of a scene with contacts: constraintForceStage() (the rows, the

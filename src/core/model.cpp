@@ -586,10 +586,6 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
                                std::to_string(row.record.surface) + " already (constraints[" +
                                std::to_string(row.constraint) +
                                "] holds it both ways): a contact with it too is redundant");
-    if (!(w[contact.record.particle] > 0.0))
-      throw InvalidInput("constraints[" + std::to_string(contact.constraint) + "].particle",
-                         "= " + std::to_string(contact.record.particle) +
-                             " is held by a pin or anchor: a held particle cannot touch a surface");
   }
   if (model.numRows() == 0)
     model.method_ = SolveMethod::None;  // nothing to solve, whatever was asked

@@ -271,6 +271,11 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     data.contacts = data.control.start_contacts;
     writeContactRows(model, data);
     data.control.contact_loss = 0.0;
+    // velocity Verlet and fast projection evaluate no stage forces: no friction acts in their
+    // steps (docs/physics.md, "Contact"), and none is booked
+    if (method.holds_constraints)
+      for (ContactState& contact : data.contacts)
+        contact.friction_force.setZero();
   }
   for (int j = 1; j <= substeps; ++j)
   {
@@ -552,9 +557,11 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
     const EnergyLedger& ledger = data.ledger;
     // a NaN residual fails `<=`: it overdraws. A sampled holder (a frame anchor) is not judged:
     // its path's acceleration jumps at every sample, which the trapezoid of its reaction's power
-    // cannot follow, so the ledger's residual there is the quadrature's, not the method's
+    // cannot follow, so the ledger's residual there is the quadrature's, not the method's; nor is
+    // a scene with contacts: an impact found a step late is projected out of the surface, and
+    // the energy that lift books is the step's, not the motion's (docs/stability.md)
     if (outcome.failed != StepCheck::None || settings_.energy_budget <= 0.0 ||
-        !model_->tracked().empty() ||
+        !model_->tracked().empty() || model_->numContacts() > 0 ||
         ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR))
     {
       total.merge(taken);
@@ -587,6 +594,11 @@ void Simulator::putBack(const EnergyLedger& ledger_before)
   data.setState(data.control.start);  // the state stays the last accepted one
   data.ledger = ledger_before;
   data.control.multipliers_current = false;
+  if (model_->numContacts() > 0)  // and the contacts' modes the step started with
+  {
+    data.contacts = data.control.start_contacts;
+    writeContactRows(*model_, data);
+  }
 }
 
 void Simulator::acceptStep(const StepPlan& plan, const StepOutcome& outcome, StepStatistics& total)
@@ -659,6 +671,7 @@ StepStatistics Simulator::step(int count)
 void Simulator::reset()
 {
   data_->setState(initial_state_);
+  separateContacts(*model_, *data_);
   // the holders' paths were in the old run's time: each rests where its particle starts again
   restartTracks(*model_, *data_, initial_state_.positions);
   data_->state.time = 0.0;
@@ -674,8 +687,23 @@ ProjectionReport Simulator::setState(const State& state)
   State projected = state;
   projected.time = data_->state.time;
   projected.steps = data_->state.steps;
-  ProjectionReport report = projectState(*model_, *data_, settings_, projected, "positions",
-                                         "cannot be projected onto the constraints");
+  // a teleport: the contacts touching before say nothing of where it goes (the next step's start
+  // chooses); kept if it is refused
+  const std::vector<ContactState> contacts = data_->contacts;
+  separateContacts(*model_, *data_);
+  ProjectionReport report;
+  try
+  {
+    report = projectState(*model_, *data_, settings_, projected, "positions",
+                          "cannot be projected onto the constraints");
+  }
+  catch (const InvalidInput&)
+  {
+    data_->contacts = contacts;
+    data_->control.start_contacts = contacts;
+    writeContactRows(*model_, *data_);
+    throw;
+  }
   report.max_displacement = (projected.positions - state.positions).colwise().norm().maxCoeff();
   data_->setState(projected);
   forgetControl(*data_);
@@ -687,6 +715,7 @@ void Simulator::restoreState(const State& state)
 {
   model_->validateState(state);
   data_->setState(state);
+  separateContacts(*model_, *data_);
   forgetControl(*data_);
   openLedger();
 }
@@ -738,6 +767,7 @@ void Simulator::restTracks()
   const double now = data_->state.time;
   for (AnchorTrack& track : data_->tracks)
     track.restart(track.motion(now).position);
+  separateContacts(*model_, *data_);  // a teleport of the held particles: chosen again
   imposeEliminated(*model_, *data_, now, &data_->state.positions, &data_->state.velocities);
   projectVelocities(*model_, *data_, now, data_->state.positions, data_->state.velocities, false,
                     true);

@@ -74,7 +74,7 @@ double arrowForceFloor(const Model& model)
 visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& header,
                                                     const Model& model, const Points& positions,
                                                     const std::vector<ContactState>& contacts,
-                                                    double scale)
+                                                    double scale, int previous_count)
 {
   visualization_msgs::MarkerArray array;
   const auto& table = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
@@ -104,6 +104,8 @@ visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& head
       array.markers.push_back(m);
     }
   }
+  for (int id = 2 * static_cast<int>(table.size()); id < previous_count; ++id)
+    array.markers.push_back(deleteMarker(header, CONTACT_FORCE_NAMESPACE, id));
   return array;
 }
 

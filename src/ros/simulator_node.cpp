@@ -406,7 +406,9 @@ void SimulatorNode::publish()
                                std::max(published_arrows_, stale_arrows_));
     // the contacts' normal and friction forces beside the totals (they are in them)
     const visualization_msgs::MarkerArray contact_arrows =
-        contactForceMarkers(header, *snap->model, snap->state.positions, snap->contacts, scale);
+        contactForceMarkers(header, *snap->model, snap->state.positions, snap->contacts, scale,
+                            published_contact_arrows_);
+    published_contact_arrows_ = 2 * snap->model->numContacts();
     arrows.markers.insert(arrows.markers.end(), contact_arrows.markers.begin(),
                           contact_arrows.markers.end());
     force_marker_publisher_.publish(arrows);

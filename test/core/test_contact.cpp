@@ -253,25 +253,60 @@ TEST(SurfaceContact, BallBouncesToRestitutionSquaredHeight)
   EXPECT_NE(sim.data().contacts[0].mode, ContactMode::Separated);
 }
 
-// A contact's solve is sparse or dense; asking for another names the field.
-TEST(SurfaceContact, RefusesSolvesThatCannotSwitchRows)
+// A contact's solve is sparse or dense; asking for another names the field. A held particle's
+// contact stays off while it is held (a pin here; an attachment at run time).
+TEST(SurfaceContact, RefusesSolvesThatCannotSwitchRowsAndWaitsWhileHeld)
 {
   Scene scene;
-  scene.masses = { 1.0 };
+  scene.masses = { 1.0, 1.0 };
   scene.surfaces = { planeOf(0.0) };
   scene.forces = { GravityForce{} };
-  scene.constraints = { contactOf(0) };
-  EXPECT_THROW(Model::compile(scene, SolveMethod::Tree), InvalidInput);
-  EXPECT_EQ(Model::compile(scene).solveMethod(), SolveMethod::Sparse);
-  EXPECT_EQ(Model::compile(scene, SolveMethod::Dense).solveMethod(), SolveMethod::Dense);
-  scene.constraints.push_back(PinConstraint{ 0, Vec3::Zero() });
+  scene.constraints = { contactOf(0), contactOf(1), LinkConstraint{ 0, 1, 0.5 } };
   try
   {
-    Model::compile(scene);
-    FAIL() << "a held particle with a contact was accepted";
+    Model::compile(scene, SolveMethod::Tree);
+    FAIL() << "a tree solve was accepted for a scene with contacts";
   }
   catch (const InvalidInput& e)
   {
-    EXPECT_NE(std::string(e.what()).find("particle"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("solve_method"), std::string::npos) << e.what();
   }
+  EXPECT_EQ(Model::compile(scene).solveMethod(), SolveMethod::Sparse);
+  EXPECT_EQ(Model::compile(scene, SolveMethod::Dense).solveMethod(), SolveMethod::Dense);
+  // particle 0 pinned 0.2 m below the plane, particle 1 resting on it: 0 stays where it is held
+  scene.constraints.push_back(PinConstraint{ 0, Vec3(0.0, 0.0, -0.2) });
+  State start;
+  start.positions.setZero(3, 2);
+  start.positions.col(0) = Vec3(0.0, 0.0, -0.2);
+  start.positions.col(1) = Vec3(std::sqrt(0.25 - 0.04), 0.0, 0.0);
+  start.velocities.setZero(3, 2);
+  Simulator sim(scene, start, settingsOf(1e-3));
+  for (int k = 0; k < 100; ++k)
+    ASSERT_EQ(sim.step().failed_check, StepCheck::None) << k;
+  EXPECT_EQ(sim.data().contacts[0].mode, ContactMode::Separated);
+  EXPECT_EQ(sim.state().positions.col(0), Vec3(0.0, 0.0, -0.2));
+  EXPECT_NE(sim.data().contacts[1].mode, ContactMode::Separated);
+  EXPECT_GE(sim.state().positions(2, 1), -1e-10);
+}
+
+// A chain of two linked balls dropped flat with restitution bounces with its link exact: the
+// restitution impulse is solved with the rows, not added on top of them.
+TEST(SurfaceContact, BounceKeepsLinksExact)
+{
+  State start;
+  Scene scene = chainOnSurface(3, 0.3, planeOf(0.0), 0.0, start, 0.5, 0.2);
+  for (Constraint& c : scene.constraints)
+    if (auto* contact = std::get_if<SurfaceContact>(&c))
+      contact->restitution = 0.8;
+  Simulator sim(scene, start, settingsOf(1e-3));
+  int bounces = 0;
+  for (int k = 0; k < 1500; ++k)
+  {
+    const double vz = sim.state().velocities(2, 0);
+    ASSERT_EQ(sim.step().failed_check, StepCheck::None) << k;
+    bounces += vz < -0.1 && sim.state().velocities(2, 0) > 0.1;
+    ASSERT_LE(worstLinkError(sim, 3, 0.3), 1e-9) << k;
+    ASSERT_GE(sim.state().positions.row(2).minCoeff(), -1e-9) << k;
+  }
+  EXPECT_GE(bounces, 1);
 }

@@ -44,11 +44,12 @@ visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& h
 
 /// Two ARROWs per surface contact (ids 2k, 2k + 1; ns CONTACT_FORCE_NAMESPACE), from its particle
 /// along its normal force (green) and its friction (orange) [N], `scale` [m/N]; a contact that does
-/// not act, or a non-finite force, is a DELETE of its arrows.
+/// not act, or a non-finite force, is a DELETE of its arrows; so are ids in [2 contacts,
+/// previous_count) (a scene with fewer contacts than the last).
 visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& header,
                                                     const Model& model, const Points& positions,
                                                     const std::vector<ContactState>& contacts,
-                                                    double scale);
+                                                    double scale, int previous_count);
 
 /// The scene's surfaces as one TRIANGLE_LIST mesh (ns "surface", id 0) over the region's x-y
 /// extent, `cells` cells per side (2 triangles each; cells where a formula is undefined left out),

@@ -148,7 +148,8 @@ private:
   std::uint64_t frames_scene_serial_ = 0, published_scene_serial_ = 0, warned_scene_serial_ = 0;
   tf2_msgs::TFMessage tf_message_;  // frame names filled once per scene and frame count
   int published_arrows_ = 0;
-  int stale_arrows_ = 0;  // arrow ids up to this are deleted until stale_arrows_until_
+  int published_contact_arrows_ = 0;  // contact_forces ids sent last: more are deleted
+  int stale_arrows_ = 0;              // arrow ids up to this are deleted until stale_arrows_until_
   std::chrono::steady_clock::time_point stale_arrows_until_;
   std::uint64_t published_accuracy_serial_ = 0;
   std::string logged_fault_;      // diagnostics timer: the fault last logged
