@@ -26,6 +26,36 @@ bool acts(const ContactState& contact)
   return contact.mode != ContactMode::Separated;
 }
 
+// Where a unilateral row stands: its metric gap [m] (C >= 0's distance: a contact's height over
+// its surface, a slack link's length less its span) and the rate it opens [m/s]
+struct Touch
+{
+  double gap, opening;
+};
+Touch touchOf(const Model& model, const UnilateralRecord& record, const Points& positions,
+              const Points& velocities)
+{
+  if (!record.link)
+  {
+    const ContactFrame frame = contactFrame(contactTable(model)[record.table].record,
+                                            model.scene().surfaces, positions, velocities);
+    return { frame.gap, frame.normalSpeed(velocities.col(record.particles[0])) };
+  }
+  const SlackLink& link =
+      std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables())[record.table].record;
+  const Vec3 d = positions.col(link.first) - positions.col(link.second);
+  const double span = d.norm();
+  const Vec3 relative = velocities.col(link.first) - velocities.col(link.second);
+  return { link.length - span, span > 0.0 ? -d.dot(relative) / span : 0.0 };
+}
+
+// A pin, an anchor or an attachment holds every particle the row touches: it has no free block
+bool held(const Model& model, const UnilateralRecord& record)
+{
+  const auto& w = model.inverseMasses();
+  return !(w[record.particles[0]] > 0.0) && !(w[record.particles[1]] > 0.0);
+}
+
 // The friction force [N] an acting contact exerts at multiplier `lambda` (its row's J `normal`):
 // sliding, mu |f_n| against the tangential velocity `v_t` (below CONTACT_SPEED along its slip
 // direction); sticking, minus the tangential part of `other` (the particle's other forces), at
@@ -56,17 +86,19 @@ Vec3 frictionForce(const SurfaceContact& record, ContactState& contact, const Ve
   return contact.friction_demand > 1.0 ? Vec3(limit / size * needed) : needed;
 }
 
-// Each contact's normal force from the multipliers, friction from data.contacts' friction_force
+// Each row's force from the multipliers (a contact's normal force, a slack link's tension [N]);
+// friction zeroed where none acts
 void recordNormalForces(const Model& model, Data& data)
 {
   const ContactTable& table = contactTable(model);
-  for (std::size_t k = 0; k < table.size(); ++k)
+  const auto& rows = model.unilateral();
+  for (std::size_t k = 0; k < rows.size(); ++k)
   {
     ContactState& contact = data.contacts[k];
-    contact.normal_force = acts(contact) ? data.multipliers[table[k].first_row] *
-                                               data.rows.jacobian[table[k].first_block].norm()
-                                         : 0.0;
-    if (!acts(contact) || table[k].record.friction == 0.0)
+    contact.normal_force =
+        acts(contact) ? data.multipliers[rows[k].row] * data.rows.jacobian[rows[k].block].norm()
+                      : 0.0;
+    if (!acts(contact) || rows[k].link || table[rows[k].table].record.friction == 0.0)
       contact.friction_force.setZero();
   }
 }
@@ -82,15 +114,14 @@ void separateContacts(const Model& model, Data& data)
 
 void writeContactRows(const Model& model, Data& data)
 {
-  const ContactTable& table = contactTable(model);
-  const auto& w = model.inverseMasses();
-  for (std::size_t k = 0; k < table.size(); ++k)
+  const auto& rows = model.unilateral();
+  for (std::size_t k = 0; k < rows.size(); ++k)
   {
-    if (!(w[table[k].record.particle] > 0.0))  // held: no free block, the row stays off
+    if (held(model, rows[k]))  // no free block: the row stays off
       data.contacts[k].mode = ContactMode::Separated;
     const std::uint8_t off = acts(data.contacts[k]) ? 0 : 1;
-    data.rows.inactive[table[k].first_row] = off;
-    data.trial_rows.inactive[table[k].first_row] = off;
+    data.rows.inactive[rows[k].row] = off;
+    data.trial_rows.inactive[rows[k].row] = off;
   }
 }
 
@@ -166,6 +197,17 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   const ContactTable& table = contactTable(model);
   const auto& w = model.inverseMasses();
   const double gap = contactGap(settings);
+  const auto& rows = model.unilateral();
+  // a slack link acts while taut: its span within the gap of its length, neither slackening nor
+  // stretching (a stretch is a jerk, resolveImpacts)
+  for (std::size_t k = table.size(); k < rows.size(); ++k)
+  {
+    const Touch touch = touchOf(model, rows[k], x.positions, x.velocities);
+    data.contacts[k].mode =
+        !held(model, rows[k]) && touch.gap <= gap && std::abs(touch.opening) <= CONTACT_SPEED
+            ? ContactMode::Sliding
+            : ContactMode::Separated;
+  }
   for (std::size_t k = 0; k < table.size(); ++k)
   {
     const SurfaceContact& record = table[k].record;
@@ -193,7 +235,7 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   }
   writeContactRows(model, data);
   data.noteStateChange();
-  for (std::size_t iteration = 0; iteration < 2 * table.size() + 4; ++iteration)
+  for (std::size_t iteration = 0; iteration < 2 * rows.size() + 4; ++iteration)
   {
     data.stages.p_stage = x.positions;
     data.stages.v_stage = x.velocities;
@@ -202,10 +244,10 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
     // Baraff's active set: the most negative multiplier leaves, one at a time
     int worst = -1;
     double most_negative = 0.0;
-    for (std::size_t k = 0; k < table.size(); ++k)
-      if (acts(data.contacts[k]) && data.multipliers[table[k].first_row] < most_negative)
+    for (std::size_t k = 0; k < rows.size(); ++k)
+      if (acts(data.contacts[k]) && data.multipliers[rows[k].row] < most_negative)
       {
-        most_negative = data.multipliers[table[k].first_row];
+        most_negative = data.multipliers[rows[k].row];
         worst = static_cast<int>(k);
       }
     if (worst >= 0)
@@ -248,14 +290,23 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
 double resolveImpacts(const Model& model, Data& data, const StepSettings& settings, State& x)
 {
   const ContactTable& table = contactTable(model);
+  const auto& rows = model.unilateral();
   Eigen::VectorXd& restitution = data.contact_rhs;
   double before = NAN;
   // a projection onto the new rows moves the particles they are linked to, which may take another
   // contact below its surface: again, until none is (each round switches one on at least)
-  for (std::size_t round = 0; round <= table.size(); ++round)
+  for (std::size_t round = 0; round <= rows.size(); ++round)
   {
     restitution.setZero();
     bool impact = false, bounce = false;
+    // a slack link stretched past its length: it jerks taut (inelastic, with the rows)
+    for (std::size_t k = table.size(); k < rows.size(); ++k)
+      if (!acts(data.contacts[k]) && !held(model, rows[k]) &&
+          touchOf(model, rows[k], x.positions, x.velocities).gap < -settings.projection_tolerance)
+      {
+        data.contacts[k].mode = ContactMode::Sliding;
+        impact = true;
+      }
     for (std::size_t k = 0; k < table.size(); ++k)
     {
       ContactState& contact = data.contacts[k];
@@ -297,7 +348,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       // (of these rows at these positions), and v += W J^T x
       data.solver().solveInPlace(restitution);
       addInverseMassJacobianTranspose(model, data.rows, restitution, 1.0, x.velocities);
-      for (std::size_t k = 0; k < table.size(); ++k)
+      for (std::size_t k = 0; k < table.size(); ++k)  // only contacts bounce
         if (data.contacts[k].mode != ContactMode::Separated &&
             contactFrame(table[k].record, model.scene().surfaces, x.positions, x.velocities)
                     .normalSpeed(x.velocities.col(table[k].record.particle)) > CONTACT_SPEED)

@@ -20,8 +20,8 @@ void RowData::resize(const Model& model)
   max_violation = 0.0;
   // every contact starts off: the contact stage switches on those that touch (contact.hpp)
   inactive.assign(model.numContacts() > 0 ? m : 0, 0);
-  for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables()))
-    inactive[contact.first_row] = 1;
+  for (const UnilateralRecord& record : model.unilateral())
+    inactive[record.row] = 1;
 }
 
 Data::Data(const Model& model) : solver_(makeSolver(model))

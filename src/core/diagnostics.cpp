@@ -136,6 +136,10 @@ Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& 
   for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables()))
     d.max_position_error = worseError(d.max_position_error,
                                       penetration(contact.record, scene.surfaces, state.positions));
+  // a slack link's, how far over its length it is, taut or slack
+  for (const auto& link : std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables()))
+    d.max_position_error =
+        worseError(d.max_position_error, overstretch(link.record, state.positions));
   rates.resize(model.numRows());
   for (const RowRecord& record : model.rowRecords())
     violationRates(scene.constraints[record.constraint], context, state.positions, state.velocities,

@@ -574,8 +574,22 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     }
 
   const bool tridiagonal = isTridiagonal(model);
-  model.contacts_ = static_cast<int>(
-      std::get<std::vector<KindRecord<SurfaceContact>>>(model.kind_tables_).size());
+  const auto& contact_table = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kind_tables_);
+  const auto& slack_table = std::get<std::vector<KindRecord<SlackLink>>>(model.kind_tables_);
+  for (std::size_t k = 0; k < contact_table.size(); ++k)
+    model.unilateral_.push_back(
+        UnilateralRecord{ contact_table[k].first_row,
+                          contact_table[k].first_block,
+                          static_cast<int>(k),
+                          false,
+                          { contact_table[k].record.particle, contact_table[k].record.particle } });
+  for (std::size_t k = 0; k < slack_table.size(); ++k)
+    model.unilateral_.push_back(
+        UnilateralRecord{ slack_table[k].first_row,
+                          slack_table[k].first_block,
+                          static_cast<int>(k),
+                          true,
+                          { slack_table[k].record.first, slack_table[k].record.second } });
   for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kind_tables_))
   {
     for (const auto& row : std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kind_tables_))
@@ -589,18 +603,20 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
   }
   if (model.numRows() == 0)
     model.method_ = SolveMethod::None;  // nothing to solve, whatever was asked
-  else if (model.contacts_ > 0 && (method == SolveMethod::Automatic ||
-                                   method == SolveMethod::Sparse || method == SolveMethod::Dense))
+  else if (model.numContacts() > 0 &&
+           (method == SolveMethod::Automatic || method == SolveMethod::Sparse ||
+            method == SolveMethod::Dense))
   {
     // rows switching on and off (an inactive one an identity row, RowData::inactive): the
     // sparse LDL^T keeps a chain on a surface O(n) (its row graph is a forest, so the ordering
     // leaves no fill); the fused and tree solves do not take inactive rows yet
     model.method_ = method == SolveMethod::Dense ? SolveMethod::Dense : SolveMethod::Sparse;
   }
-  else if (model.contacts_ > 0)
-    throw InvalidInput("solve_method", std::string("= ") + solveMethodName(method) +
-                                           ", but the scene has surface_contact rows, which "
-                                           "switch on and off; use automatic, sparse or dense");
+  else if (model.numContacts() > 0)
+    throw InvalidInput("solve_method",
+                       std::string("= ") + solveMethodName(method) +
+                           ", but the scene has surface_contact or slack_link rows, which "
+                           "switch on and off; use automatic, sparse or dense");
   else if (method == SolveMethod::Automatic)
   {
     if (model.numRows() == 1)

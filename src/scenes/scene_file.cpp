@@ -689,7 +689,10 @@ BuiltScene buildScene(const SceneDescription& d)
     if (surface >= 0)
       scene.constraints.push_back(SurfaceConstraint{ first, surface });
     for (int i = first; i + 1 < next; ++i)
-      scene.constraints.push_back(LinkConstraint{ i, i + 1, chain.link_length });
+      if (chain.slack)
+        scene.constraints.push_back(SlackLink{ i, i + 1, chain.link_length });
+      else
+        scene.constraints.push_back(LinkConstraint{ i, i + 1, chain.link_length });
     // a particle sliding on the surface already (a row both ways), or pinned, takes no contact
     if (contact >= 0)
       for (int i = first; i < next; ++i)

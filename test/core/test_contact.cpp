@@ -310,3 +310,88 @@ TEST(SurfaceContact, BounceKeepsLinksExact)
   }
   EXPECT_GE(bounces, 1);
 }
+
+// A slack link pulls only when taut: two particles closer than its length fly apart freely.
+TEST(SlackLink, SlackPullsNothing)
+{
+  Scene scene;
+  scene.masses = { 1.0, 2.0 };
+  scene.forces = { GravityForce{} };
+  scene.constraints = { SlackLink{ 0, 1, 1.0 } };
+  State start;
+  start.positions.setZero(3, 2);
+  start.positions.col(1) = Vec3(0.5, 0.0, 0.0);
+  start.velocities.setZero(3, 2);
+  start.velocities.col(0) = Vec3(0.0, 0.3, 1.0);
+  start.velocities.col(1) = Vec3(0.0, -0.3, 1.0);
+  Simulator sim(scene, start, settingsOf(1e-3));
+  ASSERT_EQ(sim.step(500).failed_check, StepCheck::None);
+  const double t = 0.5;
+  for (int i = 0; i < 2; ++i)
+  {
+    const Vec3 free_flight =
+        start.positions.col(i) + t * start.velocities.col(i) + 0.5 * t * t * Vec3(0.0, 0.0, -9.81);
+    EXPECT_LE((sim.state().positions.col(i) - free_flight).norm(), 1e-12) << i;
+  }
+  EXPECT_EQ(sim.data().contacts[0].mode, ContactMode::Separated);
+}
+
+// A weight hung by two slack links of length l from pins 2a apart settles where they are taut,
+// h = sqrt(l^2 - a^2) below, each pulling T = m g l / (2 h); slack at the start, never over l.
+TEST(SlackLink, WeightOnTwoSlackLinksHangsWithTheStaticsTension)
+{
+  const double a = 0.3, l = 0.5, m = 1.0;
+  Scene scene;
+  scene.masses = { 1.0, m, 1.0 };
+  scene.forces = { GravityForce{}, LinearDampingForce{ 2.0 } };
+  scene.constraints = { PinConstraint{ 0, Vec3(-a, 0.0, 0.0) },
+                        PinConstraint{ 2, Vec3(a, 0.0, 0.0) }, SlackLink{ 0, 1, l },
+                        SlackLink{ 1, 2, l } };
+  State start;
+  start.positions.setZero(3, 3);
+  start.positions.col(0) = Vec3(-a, 0.0, 0.0);
+  start.positions.col(2) = Vec3(a, 0.0, 0.0);
+  start.velocities.setZero(3, 3);
+  Simulator sim(scene, start, settingsOf(1e-3));
+  for (int k = 0; k < 25000; ++k)
+  {
+    ASSERT_EQ(sim.step().failed_check, StepCheck::None) << k;
+    for (int i : { 0, 2 })
+      ASSERT_LE((sim.state().positions.col(1) - sim.state().positions.col(i)).norm(), l + 1e-9)
+          << k;
+  }
+  const double h = std::sqrt(l * l - a * a);
+  EXPECT_NEAR(sim.state().positions(2, 1), -h, 1e-9);
+  for (int k : { 0, 1 })
+  {
+    EXPECT_NE(sim.data().contacts[k].mode, ContactMode::Separated);
+    EXPECT_NEAR(sim.data().contacts[k].normal_force, m * G * l / (2.0 * h), 1e-9 * m * G);
+  }
+}
+
+// The shipped slack_rope (12 slack links between pins closer than their length), dropped and
+// settled: every link at most its length, and each particle held by its links' tensions against
+// its weight (the statics of a hanging chain).
+TEST(SlackLink, SlackRopeSettlesIntoTheStaticsOfAHangingChain)
+{
+  BuiltScene built = constrained_particles::testing::shippedScene("slack_rope");
+  for (Force& force : built.scene.forces)  // ten times the scene's damping: it settles in the run
+    if (auto* damping = std::get_if<LinearDampingForce>(&force))
+      damping->coefficient = 0.2;
+  Simulator sim(built.scene, built.initial_state, settingsOf(1e-3));
+  ASSERT_EQ(sim.step(60000).failed_check, StepCheck::None);
+  const Points& p = sim.state().positions;
+  const int n = static_cast<int>(p.cols());
+  std::vector<Vec3> pull(n, Vec3::Zero());  // each link's tension on its particles
+  for (int k = 0; k < n - 1; ++k)
+  {
+    const Vec3 d = p.col(k) - p.col(k + 1);
+    ASSERT_LE(d.norm(), 0.15 + 1e-9) << k;
+    const double tension = sim.data().contacts[k].normal_force;
+    pull[k] -= tension * d.normalized();
+    pull[k + 1] += tension * d.normalized();
+  }
+  for (int i = 1; i < n - 1; ++i)
+    EXPECT_LE((pull[i] + 0.05 * Vec3(0.0, 0.0, -9.81)).norm(), 1e-6 * 0.05 * 9.81) << i;
+  EXPECT_LE(kineticEnergy(sim.model(), sim.state()), 1e-12);
+}

@@ -197,6 +197,17 @@ struct EliminatedBlock
   int eliminated;  ///< index in eliminated() of the record holding its particle
 };
 
+/// One row the contact stage switches on and off (Model::unilateral()): a surface contact's or a
+/// slack link's, its index in its kind's table.
+struct UnilateralRecord
+{
+  int row = 0;            ///< its row
+  int block = 0;          ///< its first Jacobian block
+  int table = 0;          ///< its index in its kind's table (SurfaceContact's or SlackLink's)
+  bool link = false;      ///< a SlackLink (else a SurfaceContact)
+  int particles[2] = {};  ///< the particles it touches (a contact's twice)
+};
+
 /// A validated scene plus the structure the solver needs. Constant during a run.
 class Model
 {
@@ -403,12 +414,17 @@ public:
   {
     return chain_unlinked_;
   }
-  /// Number of SurfaceContact records (their kind table's order is Data::contacts'): their rows
-  /// switch on and off (contact.hpp), so the scene takes the generic stages and a sparse or dense
-  /// solve.
+  /// Number of rows that switch on and off (contact.hpp): the SurfaceContact records, then the
+  /// SlackLink records, each kind in its table's order, as Data::contacts holds them. A scene with
+  /// any takes the generic stages and a sparse or dense solve.
   int numContacts() const
   {
-    return contacts_;
+    return static_cast<int>(unilateral_.size());
+  }
+  /// Those rows, surface contacts first (Data::contacts' order).
+  const std::vector<UnilateralRecord>& unilateral() const
+  {
+    return unilateral_;
   }
   /// Throws InvalidInput unless the state has this model's particle count and is finite.
   /// @param field name used in messages, e.g. "state"
@@ -446,7 +462,7 @@ private:
   std::vector<int> chain_unlinked_;
   int chain_surface_rows_ = 0;
   std::vector<int> chain_surface_records_;
-  int contacts_ = 0;
+  std::vector<UnilateralRecord> unilateral_;
   PathChoice path_;
 };
 

@@ -51,6 +51,7 @@ struct ChainSpec
   std::string contact;       ///< if set, every particle stays on or above it (surface_contact)
   double friction = 0.0;     ///< the contacts' Coulomb mu [1]
   double restitution = 0.0;  ///< the contacts' Newton e [1]
+  bool slack = false;        ///< links that go slack: at most link_length, pulling only taut
 
   static constexpr auto fields()
   {
@@ -78,7 +79,9 @@ struct ChainSpec
         field("friction", &ChainSpec::friction, FieldKind::Number, &limits::FRICTION,
               "the contacts' Coulomb mu"),
         field("restitution", &ChainSpec::restitution, FieldKind::Number, &limits::RESTITUTION,
-              "the contacts' Newton e"));
+              "the contacts' Newton e"),
+        field("slack", &ChainSpec::slack, FieldKind::Flag, nullptr,
+              "its links go slack (slack_link): at most link_length apart, pulling only taut"));
   }
 };
 
