@@ -65,8 +65,7 @@ Vec3 frictionForce(const SurfaceContact& record, ContactState& contact, const Ve
 {
   const double normal_force = std::max(lambda, 0.0) * normal.norm();
   const double limit = record.friction * normal_force;
-  auto tangential = [&normal](const Vec3& x)
-  { return Vec3(x - normal * (normal.dot(x) / normal.squaredNorm())); };
+  auto tangential = [&normal](const Vec3& x) { return tangentialPart(normal, x); };
   if (contact.mode == ContactMode::Sliding)
   {
     const Vec3 v_t = tangential(v);

@@ -68,6 +68,12 @@ inline std::array<int, 1> rowParticles(const SurfaceContact& contact)
   return { { contact.particle } };
 }
 
+/// x's component in the plane normal to `normal` (not unit) [x's unit].
+inline Vec3 tangentialPart(const Vec3& normal, const Vec3& x)
+{
+  return x - normal * (normal.dot(x) / normal.squaredNorm());
+}
+
 /// The contact's frame at (x, y): the row's Jacobian (-Z_x, -Z_y, 1) [1], C and Jdot v.
 struct ContactFrame
 {
@@ -78,7 +84,7 @@ struct ContactFrame
   /// v's component in the tangent plane [m/s]
   Vec3 tangential(const Vec3& v) const
   {
-    return v - normal * (normal.dot(v) / normal.squaredNorm());
+    return tangentialPart(normal, v);
   }
   /// the speed along the unit normal, > 0 leaving the surface [m/s]
   double normalSpeed(const Vec3& v) const
