@@ -1,11 +1,13 @@
 // What contact costs (issue 35): a chain of n particles (10 g, 1 cm links) lying at rest on the
-// plane z = 0 with a surface_contact each (friction 0.3), against the same chain with no contact
-// (falling freely: the fused chain path) and the same chain with no contact on the generic stages
-// and the sparse solve (what a contact scene's path costs without the contacts). RK4 +
-// projection, dt = 1 ms, tolerance 1e-10 m. For each n, rounds of one batch of each, CPU time of
-// this thread; the table gives the median cost per particle-step of each and the median of the
-// rounds' ratios, and the exponent of the contact chain's cost per step against n fitted by least
-// squares over log n. Writes contact.csv into --out.
+// plane z = 0 with a surface_contact each (friction 0.3; the solve it takes, the tree's
+// elimination, and the sparse LDL^T), against the same chain with no contact (falling freely: the
+// fused chain path) and the same chain with no contact on the generic stages and the sparse solve
+// (what a contact scene's path costs without the contacts). RK4 + projection, dt = 1 ms,
+// tolerance 1e-10 m. For each n, rounds of one batch of each, CPU time of this thread; the table
+// gives the median cost per particle-step of each and the median of the rounds' ratios, and the
+// exponent of each one's cost per step against n fitted by least squares over log n (the chain
+// without contact's exponent is the machine's memory hierarchy: its work per particle is fixed).
+// Writes contact.csv into --out.
 // Usage: bench_contact [--quick] [--out DIR]   (scripts/bench.sh --contact runs it into docs/bench)
 #include "constrained_particles/core/simulator.hpp"
 
@@ -60,6 +62,24 @@ Simulator chainOnPlane(int n, bool contact, StagePaths paths, SolveMethod method
   return Simulator(scene, start, settings, method, paths);
 }
 
+// least-squares slope of y against x
+double slopeOf(const std::vector<double>& x, const std::vector<double>& y)
+{
+  double mx = 0, my = 0;
+  for (std::size_t k = 0; k < x.size(); ++k)
+  {
+    mx += x[k] / x.size();
+    my += y[k] / x.size();
+  }
+  double sxy = 0, sxx = 0;
+  for (std::size_t k = 0; k < x.size(); ++k)
+  {
+    sxy += (x[k] - mx) * (y[k] - my);
+    sxx += (x[k] - mx) * (x[k] - mx);
+  }
+  return sxy / sxx;
+}
+
 double timeSteps(Simulator& sim, int steps)
 {
   const double t0 = cpuSeconds();
@@ -84,55 +104,58 @@ int main(int argc, char** argv)
       quick ? std::vector<int>{ 1000, 10000 } : std::vector<int>{ 1000, 10000, 100000 };
   const int rounds = quick ? 3 : 7;
   std::ofstream csv(out + "/contact.csv");
-  csv << "n,contact_us_per_particle_step,free_fused_us_per_particle_step,"
-         "free_generic_sparse_us_per_particle_step,contact_over_fused,contact_over_generic\n";
-  std::printf("%8s %14s %14s %14s %10s %10s\n", "n", "contact [us]", "no contact", "generic sparse",
-              "c/fused", "c/generic");
-  std::vector<double> log_n, log_cost;
+  csv << "n,contact_us_per_particle_step,contact_sparse_us_per_particle_step,"
+         "free_fused_us_per_particle_step,free_generic_sparse_us_per_particle_step,"
+         "contact_over_fused,contact_over_generic\n";
+  std::printf("%8s %14s %14s %14s %14s %10s %10s\n", "n", "contact [us]", "c, sparse", "no contact",
+              "generic sparse", "c/fused", "c/generic");
+  std::vector<double> log_n;
+  std::vector<double> log_cost[4];  // contact, contact sparse, fused, generic sparse
   for (const int n : sizes)
   {
     const int steps = std::max(2, 200000 / n);
     Simulator with = chainOnPlane(n, true, StagePaths::Specialized, SolveMethod::Automatic);
+    Simulator with_sparse = chainOnPlane(n, true, StagePaths::Specialized, SolveMethod::Sparse);
     Simulator fused = chainOnPlane(n, false, StagePaths::Specialized, SolveMethod::Automatic);
     Simulator generic = chainOnPlane(n, false, StagePaths::Generic, SolveMethod::Sparse);
-    std::vector<double> c, f, g, cf, cg;
+    std::vector<double> c, cs, f, g, cf, cg;
     for (int r = 0; r < rounds; ++r)
     {
-      const double tc = timeSteps(with, steps), tf = timeSteps(fused, steps),
-                   tg = timeSteps(generic, steps);
+      const double tc = timeSteps(with, steps), ts = timeSteps(with_sparse, steps),
+                   tf = timeSteps(fused, steps), tg = timeSteps(generic, steps);
       const double scale = 1e6 / (static_cast<double>(steps) * n);
       c.push_back(tc * scale);
+      cs.push_back(ts * scale);
       f.push_back(tf * scale);
       g.push_back(tg * scale);
       cf.push_back(tc / tf);
       cg.push_back(tc / tg);
     }
     // the chain still lies on the plane, its links exact: the figures are of the case named
-    const Points& p = with.state().positions;
-    if (p.row(2).minCoeff() < -1e-9 || p.row(2).maxCoeff() > 1e-9)
-      std::fprintf(stderr, "n = %d: the chain left the plane (z in [%g, %g])\n", n,
-                   p.row(2).minCoeff(), p.row(2).maxCoeff());
-    std::printf("%8d %14.4f %14.4f %14.4f %10.2f %10.2f\n", n, median(c), median(f), median(g),
-                median(cf), median(cg));
-    csv << n << "," << median(c) << "," << median(f) << "," << median(g) << "," << median(cf) << ","
-        << median(cg) << "\n";
+    for (const Simulator* sim : { &with, &with_sparse })
+    {
+      const Points& p = sim->state().positions;
+      if (p.row(2).minCoeff() < -1e-9 || p.row(2).maxCoeff() > 1e-9)
+        std::fprintf(stderr, "n = %d: the chain left the plane (z in [%g, %g])\n", n,
+                     p.row(2).minCoeff(), p.row(2).maxCoeff());
+    }
+    std::printf("%8d %14.4f %14.4f %14.4f %14.4f %10.2f %10.2f\n", n, median(c), median(cs),
+                median(f), median(g), median(cf), median(cg));
+    csv << n << "," << median(c) << "," << median(cs) << "," << median(f) << "," << median(g) << ","
+        << median(cf) << "," << median(cg) << "\n";
     log_n.push_back(std::log(static_cast<double>(n)));
-    log_cost.push_back(std::log(median(c) * n));  // cost per step
+    const double per_step[4] = { median(c), median(cs), median(f), median(g) };
+    for (int k = 0; k < 4; ++k)
+      log_cost[k].push_back(std::log(per_step[k] * n));  // cost per step
   }
-  // least-squares slope of log(cost per step) against log n
-  double mx = 0, my = 0;
-  for (std::size_t k = 0; k < log_n.size(); ++k)
+  const char* names[4] = { "contact chain (tree solve)", "contact chain (sparse solve)",
+                           "chain without contact (fused)",
+                           "chain without contact (generic, sparse)" };
+  for (int k = 0; k < 4; ++k)
   {
-    mx += log_n[k] / log_n.size();
-    my += log_cost[k] / log_n.size();
+    std::printf("exponent of the %s's cost per step in n: %.3f\n", names[k],
+                slopeOf(log_n, log_cost[k]));
+    csv << "# exponent " << names[k] << "," << slopeOf(log_n, log_cost[k]) << "\n";
   }
-  double sxy = 0, sxx = 0;
-  for (std::size_t k = 0; k < log_n.size(); ++k)
-  {
-    sxy += (log_n[k] - mx) * (log_cost[k] - my);
-    sxx += (log_n[k] - mx) * (log_n[k] - mx);
-  }
-  std::printf("exponent of the contact chain's cost per step in n: %.3f\n", sxy / sxx);
-  csv << "# exponent," << sxy / sxx << "\n";
   return 0;
 }

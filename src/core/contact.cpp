@@ -234,12 +234,14 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   }
   writeContactRows(model, data);
   data.noteStateChange();
+  SolveReport solved;
+  bool settled = false;  // the last forward stage is of the modes chosen
   for (std::size_t iteration = 0; iteration < 2 * rows.size() + 4; ++iteration)
   {
     data.stages.p_stage = x.positions;
     data.stages.v_stage = x.velocities;
-    forward(model, data, settings, x.time, data.stages.p_stage, data.stages.v_stage,
-            data.accelerations);
+    solved = forward(model, data, settings, x.time, data.stages.p_stage, data.stages.v_stage,
+                     data.accelerations);
     // Baraff's active set: the most negative multiplier leaves, one at a time
     int worst = -1;
     double most_negative = 0.0;
@@ -265,10 +267,13 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
         slips = true;
       }
     if (!slips)
+    {
+      settled = true;
       break;
+    }
   }
   // the sticking contacts stop: their tangential velocity goes, and the rows take the change
-  const double kinetic_before = kineticEnergy(model, x);
+  double kinetic_before = 0.0;  // summed (O(n)) only when a contact has a slide to stop
   bool stopped = false;
   for (std::size_t k = 0; k < table.size(); ++k)
     if (data.contacts[k].mode == ContactMode::Sticking)
@@ -277,11 +282,24 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
       const ContactFrame frame =
           contactFrame(table[k].record, model.scene().surfaces, x.positions, x.velocities);
       const Vec3 v_t = frame.tangential(x.velocities.col(i));
-      stopped = stopped || v_t.norm() > 0.0;
+      if (!(v_t.norm() > 0.0))
+        continue;
+      if (!stopped)
+        kinetic_before = kineticEnergy(model, x);
+      stopped = true;
       x.velocities.col(i) -= v_t;
     }
   if (!stopped)
+  {
+    // the step's first stage is at this state with these modes: it takes the stage just solved
+    if (settled)
+    {
+      data.control.forward_version = data.stateVersion();
+      data.control.forward_time = x.time;
+      data.control.forward_report = solved;
+    }
     return 0.0;
+  }
   projectVelocities(model, data, x.time, x.positions, x.velocities, false, false);
   return kinetic_before - kineticEnergy(model, x);
 }

@@ -305,8 +305,10 @@ StudyResult runMethodStudy(const Scene& scene, const State& given_start,
   // the reference, and a check with another step sequence: their difference is its own error
   std::vector<Points> reference, check;
   double reference_cpu = 0.0, check_cpu = 0.0;
+  const double reference_dt =
+      Model::compile(scene).numContacts() > 0 ? STUDY_CONTACT_REFERENCE_DT : STUDY_REFERENCE_DT;
   report(0, "reference: dopri5 + projection, tol " + formatValue(STUDY_REFERENCE_TOLERANCE));
-  if (!referenceAt(scene, start, request.base, distinct, STUDY_REFERENCE_DT,
+  if (!referenceAt(scene, start, request.base, distinct, reference_dt,
                    STUDY_REFERENCE_TOLERANCE, reference, reference_cpu, cancel))
   {
     result.cancelled = true;
@@ -314,7 +316,7 @@ StudyResult runMethodStudy(const Scene& scene, const State& given_start,
   }
   report(1, "reference check: dopri5 + projection, tol " +
                 formatValue(10 * STUDY_REFERENCE_TOLERANCE));
-  if (!referenceAt(scene, start, request.base, distinct, 0.5 * STUDY_REFERENCE_DT,
+  if (!referenceAt(scene, start, request.base, distinct, 0.5 * reference_dt,
                    10 * STUDY_REFERENCE_TOLERANCE, check, check_cpu, cancel))
   {
     result.cancelled = true;

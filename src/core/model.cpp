@@ -449,7 +449,9 @@ PathChoice choosePathOf(const Model& model, StagePaths paths, const std::string&
     return { ForwardPath::Generic, "no constraint rows to solve" };
   if (model.numContacts() > 0)
     return { ForwardPath::Generic,
-             "surface_contact rows switch on and off: the generic stages and a sparse solve" };
+             std::string("surface_contact or slack_link rows switch on and off: the generic "
+                         "stages and the ") +
+                 solveMethodName(model.solveMethod()) + " solve" };
   if (model.solveMethod() == SolveMethod::Tridiagonal)
     return { ForwardPath::Generic, "a chain, but " + chain_why_not };
   if (model.solveMethod() == SolveMethod::Tree && !model.solvesTreeByRows())
@@ -603,20 +605,20 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
   }
   if (model.numRows() == 0)
     model.method_ = SolveMethod::None;  // nothing to solve, whatever was asked
-  else if (model.numContacts() > 0 &&
-           (method == SolveMethod::Automatic || method == SolveMethod::Sparse ||
-            method == SolveMethod::Dense))
+  else if (model.numContacts() > 0 && method == SolveMethod::Automatic)
   {
-    // rows switching on and off (an inactive one an identity row, RowData::inactive): the
-    // sparse LDL^T keeps a chain on a surface O(n) (its row graph is a forest, so the ordering
-    // leaves no fill); the fused and tree solves do not take inactive rows yet
-    model.method_ = method == SolveMethod::Dense ? SolveMethod::Dense : SolveMethod::Sparse;
+    // rows switching on and off (an inactive one an identity row, RowData::inactive): a contact
+    // touches one particle, so a chain or tree with contacts is still a forest of particles and
+    // rows, and the tree solve keeps it O(n) (Baraff 1996); the tridiagonal and single-row
+    // solves are for fixed row patterns
+    model.method_ = isForest(model) ? SolveMethod::Tree : SolveMethod::Sparse;
   }
-  else if (model.numContacts() > 0)
+  else if (model.numContacts() > 0 && method != SolveMethod::Tree &&
+           method != SolveMethod::Sparse && method != SolveMethod::Dense)
     throw InvalidInput("solve_method",
                        std::string("= ") + solveMethodName(method) +
                            ", but the scene has surface_contact or slack_link rows, which "
-                           "switch on and off; use automatic, sparse or dense");
+                           "switch on and off; use automatic, tree, sparse or dense");
   else if (method == SolveMethod::Automatic)
   {
     if (model.numRows() == 1)

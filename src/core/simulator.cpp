@@ -644,7 +644,8 @@ StepStatistics Simulator::step(int count)
     {
       // the active set at the step's start; stopping a sticking contact's slide is dissipation
       data.ledger.dissipated += chooseContactModes(*model_, data, settings_);
-      data.control.multipliers_current = false;
+      // its last solve is the state's (forwardAtState's), unless a stick changed the velocities
+      data.control.multipliers_current = data.control.forward_version == data.stateVersion();
       data.control.end_energies_current = false;
     }
     StepPlan plan = planStep(total);

@@ -46,6 +46,9 @@ void evaluateKind(const std::vector<KindRecord<Kind>>& table, const Model& model
         double diagonal = 0.0;
         for (int k = 0; k < Kind::PARTICLES; ++k)
           diagonal += w[particle[first + k]] * rows.jacobian[first + k].squaredNorm();
+        if constexpr (IsUnilateral<Kind>::value)
+          if (rows.inactive[row])
+            diagonal = 1.0;  // the identity row's (sparse.cpp's and dense.cpp's too)
         rows.diagonal[row] = diagonal;
       }
     }
@@ -263,6 +266,19 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
       return treeForward(model, data, time, positions, velocities, accelerations);
     case ForwardPath::Generic:
       break;
+  }
+  // a step's first stage at the state the contact stage has just solved (chooseContactModes)
+  StepControl& control = data.control;
+  const bool at_state = control.forward_version == data.stateVersion() &&
+                        positions.data() == data.state.positions.data() &&
+                        velocities.data() == data.state.velocities.data() &&
+                        time == control.forward_time;
+  control.forward_version = 0;
+  if (at_state)
+  {
+    accelerations = data.accelerations;
+    data.statistics.solve.mergeReused(control.forward_report);
+    return control.forward_report;
   }
   rowStage(model, data, time, positions, velocities, data.rows);
   appliedForceStage(model, data, positions, velocities);

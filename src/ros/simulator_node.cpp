@@ -408,7 +408,9 @@ void SimulatorNode::publish()
     const visualization_msgs::MarkerArray contact_arrows =
         contactForceMarkers(header, *snap->model, snap->state.positions, snap->contacts, scale,
                             published_contact_arrows_);
-    published_contact_arrows_ = 2 * snap->model->numContacts();
+    // two arrows a surface contact (slack links, the rest of numContacts(), have none)
+    published_contact_arrows_ = static_cast<int>(
+        2 * std::get<std::vector<KindRecord<SurfaceContact>>>(snap->model->kindTables()).size());
     arrows.markers.insert(arrows.markers.end(), contact_arrows.markers.begin(),
                           contact_arrows.markers.end());
     force_marker_publisher_.publish(arrows);

@@ -253,8 +253,9 @@ TEST(SurfaceContact, BallBouncesToRestitutionSquaredHeight)
   EXPECT_NE(sim.data().contacts[0].mode, ContactMode::Separated);
 }
 
-// A contact's solve is sparse or dense; asking for another names the field. A held particle's
-// contact stays off while it is held (a pin here; an attachment at run time).
+// A contact's solve is tree (a forest of particles and rows), sparse or dense; asking for a
+// tridiagonal or single-row solve names the field. A held particle's contact stays off while it
+// is held (a pin here; an attachment at run time).
 TEST(SurfaceContact, RefusesSolvesThatCannotSwitchRowsAndWaitsWhileHeld)
 {
   Scene scene;
@@ -264,14 +265,15 @@ TEST(SurfaceContact, RefusesSolvesThatCannotSwitchRowsAndWaitsWhileHeld)
   scene.constraints = { contactOf(0), contactOf(1), LinkConstraint{ 0, 1, 0.5 } };
   try
   {
-    Model::compile(scene, SolveMethod::Tree);
-    FAIL() << "a tree solve was accepted for a scene with contacts";
+    Model::compile(scene, SolveMethod::Tridiagonal);
+    FAIL() << "a tridiagonal solve was accepted for a scene with contacts";
   }
   catch (const InvalidInput& e)
   {
     EXPECT_NE(std::string(e.what()).find("solve_method"), std::string::npos) << e.what();
   }
-  EXPECT_EQ(Model::compile(scene).solveMethod(), SolveMethod::Sparse);
+  EXPECT_EQ(Model::compile(scene).solveMethod(), SolveMethod::Tree);
+  EXPECT_EQ(Model::compile(scene, SolveMethod::Sparse).solveMethod(), SolveMethod::Sparse);
   EXPECT_EQ(Model::compile(scene, SolveMethod::Dense).solveMethod(), SolveMethod::Dense);
   // particle 0 pinned 0.2 m below the plane, particle 1 resting on it: 0 stays where it is held
   scene.constraints.push_back(PinConstraint{ 0, Vec3(0.0, 0.0, -0.2) });
@@ -394,4 +396,69 @@ TEST(SlackLink, SlackRopeSettlesIntoTheStaticsOfAHangingChain)
   for (int i = 1; i < n - 1; ++i)
     EXPECT_LE((pull[i] + 0.05 * Vec3(0.0, 0.0, -9.81)).norm(), 1e-6 * 0.05 * 9.81) << i;
   EXPECT_LE(kineticEnergy(sim.model(), sim.state()), 1e-12);
+}
+
+// Every solve a contact scene may take gives the same motion: the tree's elimination by rows
+// (a chain with its contacts: at most 3 rows a particle) and by particles (StagePaths::Generic),
+// the sparse and the dense LDL^T, through landings (contact rows switching on) and a slack rope
+// (link rows switching, inside the tree rather than inside a particle). On the chain the tree's
+// own elimination takes every step; the rope's second pinned end, taut, is the elimination's
+// designed breakdown (tree.cpp: a row of its own collinear with its parent link), handed to the
+// sparse solve.
+TEST(SurfaceContact, EverySolveGivesTheSameMotion)
+{
+  State start;
+  const Scene dropped = chainOnSurface(10, 0.1, planeOf(0.0), 0.5, start, 0.3, 0.3);
+  start.velocities.row(0).setConstant(0.8);
+  BuiltScene rope = constrained_particles::testing::shippedScene("slack_rope");
+  struct Case
+  {
+    const Scene& scene;
+    const State& start;
+    int steps;
+    bool tree_alone;  // no step handed to the sparse fallback
+  };
+  for (const Case& c :
+       { Case{ dropped, start, 600, true }, Case{ rope.scene, rope.initial_state, 1500, false } })
+  {
+    Simulator tree_rows(c.scene, c.start, settingsOf(1e-3), SolveMethod::Automatic);
+    ASSERT_EQ(tree_rows.model().solveMethod(), SolveMethod::Tree);
+    ASSERT_TRUE(tree_rows.model().solvesTreeByRows());
+    Simulator tree_particles(c.scene, c.start, settingsOf(1e-3), SolveMethod::Tree,
+                             StagePaths::Generic);
+    ASSERT_FALSE(tree_particles.model().solvesTreeByRows());
+    Simulator sparse(c.scene, c.start, settingsOf(1e-3), SolveMethod::Sparse);
+    Simulator dense(c.scene, c.start, settingsOf(1e-3), SolveMethod::Dense);
+    int switched = 0;  // contacts that changed mode along the run: the case switches rows
+    std::vector<ContactMode> before;
+    for (const ContactState& contact : tree_rows.data().contacts)
+      before.push_back(contact.mode);
+    for (int k = 0; k < c.steps; ++k)
+    {
+      for (Simulator* sim : { &tree_rows, &tree_particles, &sparse, &dense })
+      {
+        const StepStatistics report = sim->step();
+        ASSERT_EQ(report.failed_check, StepCheck::None) << k;
+        // switched-off rows are identity rows: never a singular pivot
+        ASSERT_FALSE(report.solve.singular) << k;
+        if (c.tree_alone)
+          ASSERT_EQ(report.solve.fallbacks, 0) << k;
+      }
+      for (const Simulator* other : { &tree_particles, &sparse, &dense })
+      {
+        ASSERT_LE((other->state().positions - tree_rows.state().positions).cwiseAbs().maxCoeff(),
+                  1e-9)
+            << "step " << k << ", " << solveMethodName(other->model().solveMethod());
+        for (std::size_t q = 0; q < before.size(); ++q)
+          ASSERT_EQ(other->data().contacts[q].mode, tree_rows.data().contacts[q].mode) << k;
+      }
+      for (std::size_t q = 0; q < before.size(); ++q)
+        if (tree_rows.data().contacts[q].mode != before[q])
+        {
+          ++switched;
+          before[q] = tree_rows.data().contacts[q].mode;
+        }
+    }
+    EXPECT_GE(switched, 5);
+  }
 }

@@ -113,6 +113,13 @@ struct StepControl
   std::vector<ContactState> start_contacts;
   /// Energy the contacts' velocity jumps (impacts) took out in this attempt [J], for the ledger
   double contact_loss = 0.0;
+  /// The contact stage's last forward stage, at the state and time a step starts from
+  /// (chooseContactModes, with the modes it chose): a step's first stage there finds its rows,
+  /// multipliers, forces and Data::accelerations made, and solves nothing (counted as a reused
+  /// factorisation). Valid while Data::stateVersion() is the one it was taken at (0: none), once.
+  std::uint64_t forward_version = 0;
+  double forward_time = 0.0;          ///< its time [s]
+  SolveReport forward_report;         ///< its solve's report
   double budget_fallback_time = 0.0;  ///< the start of the step it began with [s]
 };
 

@@ -416,7 +416,8 @@ public:
   }
   /// Number of rows that switch on and off (contact.hpp): the SurfaceContact records, then the
   /// SlackLink records, each kind in its table's order, as Data::contacts holds them. A scene with
-  /// any takes the generic stages and a sparse or dense solve.
+  /// any takes the generic stages and the tree solve (automatic, where particles and rows form a
+  /// forest), the sparse or the dense one; tridiagonal and single are refused.
   int numContacts() const
   {
     return static_cast<int>(unilateral_.size());

@@ -215,6 +215,10 @@ ConstraintSolver::Pivots TreeSolver::factorizeShifted(double delta)
   const auto& row_start = model_.rowStart();
   const auto& block_particle = model_.blockParticle();
   const std::vector<Vec3>& jacobian = rows_->jacobian;
+  // a switched-off contact or slack row (RowData::inactive) has zero blocks: an identity row,
+  // pivot 1, which neither moves a particle nor judges the system
+  const std::vector<std::uint8_t>& inactive = rows_->inactive;
+  auto off = [&](int r) { return !inactive.empty() && inactive[r]; };
   delta_ = delta;
   // pivots start as the diagonal blocks m_i I and -delta, then take each child's update
   for (int i = 0; i < n; ++i)
@@ -247,9 +251,12 @@ ConstraintSolver::Pivots TreeSolver::factorizeShifted(double delta)
         for (int c = 0; c < k; ++c)
           g.col(c) = jacobian[inner_[first + c].block];
         double pivot = 0.0;
+        bool acting = false;
+        for (int c = 0; c < k; ++c)
+          acting = acting || !off(inner_[first + c].row);
         if (k == 1)  // the usual case (a surface, a link to a pin): no matrix
         {
-          pivot = g.col(0).dot(inverse * g.col(0)) + delta;
+          pivot = acting ? g.col(0).dot(inverse * g.col(0)) + delta : 1.0;
           inner_scalar_[node] = pivot;
         }
         else
@@ -259,10 +266,14 @@ ConstraintSolver::Pivots TreeSolver::factorizeShifted(double delta)
           weighted.noalias() = inverse * g;
           s.noalias() = g.transpose() * weighted;
           s.diagonal().array() += delta;
+          for (int c = 0; c < k; ++c)
+            if (off(inner_[first + c].row))
+              s(c, c) = 1.0;
           inner_ldlt_[node].compute(s);
           pivot = inner_ldlt_[node].vectorD().minCoeff();
         }
-        judge(pivot, w[node] * g.colwise().squaredNorm().maxCoeff() + delta);
+        if (acting)
+          judge(pivot, w[node] * g.colwise().squaredNorm().maxCoeff() + delta);
       }
       if (parent >= 0)
       {
@@ -286,7 +297,7 @@ ConstraintSolver::Pivots TreeSolver::factorizeShifted(double delta)
         }
         // the particle's own rows cancel nearly all of its mobility along this row: the
         // difference has lost its digits, and this order of elimination cannot go on
-        if (k > 0 && delta == 0.0 && !(mobility > MOBILITY_KEPT * free_mobility))
+        if (k > 0 && delta == 0.0 && !off(e.row) && !(mobility > MOBILITY_KEPT * free_mobility))
         {
           broke_down_ = true;
           return { false, min_ratio };
@@ -296,6 +307,11 @@ ConstraintSolver::Pivots TreeSolver::factorizeShifted(double delta)
       continue;
     }
     const int r = node - n;
+    if (off(r))
+    {
+      row_inverse_[r] = -1.0;  // its blocks are zero: nothing to hand to the parent
+      continue;
+    }
     const double pivot = -row_inverse_[r];  // >= 0: the row's mobility through its children
     // a row is a root only when it touches no free particle: nothing moves it
     double diagonal = 0.0;

@@ -7,7 +7,8 @@
 // saddle-point matrix, which stays O(n) on a star too: this one takes over only while every
 // particle has at most four rows, and only on StagePaths::Specialized: Model::solvesTreeByRows()).
 // J W J^T is positive semi-definite, so pivots without pivoting only shrink towards zero, which is
-// how singular systems show (as in tridiagonal.cpp, its one-parent special case).
+// how singular systems show (as in tridiagonal.cpp, its one-parent special case). A switched-off
+// contact or slack row (RowData::inactive) has zero blocks and diagonal 1: an identity row.
 #include "solver.hpp"
 
 #include <vector>
