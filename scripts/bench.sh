@@ -15,7 +15,7 @@
 #                                          and kernel.txt, about 3 minutes)
 #        scripts/bench.sh --contact        (only what contact costs: a chain lying on a plane,
 #                                          bench/contact_chain.cpp: docs/bench/contact.csv and
-#                                          contact.txt, about a minute)
+#                                          contact.txt, about 3 minutes)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 QUICK=()
