@@ -32,6 +32,8 @@ def check(path, background, grid):
     pixels = mpimg.imread(path)
     if pixels.dtype != np.uint8:
         pixels = np.round(pixels * 255.0)
+    if pixels.ndim == 2:  # a grey image (an rviz window not drawn yet): grey as R = G = B
+        pixels = np.stack([pixels] * 3, axis=2)
     rgb = pixels[:, :, :3].astype(float)
     is_background = np.all(np.abs(rgb - background) <= 3.0, axis=2)
     if not is_background.any():

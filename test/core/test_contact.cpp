@@ -462,3 +462,38 @@ TEST(SurfaceContact, EverySolveGivesTheSameMotion)
     EXPECT_GE(switched, 5);
   }
 }
+
+// A teleport (~set_state) that would put a contact's particle below its surface is refused,
+// naming it, and changes nothing; one on or above it is taken.
+TEST(SurfaceContact, TeleportBelowTheSurfaceIsRefusedAndChangesNothing)
+{
+  State start;
+  const Scene scene = chainOnSurface(5, 0.2, planeOf(0.0), 0.3, start);
+  Simulator sim(scene, start, settingsOf(1e-3));
+  sim.step(10);
+  const State before = sim.state();
+  std::vector<ContactMode> modes;
+  for (const ContactState& contact : sim.data().contacts)
+    modes.push_back(contact.mode);
+  State below = before;
+  below.positions(2, 3) = -1e-3;  // the links allow it (the chain bends), the plane does not
+  try
+  {
+    sim.setState(below);
+    FAIL() << "a teleport 1 mm below the plane was accepted";
+  }
+  catch (const InvalidInput& e)
+  {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("positions[3]"), std::string::npos) << message;
+    EXPECT_NE(message.find("below surface 0"), std::string::npos) << message;
+  }
+  EXPECT_EQ(sim.state().positions, before.positions);
+  EXPECT_EQ(sim.state().velocities, before.velocities);
+  for (std::size_t k = 0; k < modes.size(); ++k)
+    EXPECT_EQ(sim.data().contacts[k].mode, modes[k]) << k;
+  State above = before;
+  above.positions(2, 3) = 1e-3;
+  EXPECT_NO_THROW(sim.setState(above));
+  EXPECT_EQ(sim.step(100).failed_check, StepCheck::None);
+}

@@ -40,7 +40,8 @@ CHAIN_COUNTS = {"chain": 5, "surface_chain": 5, "pinned_pendulum": 4, "two_chain
                 "mobile": 3, "shaken_chain": 6, "stiff_rod": 4, "hold_the_rope": 8,
                 "surface_chain_contact": 5, "friction_ramp": 4, "rope_on_table": 20}
 # scenes with a surface_contact: a chain or surface change that would start a particle below the
-# surface is refused, naming the particle (a request valid field by field may be)
+# surface, or a teleport that would put one there, is refused, naming the particle (a request
+# valid field by field may be)
 CONTACT_SCENES = {"surface_chain_contact", "friction_ramp", "rope_on_table", "dome"}
 
 
@@ -237,7 +238,9 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
                         moved = [Point(p.x + rng.uniform(-1e-3, 1e-3), p.y + rng.uniform(-1e-3, 1e-3),
                                        p.z + rng.uniform(-1e-3, 1e-3)) for p in state.positions]
                         r = self.set_state(moved, [])
-                        tally.record("set_state", True, r.success, r.message)
+                        # a contact particle moved below its surface is refused, naming it
+                        tally.record("set_state", not contact_refusal(scene, True, r), r.success,
+                                     r.message)
                         continue
                 count = rng.choice([0, particles - 1, particles + 1, particles, 10**4])
                 count = max(count, 0)

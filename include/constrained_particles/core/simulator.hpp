@@ -55,7 +55,9 @@ public:
 
   /// Teleports to a state, projected onto the constraints (eliminated particles exact); time and
   /// step count are kept from the current state.
-  /// @throws InvalidInput if the state is malformed or cannot be projected; state untouched
+  /// @throws InvalidInput if the state is malformed or cannot be projected, or puts a free
+  /// particle below the surface its surface_contact keeps it above (by over CONTACT_START_DEPTH,
+  /// field "positions[i]"); state and contacts untouched
   ProjectionReport setState(const State& state);
 
   /// Replaces the scene and initial state, and resets. @throws InvalidInput; nothing changes
