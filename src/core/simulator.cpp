@@ -698,24 +698,15 @@ ProjectionReport Simulator::setState(const State& state)
     report = projectState(*model_, *data_, settings_, projected, "positions",
                           "cannot be projected onto the constraints");
     // below a contact's surface it is refused, as a scene starting there is: the next step would
-    // take the jump as an impact as deep as it (the deepest particle named)
-    double deepest = CONTACT_START_DEPTH;
-    const SurfaceContact* below = nullptr;
-    for (const auto& entry :
-         std::get<std::vector<KindRecord<SurfaceContact>>>(model_->kindTables()))
-    {
-      const double depth = penetration(entry.record, model_->scene().surfaces, projected.positions);
-      if (model_->inverseMasses()[entry.record.particle] > 0.0 && depth > deepest)
-      {
-        deepest = depth;
-        below = &entry.record;
-      }
-    }
-    if (below)
-      throw InvalidInput("positions[" + std::to_string(below->particle) + "]",
-                         "would put particle " + std::to_string(below->particle) + " " +
-                             formatValue(deepest) + " m below surface " +
-                             std::to_string(below->surface) +
+    // take the jump as an impact as deep as it
+    const BelowSurface below =
+        deepestBelowSurface(model_->scene().constraints, model_->scene().surfaces,
+                            projected.positions, &model_->inverseMasses());
+    if (below.contact)
+      throw InvalidInput("positions[" + std::to_string(below.contact->particle) + "]",
+                         "would put particle " + std::to_string(below.contact->particle) + " " +
+                             formatValue(below.depth) + " m below surface " +
+                             std::to_string(below.contact->surface) +
                              " (after projecting onto the constraints), which its "
                              "surface_contact keeps it above; place it on or above the surface");
   }

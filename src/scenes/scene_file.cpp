@@ -735,18 +735,16 @@ BuiltScene buildScene(const SceneDescription& d)
       }
   // a contact's particle starts on or above its surface: below it, the first step would have to
   // lift it out (an impact as deep as the start is wrong), so the file is refused, saying where
-  for (const Constraint& constraint : scene.constraints)
-    if (const auto* contact = std::get_if<SurfaceContact>(&constraint))
-    {
-      const double depth = penetration(*contact, scene.surfaces, state.positions);
-      if (depth > CONTACT_START_DEPTH)
-        throw InvalidInput(
-            "particle " + std::to_string(contact->particle) + " position.z",
-            "= " + formatValue(state.positions(2, contact->particle)) +
-                " where the scene places it, " + formatValue(depth) + " m below surface '" +
-                d.surfaces[contact->surface].name +
-                "', which its surface_contact keeps it above; start it on or above the surface");
-    }
+  // (the deepest one)
+  if (const BelowSurface below =
+          deepestBelowSurface(scene.constraints, scene.surfaces, state.positions);
+      below.contact)
+    throw InvalidInput(
+        "particle " + std::to_string(below.contact->particle) + " position.z",
+        "= " + formatValue(state.positions(2, below.contact->particle)) +
+            " where the scene places it, " + formatValue(below.depth) + " m below surface '" +
+            d.surfaces[below.contact->surface].name +
+            "', which its surface_contact keeps it above; start it on or above the surface");
   // a value taken from the start (an angle) is checked like one written in the file
   for (std::size_t k = 0; k < d.constraints.size(); ++k)
     validateConstraint(scene.constraints[first_own + k], n, static_cast<int>(scene.surfaces.size()),

@@ -497,3 +497,31 @@ TEST(SurfaceContact, TeleportBelowTheSurfaceIsRefusedAndChangesNothing)
   EXPECT_NO_THROW(sim.setState(above));
   EXPECT_EQ(sim.step(100).failed_check, StepCheck::None);
 }
+
+// A scene file starting a contact's particle below its surface is refused, naming the deepest
+// one (the chain dips across the plane z = 0: particle 3 the deepest, 0.03 m down).
+TEST(SurfaceContact, SceneStartingBelowTheSurfaceIsRefusedNamingTheDeepest)
+{
+  const std::string yaml =
+      "name: dipping\n"
+      "surfaces:\n"
+      "  ground: {type: plane, coefficients: [0.0, 0.0, 0.0]}\n"
+      "chains:\n"
+      "  - particles: 4\n"
+      "    link_length: 0.1\n"
+      "    particle_mass: 0.05\n"
+      "    start: [0.0, 0.0, 0.0]\n"
+      "    direction: [1.0, 0.0, -0.1]\n"
+      "    contact: ground\n";
+  try
+  {
+    buildScene(parseScene(yaml, "test"));
+    FAIL() << "a chain starting below its contact surface was accepted";
+  }
+  catch (const InvalidInput& e)
+  {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("particle 3 position.z"), std::string::npos) << message;
+    EXPECT_NE(message.find("below surface 'ground'"), std::string::npos) << message;
+  }
+}

@@ -190,6 +190,34 @@ inline bool isTracked(const Constraint& constraint)
                     constraint);
 }
 
+/// A surface_contact's particle below its surface: the record and how deep [m].
+struct BelowSurface
+{
+  const SurfaceContact* contact = nullptr;  ///< nullptr: none deeper than CONTACT_START_DEPTH
+  double depth = 0.0;
+};
+
+/// The surface_contact of `constraints` whose particle lies deepest below its surface at
+/// `positions` (3 x n) [m], by more than CONTACT_START_DEPTH; particles with a zero entry in
+/// `inverse_masses` (held), when given, are skipped. A scene may not start one there
+/// (scenes/scene_file.cpp) nor a teleport put one there (Simulator::setState).
+inline BelowSurface deepestBelowSurface(const std::vector<Constraint>& constraints,
+                                        const std::vector<Surface>& surfaces,
+                                        const Points& positions,
+                                        const std::vector<double>* inverse_masses = nullptr)
+{
+  BelowSurface deepest{ nullptr, CONTACT_START_DEPTH };
+  for (const Constraint& constraint : constraints)
+    if (const auto* contact = std::get_if<SurfaceContact>(&constraint))
+    {
+      const double depth = penetration(*contact, surfaces, positions);
+      const bool free = !inverse_masses || (*inverse_masses)[contact->particle] > 0.0;
+      if (free && depth > deepest.depth)
+        deepest = { contact, depth };
+    }
+  return deepest;
+}
+
 /// The motion one eliminated record of kind `Kind` imposes at `time` [s]; a tracked kind reads
 /// tracks[record.track] (Data::tracks), and rests at its hold if `tracks` is too short.
 template <typename Kind>
