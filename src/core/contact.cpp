@@ -142,6 +142,8 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
   const int m = model.numRows();
   const auto& w = model.inverseMasses();
   data.frictionless_multipliers = data.multipliers.head(m);
+  bool converged = false;
+  double last_change = 0.0, last_scale = 0.0;
   for (int iteration = 0; iteration < MAX_FRICTION_ITERATIONS; ++iteration)
   {
     double change = 0.0, scale = 0.0, largest = 0.0;
@@ -172,10 +174,16 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
       data.friction_forces.setZero();
       for (ContactState& contact : data.contacts)
         contact.friction_force.setZero();
+      converged = true;
       break;
     }
+    last_change = change;
+    last_scale = scale;
     if (iteration > 0 && change <= FRICTION_TOLERANCE * scale)
+    {
+      converged = true;
       break;
+    }
     for (int i = 0; i < model.numParticles(); ++i)
       data.friction_accelerations.col(i) = w[i] * data.friction_forces.col(i);
     multiplyJacobian(model, data.rows, data.friction_accelerations, data.contact_rhs);
@@ -185,9 +193,24 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
     addJacobianTranspose(model, data.rows, data.multipliers.head(m), 1.0, data.constraint_forces);
     addEliminatedReactions(model, data);
   }
+  // at the limit the last iterate stands; a change above FRICTION_REPORT_TOLERANCE is reported
+  if (!converged && !(last_change <= FRICTION_REPORT_TOLERANCE * last_scale))
+    ++data.control.unconverged_friction;
   data.constraint_forces += data.friction_forces;  // on free particles only: no reaction changes
   recordNormalForces(model, data);
   return report;
+}
+
+void kickFriction(const Model& model, const Data& data, double dt, Points& velocities)
+{
+  const ContactTable& table = contactTable(model);
+  const auto& w = model.inverseMasses();
+  for (std::size_t k = 0; k < table.size(); ++k)
+    if (acts(data.contacts[k]) && table[k].record.friction > 0.0)
+    {
+      const int i = table[k].record.particle;
+      velocities.col(i) += (dt * w[i]) * data.contacts[k].friction_force;
+    }
 }
 
 double chooseContactModes(const Model& model, Data& data, const StepSettings& settings)
@@ -222,6 +245,7 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
     {
       contact.mode = ContactMode::Separated;
       contact.slip_direction.setZero();
+      contact.friction_force.setZero();
       continue;
     }
     // a candidate to stick if friction could stop its slide within the step (Coulomb over one
@@ -253,7 +277,9 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
       }
     if (worst >= 0)
     {
+      // off, with no force (velocity Verlet and fast projection read the forces it holds)
       data.contacts[worst].mode = ContactMode::Separated;
+      data.contacts[worst].friction_force.setZero();
       writeContactRows(model, data);
       continue;
     }
@@ -335,6 +361,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       if (!(frame.gap < -settings.projection_tolerance))
         continue;
       contact.mode = ContactMode::Sliding;
+      contact.friction_force.setZero();  // friction acts from the next step's start
       impact = true;
       const Vec3 v = x.velocities.col(record.particle);
       // slower than twice what the applied forces give in a step is a particle at rest
@@ -369,7 +396,10 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
         if (data.contacts[k].mode != ContactMode::Separated &&
             contactFrame(table[k].record, model.scene().surfaces, x.positions, x.velocities)
                     .normalSpeed(x.velocities.col(table[k].record.particle)) > CONTACT_SPEED)
+        {
           data.contacts[k].mode = ContactMode::Separated;  // leaving: off
+          data.contacts[k].friction_force.setZero();
+        }
       writeContactRows(model, data);
     }
     data.noteStateChange();

@@ -33,6 +33,10 @@ constexpr double BOUNCE_SPEED = 1e-3;
 /// more than FRICTION_TOLERANCE of the largest normal force.
 constexpr int MAX_FRICTION_ITERATIONS = 100;
 constexpr double FRICTION_TOLERANCE = 1e-13;
+/// A stage whose friction still changed by more than this fraction of the largest normal force at
+/// MAX_FRICTION_ITERATIONS is counted (StepStatistics::unconverged_friction): on chains with
+/// sticking contacts the change can stall at a constant (docs/physics.md, "Contact")
+constexpr double FRICTION_REPORT_TOLERANCE = 1e-9;
 
 /// A contact touches if its gap is at most this [m]: 10 projection tolerances, so a contact the
 /// projection holds on its surface is touching.
@@ -58,6 +62,13 @@ void writeContactRows(const Model& model, Data& data);
 /// data.constraint_forces include it; data.contacts get each contact's forces.
 SolveReport contactForceStage(const Model& model, Data& data, const Points& velocities,
                               const Eigen::VectorXd* bias);
+
+/// velocities += dt W f_t, f_t each acting contact's friction force [N] as data.contacts hold it
+/// (the step's start: chooseContactModes' solve). For the integrators that hold the constraints
+/// themselves (velocity Verlet, fast projection): they evaluate no stage forces, so friction is
+/// an explicit force there, held over the step (exact while it is constant, as on a plane; first
+/// order where it turns within a step). `velocities`: 3 x numParticles() [m/s]; dt [s].
+void kickFriction(const Model& model, const Data& data, double dt, Points& velocities);
 
 /// The active set at the state's start of a step: contacts within contactGap() and approaching
 /// no faster than CONTACT_SPEED act (sticking if they slide slower than friction stops them in

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <string>
+#include <utility>
 
 namespace constrained_particles
 {
@@ -66,11 +67,13 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
                  else
                    in += p;
                });
-  // friction, at its last stage's value (contact.hpp): it only dissipates
+  // friction, at its last stage's value (contact.hpp; the step start's under velocity Verlet and
+  // fast projection), of the contacts acting: it only dissipates
   const auto& contacts = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
   for (std::size_t k = 0; k < contacts.size(); ++k)
-    dissipated -=
-        data.contacts[k].friction_force.dot(x.velocities.col(contacts[k].record.particle));
+    if (data.contacts[k].mode != ContactMode::Separated)
+      dissipated -=
+          data.contacts[k].friction_force.dot(x.velocities.col(contacts[k].record.particle));
 }
 
 // The power the driven anchors put in through their reactions [W]: sum_k r_k . v_k, r_k = m a -
@@ -120,6 +123,7 @@ void forgetControl(Data& data)
   data.control.singular = false;
   data.control.multipliers_current = false;
   data.control.end_energies_current = false;
+  data.control.unconverged_friction = 0;
 }
 
 // Every tracked record (a frame anchor) at rest where its particle is in `positions`, no knot.
@@ -271,11 +275,6 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     data.contacts = data.control.start_contacts;
     writeContactRows(model, data);
     data.control.contact_loss = 0.0;
-    // velocity Verlet and fast projection evaluate no stage forces: no friction acts in their
-    // steps (docs/physics.md, "Contact"), and none is booked
-    if (method.holds_constraints)
-      for (ContactState& contact : data.contacts)
-        contact.friction_force.setZero();
   }
   for (int j = 1; j <= substeps; ++j)
   {
@@ -363,11 +362,18 @@ double Simulator::drivenPower()
     return 0.0;
   // the reactions at the current state with the forces acting now; what the evaluation solved
   // is no step's
+  forwardUncounted();
+  return drivePower(*model_, *data_);
+}
+
+void Simulator::forwardUncounted()
+{
   Data& data = *data_;
   const StepStatistics kept = data.statistics;
+  const long friction = data.control.unconverged_friction;
   forwardAtState();
   data.statistics = kept;
-  return drivePower(*model_, data);
+  data.control.unconverged_friction = friction;
 }
 
 void Simulator::bookStep(double dt, bool end_energies)
@@ -665,6 +671,8 @@ StepStatistics Simulator::step(int count)
     acceptStep(plan, outcome, total);
   }
   total.effects = data.counters.since(before);
+  // the batch's friction solves that stopped at their iteration limit (its steps' every attempt)
+  total.unconverged_friction = std::exchange(data.control.unconverged_friction, 0);
   data.statistics = total;
   return total;
 }
@@ -847,7 +855,7 @@ Diagnostics Simulator::diagnostics() const
 
 void Simulator::constraintForces(Points& forces, Eigen::VectorXd& multipliers)
 {
-  forwardAtState();
+  forwardUncounted();
   forces = data_->constraint_forces;
   multipliers = data_->multipliers;
 }

@@ -63,6 +63,7 @@ void StepStatistics::merge(const StepStatistics& later)
   max_substeps = std::max(max_substeps, later.max_substeps);
   rejected_steps += later.rejected_steps;
   stiff_steps += later.stiff_steps;
+  unconverged_friction += later.unconverged_friction;
   for (int k = 0; k < NUM_STEP_CHECKS; ++k)
     rejections[k] += later.rejections[k];
   if (failed_check == StepCheck::None)

@@ -81,6 +81,8 @@ const CountField COUNT_FIELDS[] = {
     [](const StepStatistics& s) -> long { return s.rejected_steps; } },
   { &SimState::stiff_steps, "steps taken by fast_projection (stiff fallback)",
     [](const StepStatistics& s) -> long { return s.stiff_steps; } },
+  { &SimState::unconverged_friction, "friction fixed points unconverged",
+    [](const StepStatistics& s) -> long { return s.unconverged_friction; } },
 };
 
 const RealField<StepStatistics> STATISTICS_FIELDS[] = {

@@ -197,15 +197,20 @@ class CompareMethodsTest(WallClockWaits, unittest.TestCase):
         self.assertEqual(len(result.runs), 0)
         self.assertEqual(feedback[-1].done, at_cancel.done, seen)
         # inside a method's run: the references of 20 s take a fifth of a second here (minutes at
-        # low priority under a sanitizer: 100 s took over 240 s in CI's ASan pass), the run
-        # 2 x 10^7 steps (about 5 s of CPU here, far longer under a sanitizer or a loaded machine)
+        # low priority under a sanitizer: 100 s took over 240 s in CI's ASan pass), each run
+        # 2 x 10^7 steps (about 5 s of CPU here, far longer under a sanitizer or a loaded machine).
+        # A busy client may see the feedback of the first run late, when it has ended (done 3 at
+        # the cancel, seen once): whichever run the cancel lands in, it ends the study there, the
+        # runs before it kept and no other begun
         at_cancel, feedback, result, seconds = self.cancel_once_under_way(
-            CompareMethodsGoal(horizon=20.0, methods=[slow, slow]), lambda f: f.done >= 2)
-        self.assertEqual(at_cancel.done, 2, at_cancel.current)
+            CompareMethodsGoal(horizon=20.0, methods=[slow, slow, slow]), lambda f: f.done >= 2)
+        seen = [(f.done, f.current) for f in feedback]
+        self.assertGreaterEqual(at_cancel.done, 2, seen)
         self.assertEqual(at_cancel.current, "explicit_euler + none, dt 1e-06")
-        # no run finished: the cancel was seen inside the first
-        self.assertEqual(len(result.runs), 0, result.message)
-        self.assertEqual(feedback[-1].done, 2)
+        # the last feedback is of the run the cancel landed in (done = its index + 2): the runs
+        # before it are kept and it did not finish, nor did another begin
+        self.assertIn(feedback[-1].done, (2, 3, 4), seen)
+        self.assertEqual(len(result.runs), feedback[-1].done - 2, result.message)
         self.assertLess(seconds, 10.0)
 
     def test_a_cancel_at_any_moment_ends_the_goal(self):

@@ -83,28 +83,22 @@ TEST(StateMessage, EveryStatisticReachesItsFieldAndKey)
   s.max_substeps = 13;
   s.rejected_steps = 14;
   s.stiff_steps = 15;
+  s.unconverged_friction = 16;
   s.solve.min_pivot_ratio = 0.5;
   s.max_frequency = std::numeric_limits<double>::infinity();
   s.projection.converged = false;
   s.rejections[static_cast<int>(StepCheck::EnergyRise)] = 2;
   SimState msg;
   fillStatistics(s, msg);
-  const std::uint32_t counts[] = { msg.interval_steps,
-                                   msg.factorizations,
-                                   msg.reused_factorizations,
-                                   msg.singular_solves,
-                                   msg.solve_fallbacks,
-                                   msg.projections,
-                                   msg.projection_iterations,
-                                   msg.max_projection_iterations,
-                                   msg.internal_steps,
-                                   msg.rejected_internal_steps,
-                                   msg.forced_internal_steps,
-                                   msg.substeps,
-                                   msg.max_substeps_per_step,
-                                   msg.rejected_steps,
-                                   msg.stiff_steps };
-  for (std::uint32_t k = 0; k < 15; ++k)
+  const std::uint32_t counts[] = { msg.interval_steps,        msg.factorizations,
+                                   msg.reused_factorizations, msg.singular_solves,
+                                   msg.solve_fallbacks,       msg.projections,
+                                   msg.projection_iterations, msg.max_projection_iterations,
+                                   msg.internal_steps,        msg.rejected_internal_steps,
+                                   msg.forced_internal_steps, msg.substeps,
+                                   msg.max_substeps_per_step, msg.rejected_steps,
+                                   msg.stiff_steps,           msg.unconverged_friction };
+  for (std::uint32_t k = 0; k < 16; ++k)
     EXPECT_EQ(counts[k], k + 1) << "count field " << k;
   EXPECT_EQ(msg.min_pivot_ratio, 0.5);
   // never inf on a topic
@@ -117,9 +111,10 @@ TEST(StateMessage, EveryStatisticReachesItsFieldAndKey)
   EXPECT_EQ(entries.at("steps in the last second"), "1");
   EXPECT_EQ(entries.at("steps taken by fast_projection (stiff fallback)"), "15");
   EXPECT_EQ(entries.at("projections converged"), "no");
+  EXPECT_EQ(entries.at("friction fixed points unconverged"), "16");
   EXPECT_EQ(entries.at("steps retaken, by check"),
             std::string(stepCheckName(StepCheck::EnergyRise)) + ":2");
-  EXPECT_EQ(entries.size(), 15u + 2u + 3u);
+  EXPECT_EQ(entries.size(), 16u + 2u + 3u);
 }
 
 TEST(StateMessage, ACountBeyondSimStatesRangeIsSaturatedNotWrapped)

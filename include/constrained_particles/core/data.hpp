@@ -118,8 +118,11 @@ struct StepControl
   /// multipliers, forces and Data::accelerations made, and solves nothing (counted as a reused
   /// factorisation). Valid while Data::stateVersion() is the one it was taken at (0: none), once.
   std::uint64_t forward_version = 0;
-  double forward_time = 0.0;          ///< its time [s]
-  SolveReport forward_report;         ///< its solve's report
+  double forward_time = 0.0;   ///< its time [s]
+  SolveReport forward_report;  ///< its solve's report
+  /// Friction fixed points stopped at MAX_FRICTION_ITERATIONS (contactForceStage) since
+  /// Simulator::step() last took them into StepStatistics::unconverged_friction
+  long unconverged_friction = 0;
   double budget_fallback_time = 0.0;  ///< the start of the step it began with [s]
 };
 

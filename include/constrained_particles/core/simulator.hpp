@@ -184,6 +184,9 @@ private:
 
   /// Every stage at the current state (forces, multipliers, accelerations), on copies of it.
   void forwardAtState();
+  /// forwardAtState() outside any step (what it solves is no step's): data_->statistics and the
+  /// friction count (StepControl::unconverged_friction) kept.
+  void forwardUncounted();
   /// forwardAtState() within a step, its solve merged into `total`.
   void evaluateCurrentState(StepStatistics& total);
 

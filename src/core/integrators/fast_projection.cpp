@@ -6,6 +6,7 @@
 // forces are implicit, so the step stays bounded at any dt however stiff the links make the
 // chain; it is first order and dissipative (energy is lost at O(dt) per unit time). Applied
 // forces are explicit: a stiff spring still needs a small dt. Holds the constraints itself.
+#include "../contact.hpp"
 #include "../stabilization.hpp"
 #include "../stages.hpp"
 
@@ -33,6 +34,8 @@ void step(const Model& model, Data& data, const StepSettings& settings)
   const auto& w = model.inverseMasses();
   for (int i = 0; i < model.numParticles(); ++i)
     v.col(i) += (dt * w[i]) * data.applied_forces.col(i);
+  if (model.numContacts() > 0)  // friction as it stood at the step's start (contact.hpp)
+    kickFriction(model, data, dt, v);
   p += dt * v;
   s.p_unprojected = p;  // p*
   const ProjectionReport report =

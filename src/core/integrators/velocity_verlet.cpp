@@ -2,6 +2,7 @@
 // drift, SHAKE onto C = 0 (the constraint impulse), a half kick, RATTLE onto J v = 0. Second
 // order, symplectic; holds the constraints to projection_tolerance every step itself, so it
 // ignores `stabilization`.
+#include "../contact.hpp"
 #include "../stabilization.hpp"
 #include "../stages.hpp"
 
@@ -11,12 +12,15 @@ namespace constrained_particles
 {
 namespace
 {
-// v += dt/2 W f (eliminated particles: W = 0)
+// v += dt/2 W f (eliminated particles: W = 0), f the applied forces and the contacts' friction
+// at the step's start (contact.hpp)
 void halfKick(const Model& model, Data& data, double dt, Points& velocities)
 {
   const auto& w = model.inverseMasses();
   for (int i = 0; i < model.numParticles(); ++i)
     velocities.col(i) += (0.5 * dt * w[i]) * data.applied_forces.col(i);
+  if (model.numContacts() > 0)
+    kickFriction(model, data, 0.5 * dt, velocities);
 }
 
 void step(const Model& model, Data& data, const StepSettings& settings)
