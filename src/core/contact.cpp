@@ -177,13 +177,18 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
       converged = true;
       break;
     }
-    last_change = change;
-    last_scale = scale;
     if (iteration > 0 && change <= FRICTION_TOLERANCE * scale)
     {
       converged = true;
       break;
     }
+    // a change that no longer falls has no fixed point to reach (two sticking contacts joined by
+    // straight links, docs/physics.md): further solves only drift the friction along the links
+    const bool stalled = iteration > 1 && change > FRICTION_STALL_RATIO * last_change;
+    last_change = change;
+    last_scale = scale;
+    if (stalled)
+      break;
     for (int i = 0; i < model.numParticles(); ++i)
       data.friction_accelerations.col(i) = w[i] * data.friction_forces.col(i);
     multiplyJacobian(model, data.rows, data.friction_accelerations, data.contact_rhs);
@@ -193,7 +198,8 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
     addJacobianTranspose(model, data.rows, data.multipliers.head(m), 1.0, data.constraint_forces);
     addEliminatedReactions(model, data);
   }
-  // at the limit the last iterate stands; a change above FRICTION_REPORT_TOLERANCE is reported
+  // stalled or at the limit the last iterate stands; a change above FRICTION_REPORT_TOLERANCE is
+  // reported
   if (!converged && !(last_change <= FRICTION_REPORT_TOLERANCE * last_scale))
     ++data.control.unconverged_friction;
   data.constraint_forces += data.friction_forces;  // on free particles only: no reaction changes

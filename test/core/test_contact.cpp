@@ -205,11 +205,13 @@ TEST(SurfaceContact, RampSticksOrSlidesUnderEveryIntegrator)
     }
 }
 
-// A contact solve stopped at its iteration limit is counted, not hidden: for 8 linked particles
-// crossing a 45-degree ramp with mu 1 to 1.6, linked sticking contacts leave the friction iteration
-// without a fixed point at many stages (contact.hpp, FRICTION_REPORT_TOLERANCE); a particle
-// alone on the ramp converges in 2 and is never counted. The steps go on either way.
-TEST(SurfaceContact, FrictionStoppedAtItsIterationLimitIsCounted)
+// A friction solve without a fixed point is stopped where it stalls and counted, not hidden: on
+// 8 linked particles crossing a 45-degree ramp (mu 1 to 1.6), two sticking contacts joined by a
+// straight run of links leave the friction split between them free and the links' velocity
+// terms unmet, at some stages (contact.hpp, FRICTION_STALL_RATIO). Run to the 100-solve limit
+// instead, thousands of stages did and the friction drifted along the links; stopped at the
+// stall, tens. A particle alone converges and is never counted. The steps go on either way.
+TEST(SurfaceContact, FrictionWithoutAFixedPointStopsWhereItStallsAndIsCounted)
 {
   const int n = 8;
   Scene scene;
@@ -232,7 +234,8 @@ TEST(SurfaceContact, FrictionStoppedAtItsIterationLimitIsCounted)
   Simulator chain(scene, start, settingsOf(1e-3));
   const StepStatistics taken = chain.step(3000);
   EXPECT_EQ(taken.failed_check, StepCheck::None);
-  EXPECT_GT(taken.unconverged_friction, 100);
+  EXPECT_GE(taken.unconverged_friction, 10);
+  EXPECT_LE(taken.unconverged_friction, 500);  // stopped at the stall, not drifting on
   EXPECT_TRUE(isFinite(chain.state()));
 
   Scene single;
