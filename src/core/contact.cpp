@@ -144,6 +144,7 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
   data.frictionless_multipliers = data.multipliers.head(m);
   bool converged = false;
   double last_change = 0.0, last_scale = 0.0;
+  int slow = 0;  // solves in a row whose change fell by less than FRICTION_STALL_RATIO
   for (int iteration = 0; iteration < MAX_FRICTION_ITERATIONS; ++iteration)
   {
     double change = 0.0, scale = 0.0, largest = 0.0;
@@ -182,13 +183,12 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
       converged = true;
       break;
     }
-    // a change that no longer falls has no fixed point to reach (two sticking contacts joined by
-    // straight links, docs/physics.md): further solves only drift the friction along the links
-    const bool stalled = iteration > 1 && change > FRICTION_STALL_RATIO * last_change;
+    // two solves in a row that barely shrink the change: no fixed point to reach (two sticking
+    // contacts joined by straight links, docs/physics.md), further solves only drift it
+    slow = iteration > 1 && change > FRICTION_STALL_RATIO * last_change ? slow + 1 : 0;
+    const bool stalled = slow >= 2 && change > FRICTION_REPORT_TOLERANCE * scale;
     last_change = change;
     last_scale = scale;
-    if (stalled)
-      break;
     for (int i = 0; i < model.numParticles(); ++i)
       data.friction_accelerations.col(i) = w[i] * data.friction_forces.col(i);
     multiplyJacobian(model, data.rows, data.friction_accelerations, data.contact_rhs);
@@ -197,6 +197,8 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
     data.constraint_forces.setZero();
     addJacobianTranspose(model, data.rows, data.multipliers.head(m), 1.0, data.constraint_forces);
     addEliminatedReactions(model, data);
+    if (stalled)  // after the solve: the multipliers are of the friction kept
+      break;
   }
   // stalled or at the limit the last iterate stands; a change above FRICTION_REPORT_TOLERANCE is
   // reported

@@ -29,16 +29,18 @@ constexpr double CONTACT_SPEED = 1e-6;
 /// twice the normal speed the applied forces give in a step): a bouncing particle comes to rest
 /// after finitely many bounces.
 constexpr double BOUNCE_SPEED = 1e-3;
-/// Friction fixed-point iterations per stage at most; it stops when no friction force changes by
-/// more than FRICTION_TOLERANCE of the largest normal force.
+/// Friction fixed-point iterations per stage at most; it converges when no friction force changes
+/// by more than FRICTION_TOLERANCE of the largest normal force.
 constexpr int MAX_FRICTION_ITERATIONS = 100;
 constexpr double FRICTION_TOLERANCE = 1e-13;
-/// A stage whose friction still changed by more than this fraction of the largest normal force at
-/// MAX_FRICTION_ITERATIONS, or when it stalled, is counted (StepStatistics::unconverged_friction)
+/// A stage whose friction still changed by more than this fraction of the largest normal force
+/// where it stopped (stalled, or at MAX_FRICTION_ITERATIONS) is counted
+/// (StepStatistics::unconverged_friction); below it, a stall does not stop the iteration.
 constexpr double FRICTION_REPORT_TOLERANCE = 1e-9;
-/// The friction iteration stops when a solve's change is over this fraction of the last one's:
-/// it has no fixed point (two sticking contacts joined by straight links; docs/physics.md,
-/// "Contact"). Where it converges it falls by about 0.75 a solve on test_contact's chains.
+/// The friction iteration stops, stalled, after two solves in a row whose change is over this
+/// fraction of the one before (its multipliers solved for the friction kept): it has no fixed
+/// point there (two sticking contacts joined by straight links; docs/physics.md, "Contact").
+/// Where it converges, each change is about 0.75 of the last on test_contact's chains.
 constexpr double FRICTION_STALL_RATIO = 0.98;
 
 /// A contact touches if its gap is at most this [m]: 10 projection tolerances, so a contact the

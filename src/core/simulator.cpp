@@ -671,7 +671,7 @@ StepStatistics Simulator::step(int count)
     acceptStep(plan, outcome, total);
   }
   total.effects = data.counters.since(before);
-  // the batch's friction solves that stopped at their iteration limit (its steps' every attempt)
+  // the batch's friction solves that stopped short, stalled or at their limit (every attempt's)
   total.unconverged_friction = std::exchange(data.control.unconverged_friction, 0);
   data.statistics = total;
   return total;

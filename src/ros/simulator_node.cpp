@@ -737,8 +737,8 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   };
   const bool singular = statistics.solve.singular_count > 0;
   const bool unconverged = !statistics.projection.converged;
-  // a friction solve that stopped at its iteration limit took its last iterate: say so
-  const long friction_limits = statistics.unconverged_friction;
+  // a friction solve that stopped short (stalled, or at its limit) took its last iterate: say so
+  const long friction_stops = statistics.unconverged_friction;
   const bool waiting_for_clock = waiting_for_clock_;
   const bool fallback = !snap->energy_fallback.empty();
   const std::uint64_t drops = wrench_commands_->newDrops(*snap);  // since the last second
@@ -746,7 +746,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   const bool holders_missing = frame_anchors_->report(*snap, add, holder_warning);
   status.level = snap->faulted ? diagnostic_msgs::DiagnosticStatus::ERROR
                  : (snap->behind || singular || unconverged || waiting_for_clock || fallback ||
-                    drops > 0 || holders_missing || friction_limits > 0)
+                    drops > 0 || holders_missing || friction_stops > 0)
                      ? diagnostic_msgs::DiagnosticStatus::WARN
                      : diagnostic_msgs::DiagnosticStatus::OK;
   std::string message = statusText(*snap);
@@ -759,10 +759,11 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
                  " singular solves (regularised) in the last second";
     if (unconverged)
       message += "; a projection did not converge within its iteration limit";
-    if (friction_limits > 0)
-      message += "; " + std::to_string(friction_limits) +
-                 " friction solves stopped at their iteration limit still changing, in the last "
-                 "second (their last iterate taken)";
+    if (friction_stops > 0)
+      message += "; " + std::to_string(friction_stops) +
+                 " friction solves stopped short of a fixed point (stalled, or at their limit) in "
+                 "the last "
+                 "second, their last iterate taken";
     if (fallback)
       message += "; " + snap->energy_fallback;
     if (drops > 0)

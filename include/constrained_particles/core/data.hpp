@@ -120,8 +120,9 @@ struct StepControl
   std::uint64_t forward_version = 0;
   double forward_time = 0.0;   ///< its time [s]
   SolveReport forward_report;  ///< its solve's report
-  /// Friction fixed points stopped at MAX_FRICTION_ITERATIONS (contactForceStage) since
-  /// Simulator::step() last took them into StepStatistics::unconverged_friction
+  /// Friction fixed points stopped short (contactForceStage: stalled, or at
+  /// MAX_FRICTION_ITERATIONS) since Simulator::step() last took them into
+  /// StepStatistics::unconverged_friction (stalled ones too)
   long unconverged_friction = 0;
   double budget_fallback_time = 0.0;  ///< the start of the step it began with [s]
 };

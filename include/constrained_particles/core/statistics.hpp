@@ -183,8 +183,9 @@ struct StepStatistics
   /// stiff-safe fast_projection instead (Simulator::step)
   long stiff_steps = 0;
   /// contact scenes: constraint-force stages (every attempt's, and the active set's rounds)
-  /// whose friction fixed point still changed by more than FRICTION_REPORT_TOLERANCE after
-  /// MAX_FRICTION_ITERATIONS solves (the last iterate was taken); docs/physics.md, "Contact"
+  /// whose friction iteration stopped short (stalled: no fixed point, or at
+  /// MAX_FRICTION_ITERATIONS) still changing by more than FRICTION_REPORT_TOLERANCE (the last
+  /// iterate was taken); docs/physics.md, "Contact"
   long unconverged_friction = 0;
   /// rejections by the check that failed (index: StepCheck), each retaken with twice the
   /// sub-steps; the stability estimate's splits are not rejections
