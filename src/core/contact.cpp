@@ -26,6 +26,14 @@ bool acts(const ContactState& contact)
   return contact.mode != ContactMode::Separated;
 }
 
+// Off, with no force: a contact that does not act holds no friction (velocity Verlet's and fast
+// projection's kicks and the ledger read what it holds)
+void switchOff(ContactState& contact)
+{
+  contact.mode = ContactMode::Separated;
+  contact.friction_force.setZero();
+}
+
 // Where a unilateral row stands: its metric gap [m] (C >= 0's distance: a contact's height over
 // its surface, a slack link's length less its span) and the rate it opens [m/s]
 struct Touch
@@ -117,7 +125,7 @@ void writeContactRows(const Model& model, Data& data)
   for (std::size_t k = 0; k < rows.size(); ++k)
   {
     if (held(model, rows[k]))  // no free block: the row stays off
-      data.contacts[k].mode = ContactMode::Separated;
+      switchOff(data.contacts[k]);
     const std::uint8_t off = acts(data.contacts[k]) ? 0 : 1;
     data.rows.inactive[rows[k].row] = off;
     data.trial_rows.inactive[rows[k].row] = off;
@@ -251,9 +259,8 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
     const double normal_speed = frame.normalSpeed(v);
     if (!(w[i] > 0.0 && frame.gap <= gap && std::abs(normal_speed) <= CONTACT_SPEED))
     {
-      contact.mode = ContactMode::Separated;
+      switchOff(contact);
       contact.slip_direction.setZero();
-      contact.friction_force.setZero();
       continue;
     }
     // a candidate to stick if friction could stop its slide within the step (Coulomb over one
@@ -285,9 +292,7 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
       }
     if (worst >= 0)
     {
-      // off, with no force (velocity Verlet and fast projection read the forces it holds)
-      data.contacts[worst].mode = ContactMode::Separated;
-      data.contacts[worst].friction_force.setZero();
+      switchOff(data.contacts[worst]);
       writeContactRows(model, data);
       continue;
     }
@@ -368,8 +373,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
           contactFrame(record, model.scene().surfaces, x.positions, x.velocities);
       if (!(frame.gap < -settings.projection_tolerance))
         continue;
-      contact.mode = ContactMode::Sliding;
-      contact.friction_force.setZero();  // friction acts from the next step's start
+      contact.mode = ContactMode::Sliding;  // off until now, so with no friction (switchOff)
       impact = true;
       const Vec3 v = x.velocities.col(record.particle);
       // slower than twice what the applied forces give in a step is a particle at rest
@@ -401,13 +405,10 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       data.solver().solveInPlace(restitution);
       addInverseMassJacobianTranspose(model, data.rows, restitution, 1.0, x.velocities);
       for (std::size_t k = 0; k < table.size(); ++k)  // only contacts bounce
-        if (data.contacts[k].mode != ContactMode::Separated &&
+        if (acts(data.contacts[k]) &&
             contactFrame(table[k].record, model.scene().surfaces, x.positions, x.velocities)
                     .normalSpeed(x.velocities.col(table[k].record.particle)) > CONTACT_SPEED)
-        {
-          data.contacts[k].mode = ContactMode::Separated;  // leaving: off
-          data.contacts[k].friction_force.setZero();
-        }
+          switchOff(data.contacts[k]);  // leaving
       writeContactRows(model, data);
     }
     data.noteStateChange();

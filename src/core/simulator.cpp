@@ -68,12 +68,11 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
                    in += p;
                });
   // friction, at its last stage's value (contact.hpp; the step start's under velocity Verlet and
-  // fast projection), of the contacts acting: it only dissipates
+  // fast projection; a contact off holds none): it only dissipates
   const auto& contacts = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
   for (std::size_t k = 0; k < contacts.size(); ++k)
-    if (data.contacts[k].mode != ContactMode::Separated)
-      dissipated -=
-          data.contacts[k].friction_force.dot(x.velocities.col(contacts[k].record.particle));
+    dissipated -=
+        data.contacts[k].friction_force.dot(x.velocities.col(contacts[k].record.particle));
 }
 
 // The power the driven anchors put in through their reactions [W]: sum_k r_k . v_k, r_k = m a -
