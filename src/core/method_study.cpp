@@ -306,10 +306,10 @@ StudyResult runMethodStudy(const Scene& scene, const State& given_start,
   std::vector<Points> reference, check;
   double reference_cpu = 0.0, check_cpu = 0.0;
   const double reference_dt =
-      Model::compile(scene).numContacts() > 0 ? STUDY_CONTACT_REFERENCE_DT : STUDY_REFERENCE_DT;
+      projector.model().numContacts() > 0 ? STUDY_CONTACT_REFERENCE_DT : STUDY_REFERENCE_DT;
   report(0, "reference: dopri5 + projection, tol " + formatValue(STUDY_REFERENCE_TOLERANCE));
-  if (!referenceAt(scene, start, request.base, distinct, reference_dt,
-                   STUDY_REFERENCE_TOLERANCE, reference, reference_cpu, cancel))
+  if (!referenceAt(scene, start, request.base, distinct, reference_dt, STUDY_REFERENCE_TOLERANCE,
+                   reference, reference_cpu, cancel))
   {
     result.cancelled = true;
     return result;

@@ -762,8 +762,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
     if (friction_stops > 0)
       message += "; " + std::to_string(friction_stops) +
                  " friction solves stopped short of a fixed point (stalled, or at their limit) in "
-                 "the last "
-                 "second, their last iterate taken";
+                 "the last second, their last iterate taken";
     if (fallback)
       message += "; " + snap->energy_fallback;
     if (drops > 0)
