@@ -1,43 +1,171 @@
 /// @file anchor_track.cpp
-/// @brief AnchorTrack: cubic Hermite interpolation of a holder's sampled path.
+/// @brief AnchorTrack: cubic Hermite interpolation of a holder's sampled path, coasting past its
+/// newest sample, and its teleports.
 #include "constrained_particles/core/anchor_track.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <iterator>
 
 namespace constrained_particles
 {
+AnchorTrack::Append AnchorTrack::admit(double time, double now, double lead, double spacing) const
+{
+  if (!knots_.empty() && !(time > knots_.back().time && time >= knots_.back().time + spacing))
+    return Append::Unordered;
+  if (!(time > now && time >= now + lead))
+    return Append::Late;
+  return Append::Taken;
+}
+
 AnchorTrack::Append AnchorTrack::append(const AnchorSample& sample, double now, double lead,
                                         double spacing)
 {
-  if (!knots_.empty() &&
-      !(sample.time > knots_.back().time && sample.time >= knots_.back().time + spacing))
-    return Append::Unordered;
-  if (!(sample.time > now && sample.time >= now + lead))
-    return Append::Late;
-  if (knots_.empty() || knots_.back().time < now)
-  {
-    // at rest at `now` (on the hold or past the last knot): set off from there, not from the past
-    AnchorSample rest;
-    rest.time = now;
-    rest.position = motion(now).position;
-    rest.orientation = knots_.empty() ? sample.orientation : knots_.back().orientation;
-    knots_.clear();
-    knots_.push_back(rest);
-  }
-  knots_.push_back(sample);
-  knots_.back().tangent = Vec3::Zero();  // the last knot: at rest until a successor arrives
-  // the knot before gets its central difference, unless the interval ending at it has begun
-  const std::size_t k = knots_.size() - 2;
-  if (k >= 1 && now <= knots_[k - 1].time)
-    knots_[k].tangent = (knots_[k + 1].position - knots_[k - 1].position) /
-                        (knots_[k + 1].time - knots_[k - 1].time);
+  if (const Append admitted = admit(sample.time, now, lead, spacing); admitted != Append::Taken)
+    return admitted;
+  resumeAt(now, sample.orientation);
+  AnchorSample knot = sample;
+  knot.position = sample.position - pending_;  // in the frame before the jumps not taken
+  pushKnot(knot, now);
   return Append::Taken;
+}
+
+AnchorTrack::Append AnchorTrack::appendJump(const AnchorSample& sample, double now, double lead,
+                                            double spacing)
+{
+  const Append admitted = admit(sample.time, now, lead, spacing);
+  if (admitted == Append::Unordered)
+    return admitted;
+  if (admitted == Append::Late)
+  {
+    // no knot after `now` (that would have made it Unordered): the jump is taken at once, from
+    // wherever the point is now
+    const Vec3 displacement = sample.position - pending_ - motion(now).position;
+    jumps_.push_back(Jump{ now, displacement });
+    pending_ += displacement;
+    return Append::Late;
+  }
+  resumeAt(now, sample.orientation);
+  AnchorSample knot = sample;
+  knot.position = continued(sample.time);  // the path goes on as it went; the jump is the rest
+  const Vec3 displacement = sample.position - pending_ - knot.position;
+  jumps_.push_back(Jump{ sample.time, displacement });
+  pending_ += displacement;
+  pushKnot(knot, now);
+  return Append::Taken;
+}
+
+Vec3 AnchorTrack::takeJump()
+{
+  const Vec3 displacement = jumps_.front().displacement;
+  jumps_.pop_front();
+  for (AnchorSample& knot : knots_)
+    knot.position += displacement;
+  hold_ += displacement;
+  pending_ -= displacement;
+  return displacement;
+}
+
+void AnchorTrack::resumeAt(double now, const Eigen::Quaterniond& orientation)
+{
+  // at rest at `now` (on the hold, or coasting past the last knot): set off from there, as fast
+  // as it goes, never from the past
+  if (knots_.empty() || knots_.back().time < now)
+    startAt(now, knots_.empty() ? orientation : knots_.back().orientation);
+}
+
+void AnchorTrack::startAt(double now, const Eigen::Quaterniond& orientation)
+{
+  const ImposedMotion at = motion(now);
+  AnchorSample start;
+  start.time = now;
+  start.position = at.position;
+  start.tangent = at.velocity;
+  start.fixed = true;
+  start.orientation = orientation;
+  knots_.clear();
+  knots_.push_back(start);
+}
+
+void AnchorTrack::pushKnot(const AnchorSample& knot, double now)
+{
+  knots_.push_back(knot);
+  knots_.back().fixed = false;
+  const std::size_t n = knots_.size();
+  // the knot before is inner now: its parabola's tangent, unless the interval ending at it has
+  // begun (the motion from `now` on stays as imposed)
+  if (n >= 3 && !knots_[n - 2].fixed && now <= knots_[n - 3].time)
+    knots_[n - 2].tangent = innerTangent(n - 2);
+  knots_.back().tangent = newestTangent();
+}
+
+Vec3 AnchorTrack::innerTangent(std::size_t k) const
+{
+  const AnchorSample &a = knots_[k - 1], &b = knots_[k], &c = knots_[k + 1];
+  const double h0 = b.time - a.time, h1 = c.time - b.time;
+  const Vec3 d0 = (b.position - a.position) / h0, d1 = (c.position - b.position) / h1;
+  Vec3 d = (h1 * d0 + h0 * d1) / (h0 + h1);
+  for (int i = 0; i < 3; ++i)
+  {
+    const double turn = d0[i] * d1[i];
+    if (turn == 0.0)
+      d[i] = 0.0;  // beside a flat interval: flat, no overshoot into it
+    else if (turn > 0.0)
+    {
+      // monotone here: at most 3 times the smaller secant keeps both intervals monotone
+      const double bound = 3.0 * std::min(std::abs(d0[i]), std::abs(d1[i]));
+      d[i] = std::copysign(std::min(std::abs(d[i]), bound), d1[i]);
+    }
+  }
+  return d;
+}
+
+Vec3 AnchorTrack::newestTangent() const
+{
+  const std::size_t n = knots_.size();
+  const AnchorSample &b = knots_[n - 2], &c = knots_[n - 1];
+  const double h1 = c.time - b.time;
+  const Vec3 d1 = (c.position - b.position) / h1;
+  if (n < 3)
+    return d1;
+  const AnchorSample& a = knots_[n - 3];
+  const double h0 = b.time - a.time;
+  const Vec3 d0 = (b.position - a.position) / h0;
+  // the parabola through the last three, at the last: d1 + (d1 - d0) h1 / (h0 + h1)
+  Vec3 d = d1 + (d1 - d0) * (h1 / (h0 + h1));
+  for (int i = 0; i < 3; ++i)
+  {
+    if (d[i] * d1[i] <= 0.0)
+      d[i] = 0.0;  // against the last secant (or beside a flat one): it would turn back
+    else if (d0[i] * d1[i] < 0.0 && std::abs(d[i]) > 3.0 * std::abs(d1[i]))
+      d[i] = 3.0 * d1[i];
+  }
+  return d;
+}
+
+Vec3 AnchorTrack::continued(double time) const
+{
+  // from the newest knot as it moves there: resumeAt() put one at `now` if the steps were past
+  // the samples, so this is at most the lead ahead
+  if (knots_.empty())
+    return hold_;
+  return knots_.back().position + knots_.back().tangent * (time - knots_.back().time);
+}
+
+void AnchorTrack::resync(double now)
+{
+  if (knots_.empty())
+    return;
+  startAt(now, orientation(now));
+  jumps_.clear();
+  pending_.setZero();
 }
 
 void AnchorTrack::restart(const Vec3& position)
 {
   knots_.clear();
+  jumps_.clear();
+  pending_.setZero();
   hold_ = position;
 }
 
@@ -45,10 +173,19 @@ ImposedMotion AnchorTrack::motion(double time) const
 {
   if (knots_.empty())
     return { hold_, Vec3::Zero(), Vec3::Zero() };
-  if (!(time > knots_.front().time))
-    return { knots_.front().position, Vec3::Zero(), Vec3::Zero() };
+  if (!(time > knots_.front().time) && knots_.size() > 1)
+    return { knots_.front().position, knots_.front().tangent, Vec3::Zero() };
   if (!(time < knots_.back().time))
-    return { knots_.back().position, Vec3::Zero(), Vec3::Zero() };
+  {
+    // past the newest knot: coasting, slowing uniformly to rest over the horizon
+    const AnchorSample& last = knots_.back();
+    const double s = std::min(time - last.time, horizon_);
+    if (!(s > 0.0))
+      return { last.position, last.tangent, -last.tangent / horizon_ };
+    return { last.position + last.tangent * (s - s * s / (2.0 * horizon_)),
+             last.tangent * (1.0 - s / horizon_),
+             s < horizon_ ? Vec3(-last.tangent / horizon_) : Vec3(Vec3::Zero()) };
+  }
   // the interval [t_k, t_k+1] holding `time`
   const auto after = std::upper_bound(knots_.begin(), knots_.end(), time,
                                       [](double t, const AnchorSample& s) { return t < s.time; });
@@ -86,7 +223,7 @@ Eigen::Quaterniond AnchorTrack::orientation(double time) const
 void AnchorTrack::dropBefore(double time)
 {
   // the interval [t_k, t_k+1] holding `time` reads knots k and k+1 (tangents are stored); the
-  // knot before is kept for the next knot's central difference
+  // knot before is kept for the next knot's tangent
   while (knots_.size() > 3 && knots_[2].time <= time)
     knots_.pop_front();
 }

@@ -10,6 +10,7 @@
 #include "constrained_particles/core/stability.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <utility>
 
@@ -412,6 +413,56 @@ void Simulator::readSceneKind()
   conservative_ = !driven_ && forcesConservative(model_->scene()) && data_->perturbations.empty() &&
                   model_->numContacts() == 0;
   has_stiffness_ = hasStiffness(*model_, data_->perturbations);
+  hold_limits_.clear();
+  const Model& model = *model_;
+  for (std::size_t k = 0; k < model.tracked().size(); ++k)
+    if (const auto* anchor =
+            std::get_if<FrameAnchorConstraint>(&model.scene().constraints[model.tracked()[k]]);
+        anchor && anchor->max_force > 0.0)
+    {
+      const auto e =
+          std::find(model.eliminated().begin(), model.eliminated().end(), model.tracked()[k]) -
+          model.eliminated().begin();
+      hold_limits_.push_back({ static_cast<int>(k), static_cast<int>(e), anchor->max_force });
+    }
+  hold_loads_.assign(hold_limits_.size(), 0.0);
+}
+
+void Simulator::checkHolds(StepOutcome& outcome, StepStatistics& total)
+{
+  if (hold_limits_.empty() || outcome.failed == StepCheck::HoldForce)
+    return;
+  const Model& model = *model_;
+  // the hold most loaded against its limit: now (a passed step), or at the last accepted step
+  // (a step no split could take: what the holds asked of the scene was impossible)
+  int worst = -1;
+  double worst_ratio = -1.0, worst_force = 0.0;
+  for (std::size_t k = 0; k < hold_limits_.size(); ++k)
+  {
+    const double force =
+        outcome.failed == StepCheck::None
+            ? model.eliminatedReaction(data_->multipliers, hold_limits_[k].eliminated).norm()
+            : hold_loads_[k];
+    // not `>`: a NaN force is over too
+    const double ratio = std::isnan(force) ? INFINITY : force / hold_limits_[k].max_force;
+    if (ratio > worst_ratio)
+    {
+      worst = static_cast<int>(k);
+      worst_ratio = ratio;
+      worst_force = force;
+    }
+  }
+  if (outcome.failed == StepCheck::None && worst_ratio <= 1.0)
+  {
+    for (std::size_t k = 0; k < hold_limits_.size(); ++k)
+      hold_loads_[k] =
+          model.eliminatedReaction(data_->multipliers, hold_limits_[k].eliminated).norm();
+    return;
+  }
+  total.hold = hold_limits_[worst].tracked;
+  total.hold_force = outcome.failed == StepCheck::None ? worst_force : INFINITY;
+  total.hold_failure = outcome.failed;
+  outcome.failed = StepCheck::HoldForce;
 }
 
 void Simulator::forwardAtState()
@@ -556,6 +607,7 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
       evaluateCurrentState(total);
     }
     const StepStatistics& taken = driven_ ? driven_attempt_ : attempt;
+    checkHolds(outcome, total);
     outcome.end_energies = conservative_ && outcome.failed == StepCheck::None;
     outcome.ledger_before = data.ledger;
     bookStep(settings_.dt, outcome.end_energies);
@@ -660,7 +712,8 @@ StepStatistics Simulator::step(int count)
     {
       if (total.failed_check == StepCheck::None)
         total.failed_check = outcome.failed;
-      if (settings_.max_substeps > 1)
+      // a hold over its limit is put back whatever the splits: the caller lets go of it
+      if (settings_.max_substeps > 1 || outcome.failed == StepCheck::HoldForce)
       {
         putBack(outcome.ledger_before);
         break;

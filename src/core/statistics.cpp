@@ -66,8 +66,13 @@ void StepStatistics::merge(const StepStatistics& later)
   unconverged_friction += later.unconverged_friction;
   for (int k = 0; k < NUM_STEP_CHECKS; ++k)
     rejections[k] += later.rejections[k];
-  if (failed_check == StepCheck::None)
+  if (failed_check == StepCheck::None && later.failed_check != StepCheck::None)
+  {
     failed_check = later.failed_check;
+    hold = later.hold;
+    hold_force = later.hold_force;
+    hold_failure = later.hold_failure;
+  }
   max_frequency = std::max(max_frequency, later.max_frequency);
   effects.add(later.effects);
   if (later.steps > 0)  // the later batch's end is the merged one's
@@ -79,7 +84,7 @@ const char* stepCheckName(StepCheck check)
   static const char* const NAMES[NUM_STEP_CHECKS] = { "none",           "non_finite",
                                                       "projection",     "energy_rise",
                                                       "singular_solve", "adaptive_guard",
-                                                      "energy_budget" };
+                                                      "energy_budget",  "hold_force" };
   const int index = static_cast<int>(check);
   return index >= 0 && index < NUM_STEP_CHECKS ? NAMES[index] : "(invalid)";
 }

@@ -40,10 +40,9 @@ AnchorWrenches::AnchorWrenches(ros::NodeHandle node, std::string frame_prefix)
 {
 }
 
-void AnchorWrenches::publish(const Snapshot& snap, const std_msgs::Header& header)
+void AnchorWrenches::update(const Snapshot& snap)
 {
-  const Model& model = *snap.model;
-  const std::vector<int>& held = model.eliminatedParticles();
+  const std::vector<int>& held = snap.model->eliminatedParticles();
   if (snap.scene_serial != scene_serial_ || snap.tracks_serial != tracks_serial_)
   {
     // a new scene may hold other particles: new topics first, then the vanished ones end, so a
@@ -65,6 +64,12 @@ void AnchorWrenches::publish(const Snapshot& snap, const std_msgs::Header& heade
     scene_serial_ = snap.scene_serial;
     tracks_serial_ = snap.tracks_serial;
   }
+}
+
+void AnchorWrenches::publish(const Snapshot& snap, const std_msgs::Header& header)
+{
+  update(snap);
+  const Model& model = *snap.model;
   if (snap.multipliers.size() != model.numMultipliers())
     return;  // not the snapshot's model: never a force of one scene on another's topic
   for (std::size_t k = 0; k < publishers_.size(); ++k)

@@ -1,18 +1,32 @@
 /// @file frame_anchors.cpp
-/// @brief FrameAnchors: holder poses from tf and PoseStamped topics to the runner.
+/// @brief FrameAnchors: holder poses from tf broadcasts and PoseStamped topics to the runner.
 #include "constrained_particles/ros/frame_anchors.hpp"
 
+#include <ros/names.h>
+#include <tf2/exceptions.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 #include <utility>
 
 namespace constrained_particles
 {
 namespace
 {
-constexpr std::int64_t SAMPLE_PERIOD_NS = 10000000;  // FrameAnchors::SAMPLE_PERIOD
-constexpr std::int64_t MAX_BACKLOG_NS = 1000000000;  // a holder found late: from 1 s back at most
+constexpr std::int64_t GIVE_UP_NS = 1000000000;  // a stamp tf cannot resolve for 1 s: dropped
+constexpr std::size_t HISTORY_LIMIT = 2048;      // broadcasts kept per frame at most
+
+std::string stripped(const std::string& frame)
+{
+  return !frame.empty() && frame.front() == '/' ? frame.substr(1) : frame;
+}
+
+std::string holderName(const std::string& frame, const std::string& topic)
+{
+  return frame.empty() ? topic : frame;
+}
 }  // namespace
 
 FrameAnchors::FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame,
@@ -24,104 +38,187 @@ FrameAnchors::FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::
   , buffer_(ros::Duration(10.0))
   , spinner_(1, &queue_)
 {
-  static_assert(SAMPLE_PERIOD == 0.01, "SAMPLE_PERIOD_NS is SAMPLE_PERIOD in ns");
   node_.setCallbackQueue(&queue_);
-  timer_ = node_.createWallTimer(ros::WallDuration(SAMPLE_PERIOD), &FrameAnchors::sample, this);
+  timer_ = node_.createWallTimer(ros::WallDuration(RETRY_PERIOD), &FrameAnchors::retry, this);
   spinner_.start();
+}
+
+FrameAnchors::~FrameAnchors()
+{
+  spinner_.stop();  // no callback runs while the members go
 }
 
 void FrameAnchors::listen()
 {
-  std::lock_guard<std::mutex> lock(listener_mutex_);
-  if (!listener_)
-    listener_ = std::make_unique<tf2_ros::TransformListener>(buffer_);
-}
-
-void FrameAnchors::update(const Snapshot& snap)
-{
-  std::vector<Holder> old;  // destroyed after the lock: a subscriber's end waits for its callback
   std::lock_guard<std::mutex> lock(mutex_);
-  if (snap.tracks_serial == serial_)
+  if (tf_subscriber_)
     return;
-  serial_ = snap.tracks_serial;
-  old.swap(holders_);
-  const Model& model = *snap.model;
-  for (std::size_t k = 0; k < model.tracked().size(); ++k)
-  {
-    const auto* anchor =
-        std::get_if<FrameAnchorConstraint>(&model.scene().constraints[model.tracked()[k]]);
-    if (!anchor)
-      continue;
-    Holder holder;
-    holder.track = static_cast<int>(k);
-    holder.particle = anchor->particle;
-    holder.frame = anchor->frame;
-    holder.topic = anchor->topic;
-    holder.offset = anchor->offset;
-    holders_.push_back(std::move(holder));
-  }
-  // subscriptions last: their callbacks take the lock and find the holders in place
-  for (Holder& holder : holders_)
-  {
-    if (!holder.frame.empty() && holder.frame.rfind(frame_prefix_, 0) == 0)
-      holder.refused = "frame '" + holder.frame + "' is one of this node's particle frames " +
-                       "(~frame_prefix '" + frame_prefix_ + "'): it would follow itself";
-    std::string error;
-    if (!holder.topic.empty() && !ros::names::validate(holder.topic, error))
-      holder.refused = "topic '" + holder.topic + "' is not a valid ROS name (" + error + ")";
-    if (!holder.refused.empty())
-    {
-      ROS_WARN("simulator: frame_anchor on particle %d: %s: the particle is held where it is",
-               holder.particle, holder.refused.c_str());
-      continue;
-    }
-    listen();  // a frame, or a pose in another frame, is resolved through tf
-    if (!holder.topic.empty())
-    {
-      const int track = holder.track;
-      holder.subscriber = node_.subscribe<geometry_msgs::PoseStamped>(
-          holder.topic, 100,
-          [this, track](const geometry_msgs::PoseStamped::ConstPtr& msg)
-          { poseCallback(track, msg); });
-    }
-  }
+  // tf2_ros::TransformListener's own subscriptions, whose callbacks also note each stamp
+  ros::NodeHandle root;
+  root.setCallbackQueue(&queue_);
+  tf_subscriber_ = root.subscribe<tf2_msgs::TFMessage>(
+      "/tf", 100,
+      [this](const ros::MessageEvent<tf2_msgs::TFMessage const>& event)
+      { tfCallback(event, false); },
+      ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+  tf_static_subscriber_ = root.subscribe<tf2_msgs::TFMessage>(
+      "/tf_static", 100,
+      [this](const ros::MessageEvent<tf2_msgs::TFMessage const>& event)
+      { tfCallback(event, true); });
 }
 
-HolderSample FrameAnchors::toSample(const geometry_msgs::Transform& transform, const Vec3& offset,
-                                    std::int64_t stamp_ns)
+void FrameAnchors::tfCallback(const ros::MessageEvent<tf2_msgs::TFMessage const>& event,
+                              bool is_static)
 {
-  // tf2_eigen does the message-to-Eigen conversion of the frame's pose
-  return toSample(tf2::transformToEigen(transform), offset, stamp_ns);
-}
-
-HolderSample FrameAnchors::toSample(const Eigen::Isometry3d& pose, const Vec3& offset,
-                                    std::int64_t stamp_ns)
-{
-  HolderSample sample;
-  sample.stamp_ns = stamp_ns;
-  sample.position = pose * offset;
-  sample.orientation = Eigen::Quaterniond(pose.rotation());
-  return sample;
-}
-
-void FrameAnchors::sample(const ros::WallTimerEvent&)
-{
+  const ros::Time now = ros::Time::now();
   std::lock_guard<std::mutex> lock(mutex_);
+  if (now < last_update_)
+  {
+    // as tf2_ros's listener does: a clock that went back (a bag played again) clears tf
+    ROS_WARN("simulator: ROS time went back by %.3f s: tf cleared, holders sampled anew",
+             (last_update_ - now).toSec());
+    buffer_.clear();
+    restartSampling();
+  }
+  last_update_ = now;
+  const std::int64_t arrival = static_cast<std::int64_t>(now.toNSec());
+  const tf2_msgs::TFMessage& message = *event.getConstMessage();
+  const std::string authority = event.getPublisherName();
+  std::vector<std::pair<std::string, std::int64_t>> broadcasts;
+  for (const geometry_msgs::TransformStamped& transform : message.transforms)
+  {
+    try
+    {
+      buffer_.setTransform(transform, authority, is_static);
+    }
+    catch (const tf2::TransformException& e)
+    {
+      ROS_ERROR("simulator: tf refused the transform from %s to %s: %s",
+                transform.child_frame_id.c_str(), transform.header.frame_id.c_str(), e.what());
+      continue;
+    }
+    const std::string child = stripped(transform.child_frame_id);
+    parent_[child] = stripped(transform.header.frame_id);
+    const auto stamp = static_cast<std::int64_t>(transform.header.stamp.toNSec());
+    if (is_static || stamp <= 0)
+      continue;
+    std::deque<Broadcast>& history = history_[child];
+    history.push_back(Broadcast{ stamp, arrival });
+    while (!history.empty() && (history.front().stamp_ns < stamp - std::llround(HISTORY * 1e9) ||
+                                history.size() > HISTORY_LIMIT))
+      history.pop_front();
+    broadcasts.emplace_back(child, stamp);
+  }
   for (Holder& holder : holders_)
   {
-    if (!holder.frame.empty() && holder.refused.empty())
-      sampleFrame(holder);
-    // poses tf could not resolve at their stamp yet: again, the oldest given up after 1 s
-    std::vector<geometry_msgs::PoseStamped> pending;
-    pending.swap(holder.pending);
-    const ros::Time now = ros::Time::now();
-    for (const geometry_msgs::PoseStamped& pose : pending)
-      if (!takePose(holder, pose, std::abs((now - pose.header.stamp).toSec()) > 1.0))
-        holder.pending.push_back(pose);
+    if (holder.frame.empty() || !holder.refused.empty())
+      continue;
+    const std::set<std::string> chain = chainOf(holder.frame);
+    bool moved = false;
+    for (const auto& [child, stamp] : broadcasts)
+      if (chain.count(child) > 0)
+      {
+        moved = true;
+        if (stamp > std::max(holder.s.posted_ns, holder.since_ns))
+          holder.s.waiting.emplace(stamp, arrival);
+      }
+    if (moved)
+      holder.s.newest_arrival_ns = arrival;
+    if (is_static)
+      lookFor(holder, arrival);  // a static chain may be complete now
+    sampleWaiting(holder, arrival);
   }
 }
 
-void FrameAnchors::sampleFrame(Holder& holder)
+std::set<std::string> FrameAnchors::chainOf(const std::string& frame) const
+{
+  // each frame's ancestors; those of both are above the path between them
+  auto ancestors = [this](std::string f)
+  {
+    std::vector<std::string> up{ f };
+    for (int depth = 0; depth < 64; ++depth)
+    {
+      const auto parent = parent_.find(f);
+      if (parent == parent_.end())
+        break;
+      f = parent->second;
+      up.push_back(f);
+    }
+    return up;
+  };
+  const std::vector<std::string> from = ancestors(frame), to = ancestors(fixed_frame_);
+  const std::set<std::string> above(to.begin(), to.end());
+  std::set<std::string> chain;
+  // a frame moves the holder in the fixed frame if its transform to its parent is on the path
+  for (const std::string& f : from)
+  {
+    if (above.count(f) > 0)
+      break;
+    chain.insert(f);
+  }
+  const std::set<std::string> below(from.begin(), from.end());
+  for (const std::string& f : to)
+  {
+    if (below.count(f) > 0)
+      break;
+    chain.insert(f);
+  }
+  return chain;
+}
+
+void FrameAnchors::sampleWaiting(Holder& holder, std::int64_t now_ns)
+{
+  std::vector<HolderSample> samples;
+  for (auto it = holder.s.waiting.begin(); it != holder.s.waiting.end();)
+  {
+    const std::int64_t stamp = it->first, arrival = it->second;
+    if (stamp <= holder.s.posted_ns)
+    {
+      it = holder.s.waiting.erase(it);
+      continue;
+    }
+    geometry_msgs::TransformStamped at;
+    try
+    {
+      ros::Time time;
+      time.fromNSec(static_cast<std::uint64_t>(stamp));
+      at = buffer_.lookupTransform(fixed_frame_, holder.frame, time);
+    }
+    catch (const tf2::ExtrapolationException&)
+    {
+      // a parent not broadcast that far yet: this and later stamps wait, a second at most
+      if (now_ns - arrival > GIVE_UP_NS)
+      {
+        ++holder.s.untransformable;
+        it = holder.s.waiting.erase(it);
+        continue;
+      }
+      break;
+    }
+    catch (const std::exception& e)  // tf2::TransformException, or tf2's range errors
+    {
+      ++holder.s.untransformable;
+      holder.missing = e.what();
+      it = holder.s.waiting.erase(it);
+      continue;
+    }
+    it = holder.s.waiting.erase(it);
+    // tf2_eigen does the message-to-Eigen conversion of the frame's pose
+    const HolderSample sample =
+        toSample(tf2::transformToEigen(at.transform), holder.offset, stamp, arrival);
+    if (!sample.position.allFinite() || !sample.orientation.coeffs().allFinite())
+    {
+      ++holder.s.non_finite;
+      continue;
+    }
+    samples.push_back(sample);
+    holder.s.posted_ns = stamp;
+  }
+  if (!samples.empty())
+    runner_.postHolderSamples(serial_, holder.track, std::move(samples));
+}
+
+void FrameAnchors::lookFor(Holder& holder, std::int64_t now_ns)
 {
   geometry_msgs::TransformStamped newest;
   try
@@ -131,76 +228,151 @@ void FrameAnchors::sampleFrame(Holder& holder)
   }
   catch (const std::exception& e)  // tf2::TransformException, or tf2's range errors
   {
-    holder.found = false;
+    holder.s.found = false;
     holder.missing = e.what();
-    if (!holder.warned)
+    if (!holder.s.warned)
       ROS_WARN(
           "simulator: frame_anchor on particle %d: frame '%s' is not in tf (%s): the "
           "particle is held where it is until the frame appears",
           holder.particle, holder.frame.c_str(), e.what());
-    holder.warned = true;
+    holder.s.warned = true;
     return;
   }
-  if (!holder.found && holder.warned)
+  if (!holder.s.found && holder.s.warned)
     ROS_INFO("simulator: frame_anchor on particle %d: frame '%s' has appeared: following it",
              holder.particle, holder.frame.c_str());
-  holder.found = true;
+  holder.s.found = true;
   holder.missing.clear();
-  const bool fixed = newest.header.stamp.isZero();
-  const std::int64_t newest_ns = fixed ? static_cast<std::int64_t>(ros::Time::now().toNSec())
-                                       : static_cast<std::int64_t>(newest.header.stamp.toNSec());
-  if (newest_ns <= 0)
-    return;  // a static frame under /use_sim_time before the first /clock: no time to put it at
-  // a first look, a long gap, or a clock that went back (a bag played again): from the newest
-  if (holder.next_ns < 0 || holder.next_ns < newest_ns - MAX_BACKLOG_NS ||
-      newest_ns < holder.next_ns - 2 * SAMPLE_PERIOD_NS)
-    holder.next_ns = newest_ns / SAMPLE_PERIOD_NS * SAMPLE_PERIOD_NS;
-  std::vector<HolderSample> samples;
-  // grid stamps half an interval short of the newest at most: a frame that stops then gets its
-  // last pose as a sample of its own (below), never closer than that to a grid sample
-  for (; holder.next_ns <= newest_ns - (fixed ? 0 : SAMPLE_PERIOD_NS / 2);
-       holder.next_ns += SAMPLE_PERIOD_NS)
+  if (!newest.header.stamp.isZero())
   {
-    geometry_msgs::TransformStamped at = newest;
-    if (!fixed)
+    holder.s.still = false;
+    return;
+  }
+  // a chain all on /tf_static: its one pose, now, is its whole path
+  if (holder.s.still || now_ns <= 0)
+    return;  // posted; or under /use_sim_time before the first /clock: no time to put it at
+  holder.s.still = true;
+  HolderSample sample =
+      toSample(tf2::transformToEigen(newest.transform), holder.offset, now_ns, now_ns);
+  sample.still = true;
+  if (sample.position.allFinite() && sample.orientation.coeffs().allFinite())
+    runner_.postHolderSamples(serial_, holder.track, { sample });
+}
+
+void FrameAnchors::retry(const ros::WallTimerEvent&)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto now_ns = static_cast<std::int64_t>(ros::Time::now().toNSec());
+  for (Holder& holder : holders_)
+  {
+    if (!holder.frame.empty() && holder.refused.empty())
     {
-      try
+      lookFor(holder, now_ns);
+      sampleWaiting(holder, now_ns);
+    }
+    // poses tf could not resolve at their stamp yet: again, the oldest given up after 1 s
+    std::vector<geometry_msgs::PoseStamped> pending;
+    pending.swap(holder.pending);
+    for (const geometry_msgs::PoseStamped& pose : pending)
+      if (!takePose(holder, pose,
+                    now_ns - static_cast<std::int64_t>(pose.header.stamp.toNSec()) > GIVE_UP_NS))
+        holder.pending.push_back(pose);
+  }
+}
+
+void FrameAnchors::restartSampling()
+{
+  history_.clear();
+  for (Holder& holder : holders_)
+  {
+    holder.s.waiting.clear();
+    holder.s.posted_ns = -1;
+    holder.since_ns = -1;
+    holder.s.still = false;
+    holder.pending.clear();
+  }
+}
+
+void FrameAnchors::update(const Snapshot& snap)
+{
+  std::vector<Holder> old;  // destroyed after the lock: a subscriber's end waits for its callback
+  bool any = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (snap.tracks_serial == serial_)
+      return;
+    serial_ = snap.tracks_serial;
+    old.swap(holders_);
+    const Model& model = *snap.model;
+    for (std::size_t k = 0; k < model.tracked().size(); ++k)
+    {
+      const auto* anchor =
+          std::get_if<FrameAnchorConstraint>(&model.scene().constraints[model.tracked()[k]]);
+      if (!anchor)
+        continue;
+      Holder holder;
+      holder.track = static_cast<int>(k);
+      holder.particle = anchor->particle;
+      holder.frame = anchor->frame;
+      holder.topic = anchor->topic;
+      holder.offset = anchor->offset;
+      if (k < snap.holders.size())
+        holder.since_ns = snap.holders[k].since_ns;
+      // a holder the runner kept (another was attached or let go): its sampling goes on
+      for (Holder& was : old)
+        if (was.particle == holder.particle && was.frame == holder.frame &&
+            was.topic == holder.topic && was.offset == holder.offset && k < snap.holders.size() &&
+            snap.holders[k].taken > 0)
+        {
+          holder.s = std::move(was.s);
+        }
+      // an attachment's frame: its broadcasts since the state it took hold at
+      if (holder.since_ns >= 0 && holder.s.posted_ns < 0 && !holder.frame.empty())
+        for (const std::string& frame : chainOf(holder.frame))
+          if (const auto history = history_.find(frame); history != history_.end())
+            for (const Broadcast& b : history->second)
+              if (b.stamp_ns > holder.since_ns)
+                holder.s.waiting.emplace(b.stamp_ns, b.arrival_ns);
+      holders_.push_back(std::move(holder));
+    }
+    for (Holder& holder : holders_)
+    {
+      if (!holder.frame.empty() && holder.frame.rfind(frame_prefix_, 0) == 0)
+        holder.refused = "frame '" + holder.frame + "' is one of this node's particle frames " +
+                         "(~frame_prefix '" + frame_prefix_ + "'): it would follow itself";
+      std::string error;
+      if (!holder.topic.empty() && !ros::names::validate(holder.topic, error))
+        holder.refused = "topic '" + holder.topic + "' is not a valid ROS name (" + error + ")";
+      if (!holder.refused.empty())
+        ROS_WARN("simulator: frame_anchor on particle %d: %s: the particle is held where it is",
+                 holder.particle, holder.refused.c_str());
+      else
+        any = true;
+    }
+    // subscriptions last: their callbacks take the lock and find the holders in place
+    for (Holder& holder : holders_)
+      if (holder.refused.empty() && !holder.topic.empty())
       {
-        ros::Time stamp;
-        stamp.fromNSec(static_cast<std::uint64_t>(holder.next_ns));
-        at = buffer_.lookupTransform(fixed_frame_, holder.frame, stamp);
+        const int track = holder.track;
+        holder.subscriber = node_.subscribe<geometry_msgs::PoseStamped>(
+            holder.topic, 100,
+            [this, track](const geometry_msgs::PoseStamped::ConstPtr& msg)
+            { poseCallback(track, msg); });
       }
-      catch (const std::exception&)  // tf2::TransformException, or tf2's range errors
-      {
-        break;  // not inside what tf holds (yet): the next tick tries again
-      }
-    }
-    const HolderSample sample = toSample(at.transform, holder.offset, holder.next_ns);
-    if (!sample.position.allFinite() || !sample.orientation.coeffs().allFinite())
-    {
-      ++holder.non_finite;
-      continue;
-    }
-    samples.push_back(sample);
   }
-  // the newest pose itself (a broadcast), where it is half an interval past the last sample:
-  // a frame that stops then rests exactly at its last pose, never between it and a grid point
-  if (!fixed && (samples.empty() ? holder.posted_ns : samples.back().stamp_ns) <=
-                    newest_ns - SAMPLE_PERIOD_NS / 2)
-  {
-    const HolderSample last = toSample(newest.transform, holder.offset, newest_ns);
-    if (last.position.allFinite() && last.orientation.coeffs().allFinite())
-    {
-      samples.push_back(last);
-      const std::int64_t after = newest_ns + SAMPLE_PERIOD_NS / 2;
-      holder.next_ns = (after + SAMPLE_PERIOD_NS - 1) / SAMPLE_PERIOD_NS * SAMPLE_PERIOD_NS;
-    }
-  }
-  if (!samples.empty())
-  {
-    holder.posted_ns = samples.back().stamp_ns;
-    runner_.postHolderSamples(serial_, holder.track, std::move(samples));
-  }
+  if (any)
+    listen();  // a frame, or a pose in another frame, is resolved through tf
+}
+
+HolderSample FrameAnchors::toSample(const Eigen::Isometry3d& pose, const Vec3& offset,
+                                    std::int64_t stamp_ns, std::int64_t arrival_ns)
+{
+  HolderSample sample;
+  sample.stamp_ns = stamp_ns;
+  sample.arrival_ns = arrival_ns;
+  sample.position = pose * offset;
+  sample.orientation = Eigen::Quaterniond(pose.rotation());
+  return sample;
 }
 
 void FrameAnchors::poseCallback(int track, const geometry_msgs::PoseStamped::ConstPtr& msg)
@@ -212,12 +384,13 @@ void FrameAnchors::poseCallback(int track, const geometry_msgs::PoseStamped::Con
       geometry_msgs::PoseStamped pose = *msg;
       if (pose.header.stamp.isZero())
         pose.header.stamp = ros::Time::now();  // no stamp: it stands for its arrival
+      holder.s.newest_arrival_ns = static_cast<std::int64_t>(ros::Time::now().toNSec());
       if (takePose(holder, pose, false))
         continue;
       if (holder.pending.size() < 100)
         holder.pending.push_back(pose);
       else
-        ++holder.untransformable;  // tf far behind: the oldest waiting are enough
+        ++holder.s.untransformable;  // tf far behind: the oldest waiting are enough
     }
 }
 
@@ -233,7 +406,7 @@ bool FrameAnchors::takePose(Holder& holder, const geometry_msgs::PoseStamped& ms
   if (!q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3 ||
       !std::isfinite(pose.translation.x + pose.translation.y + pose.translation.z))
   {
-    ++holder.non_finite;  // a NaN or an unnormalised quaternion: dropped and counted
+    ++holder.s.non_finite;  // a NaN or an unnormalised quaternion: dropped and counted
     return true;
   }
   Eigen::Isometry3d in_fixed = tf2::transformToEigen(pose);
@@ -250,13 +423,13 @@ bool FrameAnchors::takePose(Holder& holder, const geometry_msgs::PoseStamped& ms
     {
       if (!last_try)
         return false;  // tf has not reached its stamp yet: kept to try again
-      ++holder.untransformable;
+      ++holder.s.untransformable;
       holder.missing = e.what();
       return true;
     }
     catch (const std::exception& e)  // tf2 throws std::runtime_error for stamps it cannot hold
     {
-      ++holder.untransformable;
+      ++holder.s.untransformable;
       holder.missing = e.what();
       return true;
     }
@@ -264,8 +437,44 @@ bool FrameAnchors::takePose(Holder& holder, const geometry_msgs::PoseStamped& ms
   holder.missing.clear();
   runner_.postHolderSamples(
       serial_, holder.track,
-      { toSample(in_fixed, holder.offset, static_cast<std::int64_t>(msg.header.stamp.toNSec())) });
+      { toSample(in_fixed, holder.offset, static_cast<std::int64_t>(msg.header.stamp.toNSec()),
+                 holder.s.newest_arrival_ns) });
   return true;
+}
+
+bool FrameAnchors::waitForFrame(const std::string& frame, double timeout)
+{
+  listen();
+  // polled on the wall clock: a sim-time timeout would never end under a stopped /clock
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(timeout));
+  for (;;)
+  {
+    std::string error;
+    if (buffer_.canTransform(fixed_frame_, frame, ros::Time(0), &error))
+      return true;
+    if (std::chrono::steady_clock::now() >= deadline)
+      return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+}
+
+SimulationRunner::PoseLookup FrameAnchors::poseLookup(const std::string& frame)
+{
+  return [this, frame](std::int64_t stamp_ns) -> std::optional<Eigen::Isometry3d>
+  {
+    try
+    {
+      ros::Time time;
+      time.fromNSec(static_cast<std::uint64_t>(stamp_ns));
+      return tf2::transformToEigen(buffer_.lookupTransform(fixed_frame_, frame, time));
+    }
+    catch (const std::exception&)  // not at that stamp (yet), or never
+    {
+      return std::nullopt;
+    }
+  };
 }
 
 bool FrameAnchors::report(const Snapshot& snap,
@@ -274,6 +483,12 @@ bool FrameAnchors::report(const Snapshot& snap,
 {
   std::lock_guard<std::mutex> lock(mutex_);
   bool warn = false;
+  const auto now_ns = static_cast<std::int64_t>(ros::Time::now().toNSec());
+  auto say = [&warning, &warn](const std::string& what)
+  {
+    warning += (warning.empty() ? "" : "; ") + what;
+    warn = true;
+  };
   for (Holder& holder : holders_)
   {
     const std::string name =
@@ -281,79 +496,92 @@ bool FrameAnchors::report(const Snapshot& snap,
         (holder.frame.empty() ? "topic " + holder.topic : "frame " + holder.frame) + ")";
     const bool counted =
         snap.tracks_serial == serial_ && holder.track < static_cast<int>(snap.holders.size());
+    const HolderStatus* s = counted ? &snap.holders[holder.track] : nullptr;
     std::string value;
     if (!holder.refused.empty())
       value = "not followed: " + holder.refused;
     else if (!holder.missing.empty())
       value = "not followed: " + holder.missing;
-    else if (counted && snap.holders[holder.track].last_stamp < 0.0)
+    else if (holder.s.newest_arrival_ns < 0 && !holder.s.still)
       value = "waiting for its first pose: the particle rests where it is";
-    else if (const double silent =
-                 counted ? ros::Time::now().toSec() - snap.holders[holder.track].last_stamp : 0.0;
-             silent > STALE_AFTER + snap.anchor_lag)
-      value = "its newest pose is stamped " + formatValue(std::round(silent * 10.0) / 10.0) +
-              " s ago (its publisher stopped, or stamps on another clock?): the particle rests "
-              "at the last";
+    else if (const double silent = static_cast<double>(now_ns - holder.s.newest_arrival_ns) * 1e-9;
+             !holder.s.still && silent > STALE_AFTER)
+      value = "its newest pose arrived " + formatValue(std::round(silent * 10.0) / 10.0) +
+              " s ago (its publisher stopped?): the particle coasted to rest after the last";
     if (!value.empty())
-    {
-      warning += (warning.empty() ? "" : "; ") + name + " " + value;
-      warn = true;
-    }
+      say(name + " " + value);
     else
-      value = "following";
-    if (counted)
+      value =
+          holder.s.still ? "following (a static frame: the particle is held still)" : "following";
+    if (snap.faulted)
+      value += " (stepping is stopped: its poses are not taken)";
+    if (s)
     {
-      const HolderStatus& s = snap.holders[holder.track];
-      value += "; samples taken " + std::to_string(s.taken) + ", late " + std::to_string(s.late) +
-               " (raise ~anchor_lag if these grow), out of order " + std::to_string(s.unordered) +
-               ", ahead of the clock " + std::to_string(s.future) + ", out of range " +
-               std::to_string(s.out_of_range) + ", teleports " + std::to_string(s.jumps) +
-               (s.jumps > 0 ? " (last " + formatValue(s.last_jump) + " m)" : std::string()) +
-               ", teleports refused " + std::to_string(s.refused);
-      if (s.future > holder.logged_future)
-      {
-        warning += (warning.empty() ? "" : "; ") + name + ": " +
-                   std::to_string(s.future - holder.logged_future) +
-                   " samples stamped over 5 s ahead of the simulation's clock (is the holder on "
-                   "another clock?)";
-        warn = true;
-      }
-      holder.logged_future = s.future;
+      value += "; latency needed " + formatValue(s->needed_latency) + " s; samples taken " +
+               std::to_string(s->taken) + ", late " + std::to_string(s->late) + ", out of order " +
+               std::to_string(s->unordered) + ", ahead of the clock " + std::to_string(s->future) +
+               ", out of range " + std::to_string(s->out_of_range) + ", teleports " +
+               std::to_string(s->jumps) +
+               (s->jumps > 0 ? " (last " + formatValue(s->last_jump) + " m)" : std::string()) +
+               ", teleports refused " + std::to_string(s->refused) + ", overruns " +
+               std::to_string(s->overruns) + ", re-placed after the clock went back " +
+               std::to_string(s->replaced);
+      if (s->future > holder.s.logged_future)
+        say(name + ": " + std::to_string(s->future - holder.s.logged_future) +
+            " samples stamped over 5 s ahead of the simulation's clock (is the holder on "
+            "another clock?)");
+      holder.s.logged_future = s->future;
       // samples dropped since the last report, for any reason: a WARN while they keep coming
       const std::uint64_t dropped =
-          s.late + s.out_of_range + holder.non_finite + holder.untransformable;
-      if (dropped > holder.logged_dropped)
-      {
-        warning += (warning.empty() ? "" : "; ") + name + ": " +
-                   std::to_string(dropped - holder.logged_dropped) +
-                   " samples dropped in the last second (late, out of range, non-finite or "
-                   "untransformable: see its counts)";
-        warn = true;
-      }
-      holder.logged_dropped = dropped;
-      if (s.refused > holder.logged_refused)
+          s->late + s->out_of_range + holder.s.non_finite + holder.s.untransformable;
+      if (dropped > holder.s.logged_dropped)
+        say(name + ": " + std::to_string(dropped - holder.s.logged_dropped) +
+            " samples dropped in the last second (late, out of range, non-finite or "
+            "untransformable: see its counts)");
+      holder.s.logged_dropped = dropped;
+      if (s->overruns > holder.s.logged_overruns)
+        say(name + ": the steps ran past its newest pose " +
+            std::to_string(s->overruns - holder.s.logged_overruns) +
+            " times in the last second (the particle coasted on; the latency grows to cover "
+            "its arrivals)");
+      holder.s.logged_overruns = s->overruns;
+      if (s->refused > holder.s.logged_refused)
       {
         ROS_WARN(
             "simulator: frame_anchor on particle %d: the scene cannot follow its holder's "
             "teleport (%s): the particle rests where it is",
-            holder.particle, s.last_refusal.c_str());
-        warning += (warning.empty() ? "" : "; ") + name + ": a teleport it cannot follow";
-        warn = true;
+            holder.particle, s->last_refusal.c_str());
+        say(name + ": a teleport it cannot follow");
       }
-      holder.logged_refused = s.refused;
-      if (s.jumps > holder.logged_jumps)
+      holder.s.logged_refused = s->refused;
+      if (s->jumps > holder.s.logged_jumps)
         ROS_WARN(
             "simulator: frame_anchor on particle %d: its holder '%s' jumped %s m between two "
-            "samples (more than ~anchor_max_jump): the scene was projected onto its new pose, "
-            "like ~set_state, instead of following it",
-            holder.particle, (holder.frame.empty() ? holder.topic : holder.frame).c_str(),
-            formatValue(s.last_jump).c_str());
-      holder.logged_jumps = s.jumps;
+            "samples (over ~anchor_max_jump or ~anchor_max_speed): a teleport, the scene "
+            "carried along with it",
+            holder.particle, holderName(holder.frame, holder.topic).c_str(),
+            formatValue(s->last_jump).c_str());
+      holder.s.logged_jumps = s->jumps;
     }
-    value += ", non-finite " + std::to_string(holder.non_finite) + ", untransformable " +
-             std::to_string(holder.untransformable);
+    value += ", non-finite " + std::to_string(holder.s.non_finite) + ", untransformable " +
+             std::to_string(holder.s.untransformable);
     add(name, value);
   }
+  if (snap.releases.size() < logged_releases_)
+    logged_releases_ = 0;  // a new scene: none let go yet
+  for (std::size_t k = 0; k < snap.releases.size(); ++k)
+  {
+    const Release& r = snap.releases[k];
+    const std::string name =
+        "hold let go: particle " + std::to_string(r.particle) + " (" + r.holder + ")";
+    const std::string value = "at t = " + formatValue(r.time) + " s: " + r.why;
+    if (k >= logged_releases_)
+      ROS_WARN("simulator: %s %s; the particle is free (~attach it again, or ~reset)", name.c_str(),
+               value.c_str());
+    say(name + " " + value);
+    add(name, value);
+  }
+  logged_releases_ = snap.releases.size();
   return warn;
 }
 

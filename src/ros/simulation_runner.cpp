@@ -1,6 +1,8 @@
+/// @file simulation_runner.cpp
+/// @brief SimulationRunner: the physics thread, its request queue, batches and snapshots.
 #include "constrained_particles/ros/simulation_runner.hpp"
 
-#include "constrained_particles/core/integrators.hpp"
+#include "constrained_particles/ros/fault_policy.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +13,7 @@ namespace
 {
 constexpr auto IDLE_WAIT = std::chrono::milliseconds(100);
 constexpr auto REPLY_POLL = std::chrono::milliseconds(50);
+constexpr auto ATTACH_POLL = std::chrono::milliseconds(5);  // a pending ~attach asks tf again
 
 double seconds(std::chrono::steady_clock::duration d)
 {
@@ -24,11 +27,12 @@ std::chrono::steady_clock::duration wallDuration(double s)
       std::chrono::duration<double>(s));
 }
 
-RunnerReply refused(const std::string& message)
+RunnerReply refused(const std::string& message, const std::string& field = "")
 {
   RunnerReply reply;
   reply.success = false;
   reply.message = message;
+  reply.field = field;
   return reply;
 }
 
@@ -40,25 +44,43 @@ RunnerReply accepted(const std::string& message)
   return reply;
 }
 
+Pacer::Source sourceOf(const NodeParameters& parameters)
+{
+  return parameters.follow_clock    ? Pacer::Source::FollowClock
+         : parameters.publish_clock ? Pacer::Source::PublishClock
+                                    : Pacer::Source::Wall;
+}
+
+HolderLimits holderLimits(const NodeParameters& parameters)
+{
+  HolderLimits limits;
+  limits.lag = parameters.anchor_lag;
+  limits.max_jump = parameters.anchor_max_jump;
+  limits.max_speed = parameters.anchor_max_speed;
+  limits.max_force = parameters.anchor_max_force;
+  return limits;
+}
 }  // namespace
 
 SimulationRunner::SimulationRunner(const NodeParameters& parameters, const SceneDescription& scene)
   : parameters_(parameters)
   , session_(parameters, scene)
   , wrench_timeout_(parameters.wrench_timeout)
-  , follow_clock_(parameters.follow_clock)
   , command_clock_([] { return seconds(Clock::now().time_since_epoch()); })
+  , pacer_(sourceOf(parameters), parameters.real_time_factor, [this] { return command_clock_(); })
+  , holders_(holderLimits(parameters))
 {
   // start-up overrides are already in `scene`; kept, a reconfigure would carry them to other scenes
   parameters_.overrides = SceneOverrides{};
   const SceneSession::Candidate first = session_.initial();
-  simulator_ = std::make_unique<Simulator>(first.built.scene, first.built.initial_state,
-                                           first.settings, scene.solver.solve_method);
+  Scene held = first.built.scene;
+  holders_.limitHolds(held);
+  simulator_ = std::make_unique<Simulator>(held, first.built.initial_state, first.settings,
+                                           scene.solver.solve_method);
   parameters_.step = first.settings;
   session_.adopt(first.description, first.built.initial_state);
-  model_copy_ = std::make_shared<const Model>(simulator_->model());
-  holders_.setModel(++tracks_serial_, simulator_->model());
-  simulator_->constraintForces(forces_, multipliers_);
+  holders_.setModel(simulator_->model(), true);
+  afterChange(true);
   makeSnapshot();
 }
 
@@ -73,9 +95,7 @@ void SimulationRunner::start(bool paused)
 {
   paused_ = paused;
   reanchor();
-  window_wall_ = Clock::now();
-  window_sim_ = simulator_->state().time;
-  window_valid_ = true;
+  pacer_.beginWindow(simulator_->state().time);
   thread_ = std::thread(&SimulationRunner::loop, this);
 }
 
@@ -217,10 +237,10 @@ RunnerReply SimulationRunner::setState(const Points& positions, const Points& ve
         abandonWindow();
         faulted_ = false;
         fault_reason_.clear();
-        clock_base_ += TIME_JUMP;
-        simulator_->constraintForces(forces_, multipliers_);
+        pacer_.jump();
         reanchor();
-        restHolders();
+        holders_.rest(*simulator_);  // held where the teleport put them, until their next poses
+        afterChange();
         // last: its snapshot must show the teleport whole
         interruptStep("~set_state");
         RunnerReply reply =
@@ -251,7 +271,9 @@ RunnerReply SimulationRunner::unpause()
         interruptStep("~unpause");
         paused_ = false;
         reanchor();
-        restHolders();
+        // the stamps stand for later times now: each holder goes on from its motion, towards
+        // its next poses
+        holders_.resync(*simulator_);
         return accepted(faulted_ ? "unpaused, but stepping is stopped (" + fault_reason_ + ")"
                                  : "running");
       });
@@ -265,7 +287,7 @@ RunnerReply SimulationRunner::step(std::uint64_t steps)
   RunnerReply immediate = submit(
       [this, steps, promise]
       {
-        if (follow_clock_)
+        if (pacer_.source() == Pacer::Source::FollowClock)
           return refused(
               "the node follows /clock (~follow_clock): it steps as the clock moves, "
               "never ahead of it");
@@ -330,9 +352,10 @@ RunnerReply SimulationRunner::reconfigure(
         // a window measures one method on one scene: any reconfigure ends it unmeasured
         abandonWindow();
         parameters_ = candidate;
+        pacer_.setRealTimeFactor(parameters_.real_time_factor);
         step_time_estimate_ = 0;
         last_chunk_ = 1;
-        reanchor(ClockAnchor::Keep);
+        reanchor(Pacer::Anchor::Keep);
         if (perturbations_.draggedCount() > 0)
           updatePerturbations();  // a drag's spring is scaled to dt
         return accepted("reconfigured");
@@ -355,93 +378,138 @@ RunnerReply SimulationRunner::applyForce(long particle, const Vec3& force, doubl
       });
 }
 
-RunnerReply SimulationRunner::attach(long particle, const std::string& frame, const Vec3& offset)
+RunnerReply SimulationRunner::attach(long particle, const std::string& frame, const Vec3& offset,
+                                     bool keep_offset, PoseLookup pose_at)
 {
-  return submit(
-      [this, particle, frame, offset]
+  HolderSession::AttachRequest request;
+  request.particle = particle;
+  request.frame = frame;
+  request.offset = offset;
+  request.keep_offset = keep_offset;
+  // answered when the frame's pose at the state's stamp is known: the promise outlives this call
+  // if the runner stops first
+  auto promise = std::make_shared<std::promise<RunnerReply>>();
+  std::future<RunnerReply> future = promise->get_future();
+  const RunnerReply immediate = submit(
+      [this, request, pose_at, promise]
       {
-        const Model& model = simulator_->model();
-        const int n = model.numParticles();
-        RunnerReply reply;
-        if (particle < 0 || particle >= n)
-        {
-          reply.field = "particle";
-          reply.message = "particle = " + std::to_string(particle) + ", must be in [0, " +
-                          std::to_string(n - 1) + "] (the scene's particles)";
-          return reply;
-        }
-        for (std::size_t k = 0; k < model.eliminated().size(); ++k)
-          if (model.eliminatedParticles()[k] == particle)
-          {
-            const Constraint& holder = model.scene().constraints[model.eliminated()[k]];
-            const bool attached =
-                std::find(attachments_.begin(), attachments_.end(), particle) != attachments_.end();
-            reply.field = "particle";
-            reply.message = "particle = " + std::to_string(particle) + " is already held (by " +
-                            (attached ? std::string("an attachment; ~detach it first")
-                                      : std::string("the scene's ") + kindOf(holder)) +
-                            ")";
-            return reply;
-          }
-        // a row between this particle and held ones only would have nothing left to move: its
-        // violation, made by the holders, could not be projected away (a fault, not a grip)
-        for (const RowRecord& record : model.rowRecords())
-        {
-          bool touches = false, free = false;
-          for (int b = record.first_block; b < record.first_block + record.rows * record.particles;
-               ++b)
-          {
-            const int i = model.blockParticle()[b];
-            touches = touches || i == particle;
-            free = free || (i != particle && model.inverseMasses()[i] > 0.0);
-          }
-          if (touches && !free)
-          {
-            reply.field = "particle";
-            reply.message = "particle = " + std::to_string(particle) + ": its " +
-                            kindOf(model.scene().constraints[record.constraint]) +
-                            " joins it to held particles only (pinned, anchored or attached): "
-                            "held too, nothing could move to keep it; grab a particle with a free "
-                            "neighbour";
-            return reply;
-          }
-        }
-        if (frame.empty() || frame.front() == '/')
-        {
-          reply.field = "frame";
-          reply.message = "frame = '" + frame + "', must name a tf frame (non-empty, no leading /)";
-          return reply;
-        }
-        if (frame.rfind(parameters_.frame_prefix, 0) == 0)
-        {
-          reply.field = "frame";
-          reply.message =
-              "frame = '" + frame + "' is one of this node's particle frames (~frame_prefix '" +
-              parameters_.frame_prefix + "'): a particle cannot follow the scene itself";
-          return reply;
-        }
-        try
-        {
-          requireInRange("offset", offset, limits::COORDINATE);
-        }
-        catch (const InvalidInput& e)
-        {
-          reply.field = e.field();
-          reply.message = e.what();
-          return reply;
-        }
-        FrameAnchorConstraint anchor;
-        anchor.particle = static_cast<int>(particle);
-        anchor.frame = frame;
-        anchor.offset = offset;
-        std::vector<Constraint> constraints = model.scene().constraints;
-        constraints.push_back(anchor);
-        reply = changeHolders(constraints, "attached particle " + std::to_string(particle) +
-                                               " to frame '" + frame + "'");
-        if (reply.success)
-          attachments_.push_back(static_cast<int>(particle));
-        return reply;
+        std::string field;
+        if (const auto refusal =
+                holders_.checkAttach(simulator_->model(), request, parameters_.frame_prefix, field))
+          return refused(*refusal, field);
+        if (pending_attach_)
+          return refused("particle = " + std::to_string(request.particle) +
+                             ": another ~attach (particle " +
+                             std::to_string(pending_attach_->request.particle) +
+                             ") is waiting for its frame's pose; call again when it is answered",
+                         "particle");
+        pending_attach_ = PendingAttach{ request, pose_at, promise,
+                                         Clock::now() + wallDuration(HolderSession::ATTACH_WAIT) };
+        tryAttach();
+        return accepted("attach under way");
       });
+  if (!immediate.success)
+    return immediate;
+  return await(future);
+}
+
+bool SimulationRunner::tryAttach()
+{
+  if (!pending_attach_)
+    return true;
+  const double time = simulator_->state().time;
+  // the stamp the state stands for: the frame's pose there is where the hold begins
+  const std::int64_t stamp = stampNow();
+  const std::optional<Eigen::Isometry3d> pose =
+      stamp >= 0 ? pending_attach_->pose_at(stamp) : std::nullopt;
+  if (!pose && Clock::now() < pending_attach_->deadline)
+    return false;  // tf has not reached the stamp yet: no step until it has, or the deadline
+  RunnerReply reply;
+  if (!pose)
+    reply = refused("frame = '" + pending_attach_->request.frame +
+                        "': tf held no pose of it at the state's stamp (" +
+                        (stamp >= 0 ? formatValue(static_cast<double>(stamp) * 1e-9) + " s"
+                                    : std::string("no clock yet")) +
+                        ") within " + formatValue(HolderSession::ATTACH_WAIT) +
+                        " s (is it still broadcast?); nothing changed",
+                    "frame");
+  else
+  {
+    try
+    {
+      reply = attachAt(pending_attach_->request, *pose);
+    }
+    catch (const InvalidInput& e)
+    {
+      reply = refused(e.what(), e.field());
+    }
+  }
+  reply.sim_time = time;
+  const std::shared_ptr<std::promise<RunnerReply>> promise = pending_attach_->reply;
+  pending_attach_.reset();
+  makeSnapshot();  // answered after the snapshot, so a caller reading it sees the hold
+  promise->set_value(reply);
+  return true;
+}
+
+RunnerReply SimulationRunner::attachAt(const HolderSession::AttachRequest& request,
+                                       const Eigen::Isometry3d& pose)
+{
+  const int particle = static_cast<int>(request.particle);
+  const State before = simulator_->state();
+  const Vec3 where = before.positions.col(particle);
+  const FrameAnchorConstraint anchor =
+      holders_.anchorFor(request, pose, where, simulator_->model().scene());
+  const std::vector<Constraint> old = simulator_->model().scene().constraints;
+  std::vector<Constraint> constraints = old;
+  constraints.push_back(anchor);
+  ProjectionReport report;
+  try
+  {
+    report = changeHolders(constraints);
+  }
+  catch (const InvalidInput& e)
+  {
+    throw InvalidInput("particle", "particle: attaching refused: " + std::string(e.what()));
+  }
+  // an offset elsewhere: the particle is carried to the held point, the scene projected after it
+  const Vec3 held = request.keep_offset ? where : Vec3(pose * anchor.offset);
+  const double moved = (held - where).norm();
+  if (moved > 0.0)
+  {
+    const Model& model = simulator_->model();
+    for (std::size_t k = 0; k < model.tracked().size(); ++k)
+      if (eliminatedParticle(model.scene().constraints[model.tracked()[k]]) == particle)
+        simulator_->tracks()[k].restart(held);
+    try
+    {
+      report = simulator_->setState(simulator_->state());
+    }
+    catch (const InvalidInput& e)
+    {
+      changeHolders(old);  // nothing changed
+      throw InvalidInput("offset", "offset: the scene cannot be projected with particle " +
+                                       std::to_string(particle) + " at (" + formatValue(held.x()) +
+                                       ", " + formatValue(held.y()) + ", " + formatValue(held.z()) +
+                                       ") m: " + e.what() + "; nothing changed");
+    }
+    afterChange();
+  }
+  const std::int64_t stamp = stampNow();
+  holders_.attached(particle, stamp);
+  RunnerReply reply = accepted(
+      "attached particle " + std::to_string(particle) + " to frame '" + request.frame +
+      "' at t = " + formatValue(before.time) + " s (stamp " +
+      formatValue(static_cast<double>(stamp) * 1e-9) + " s), offset (" +
+      formatValue(anchor.offset.x()) + ", " + formatValue(anchor.offset.y()) + ", " +
+      formatValue(anchor.offset.z()) + ") m: " +
+      (request.keep_offset
+           ? std::string("held where it is")
+           : "moved by " + formatValue(moved) + " m to the held point, particles by up to " +
+                 formatValue(std::max(moved, report.max_displacement)) + " m"));
+  reply.max_displacement = std::max(moved, report.max_displacement);
+  reply.stamp_ns = stamp;
+  return reply;
 }
 
 RunnerReply SimulationRunner::detach(long particle)
@@ -449,57 +517,33 @@ RunnerReply SimulationRunner::detach(long particle)
   return submit(
       [this, particle]
       {
-        const auto found = std::find(attachments_.begin(), attachments_.end(), particle);
-        if (found == attachments_.end())
+        std::string attached;
+        const auto constraints = holders_.detachFrom(simulator_->model(), particle, attached);
+        if (!constraints)
+          return refused(
+              "particle = " + std::to_string(particle) +
+                  " is not attached; attached now: " + (attached.empty() ? "none" : attached),
+              "particle");
+        try
         {
-          RunnerReply reply;
-          reply.field = "particle";
-          std::string held;
-          for (int i : attachments_)
-            held += (held.empty() ? "" : ", ") + std::to_string(i);
-          reply.message = "particle = " + std::to_string(particle) +
-                          " is not attached; attached now: " + (held.empty() ? "none" : held);
-          return reply;
+          changeHolders(*constraints);
         }
-        const Model& model = simulator_->model();
-        std::vector<Constraint> constraints;
-        for (const Constraint& c : model.scene().constraints)
-          // the attachment's record: no other can hold its particle (attach refuses a held one)
-          if (!(std::holds_alternative<FrameAnchorConstraint>(c) &&
-                eliminatedParticle(c) == particle))
-            constraints.push_back(c);
-        RunnerReply reply =
-            changeHolders(constraints, "detached particle " + std::to_string(particle));
-        if (reply.success)
-          attachments_.erase(std::find(attachments_.begin(), attachments_.end(), particle));
-        return reply;
+        catch (const InvalidInput& e)
+        {
+          return refused("particle: detaching refused: " + std::string(e.what()), "particle");
+        }
+        holders_.detached(static_cast<int>(particle));
+        return accepted("detached particle " + std::to_string(particle));
       });
 }
 
-RunnerReply SimulationRunner::changeHolders(const std::vector<Constraint>& constraints,
-                                            const std::string& what)
+ProjectionReport SimulationRunner::changeHolders(const std::vector<Constraint>& constraints)
 {
-  ProjectionReport report;
-  try
-  {
-    report = simulator_->setConstraints(constraints);
-  }
-  catch (const InvalidInput& e)
-  {
-    // the request's field is its particle: the scene cannot hold (or free) that one
-    RunnerReply reply;
-    reply.field = "particle";
-    reply.message = "particle: " + what + " refused: " + e.what();
-    return reply;
-  }
+  const ProjectionReport report = simulator_->setConstraints(constraints);
   abandonWindow();
-  model_copy_ = std::make_shared<const Model>(simulator_->model());
-  holders_.setModel(++tracks_serial_, simulator_->model());
-  simulator_->constraintForces(forces_, multipliers_);
-  last_good_ = simulator_->state();
-  snapshot_due_ = true;
-  return accepted(what + " (the scene projected onto it: particles moved by up to " +
-                  formatValue(report.max_displacement) + " m)");
+  holders_.setModel(simulator_->model(), false);
+  afterChange(true);
+  return report;
 }
 
 RunnerReply SimulationRunner::clearForces()
@@ -546,9 +590,14 @@ void SimulationRunner::commandWrench(std::uint64_t scene_serial, int particle, c
 
 void SimulationRunner::followClock(std::int64_t clock_ns)
 {
-  clock_now_ns_ = clock_ns;
-  clock_moved_ = true;  // before the loop's lock (wakeLoop): never between its check and its wait
+  pacer_.takeClock(clock_ns);  // before the loop's lock: never between its check and its wait
   wakeLoop();
+}
+
+void SimulationRunner::postHolderSamples(std::uint64_t tracks_serial, int track,
+                                         std::vector<HolderSample> samples)
+{
+  holders_.post(tracks_serial, track, std::move(samples));
 }
 
 void SimulationRunner::applyInbox()
@@ -614,13 +663,18 @@ void SimulationRunner::loop()
 {
   while (!stopping_)
   {
-    const bool applied = applyRequests();
+    bool applied = applyRequests();
+    if (pending_attach_ && tryAttach())
+      applied = true;
     applyInbox();
     expireCommands();
     const bool stepped = !stopping_ && runBatch();
     updateAccuracy();
     const Clock::time_point now = Clock::now();
-    updateRate(now);
+    const double time = simulator_->state().time, dt = simulator_->stepSettings().dt;
+    const bool running = !paused_ && !faulted_ && !pending_attach_;
+    if (pacer_.updateRate(now, time, dt, faulted_ || paused_))
+      snapshot_due_ = true;
     const double publish_period = 1.0 / parameters_.publish_rate;
     if (snapshot_due_ || applied ||
         (unpublished_ && seconds(now - last_snapshot_wall_) >= publish_period))
@@ -630,16 +684,9 @@ void SimulationRunner::loop()
     if (stepped || stopping_)
       continue;
     // idle: until a request, the next due step, or a while (to refresh the rate window)
-    Clock::time_point wake = now + IDLE_WAIT;
-    if (!paused_ && !faulted_ && !follow_clock_)  // a clock that moves wakes the loop itself
-    {
-      const double dt = simulator_->stepSettings().dt;
-      const double until_next =
-          (simulator_->state().time + dt - anchor_sim_) / parameters_.real_time_factor;
-      const Clock::time_point due = anchor_wall_ + wallDuration(until_next);
-      const Clock::time_point period = last_batch_start_ + wallDuration(BATCH_PERIOD);
-      wake = std::min(wake, std::max(due, period));
-    }
+    Clock::time_point wake = std::min(now + IDLE_WAIT, pacer_.nextDue(now, time, dt, running));
+    if (pending_attach_)
+      wake = std::min(wake, now + ATTACH_POLL);
     // steps a snapshot has not shown (the last ones before a clock stopped): at the next period
     if (unpublished_)
       wake = std::min(wake, last_snapshot_wall_ + wallDuration(publish_period));
@@ -647,19 +694,18 @@ void SimulationRunner::loop()
     if (std::isfinite(next_command_expiry_))
       wake = std::min(
           wake, now + wallDuration(std::clamp(next_command_expiry_ - command_clock_(), 0.0, 1.0)));
-    // a clock that came within BATCH_PERIOD of the last batch: taken when the period ends
-    const bool clock_pending = follow_clock_ && clock_moved_ && !paused_ && !faulted_;
-    if (clock_pending)
-      wake = std::min(wake, last_batch_start_ + wallDuration(BATCH_PERIOD));
+    // a clock that came within the batch period of the last batch: taken when the period ends
+    const bool follows = pacer_.source() == Pacer::Source::FollowClock;
+    const bool clock_pending = follows && pacer_.clockMoved() && running;
     std::unique_lock<std::mutex> lock(queue_mutex_);
     wake_.wait_until(lock, wake,
-                     [this, clock_pending]
+                     [this, clock_pending, running, follows]
                      {
                        return stopping_ || !queue_.empty() || perturbations_.hasQueued() ||
-                              (!clock_pending && clock_moved_ && !paused_ && !faulted_);
+                              (follows && !clock_pending && pacer_.clockMoved() && running);
                      });
   }
-  // refuse what is still queued, and a running ~step with what it took
+  // refuse what is still queued, a waiting attach, and a running ~step with what it took
   std::deque<std::shared_ptr<Request>> left;
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
@@ -667,6 +713,11 @@ void SimulationRunner::loop()
   }
   for (const auto& request : left)
     request->reply.set_value(refused("the node is shutting down"));
+  if (pending_attach_)
+  {
+    pending_attach_->reply->set_value(refused("the node is shutting down"));
+    pending_attach_.reset();
+  }
   if (step_request_)
     finishStep(false, "the node is shutting down after " + std::to_string(step_request_->taken) +
                           " of " + std::to_string(step_request_->wanted) + " steps");
@@ -695,8 +746,7 @@ bool SimulationRunner::applyRequests()
     }
     catch (const InvalidInput& e)
     {
-      replies.push_back(refused(e.what()));
-      replies.back().field = e.field();
+      replies.push_back(refused(e.what(), e.field()));
     }
     replies.back().sim_time = simulator_->state().time;
     replies.back().batches_waited = batches - request->queued_at_batch;
@@ -708,6 +758,30 @@ bool SimulationRunner::applyRequests()
   return true;
 }
 
+void SimulationRunner::updateLatency(Clock::time_point now)
+{
+  pacer_.setLatency(holders_.wantedLatency(), now);
+}
+
+std::uint64_t SimulationRunner::stepsDue(Clock::time_point start)
+{
+  if (step_request_)
+    return step_request_->wanted - step_request_->taken;
+  updateLatency(start);
+  bool new_epoch = false;
+  const State& state = simulator_->state();
+  const std::uint64_t due =
+      pacer_.due(start, state.time, state.steps, simulator_->stepSettings().dt, new_epoch);
+  if (new_epoch)
+  {
+    // the first clock, or one that went back: the holders' samples stood for the old epoch,
+    // and the state at the clock is published at once
+    holders_.rest(*simulator_, true);
+    afterChange();
+  }
+  return due;
+}
+
 bool SimulationRunner::runBatch()
 {
   if (faulted_ || (paused_ && !step_request_))
@@ -715,50 +789,13 @@ bool SimulationRunner::runBatch()
     holders_.discard();  // a scene at rest follows no holder: its poses meanwhile are stale
     return false;
   }
+  if (pending_attach_)
+    return false;  // the state waits at the attach's stamp until the frame's pose is there
   const double dt = simulator_->stepSettings().dt;
   const Clock::time_point start = Clock::now();
-  std::uint64_t wanted = 0;
-  if (step_request_)
-  {
-    wanted = step_request_->wanted - step_request_->taken;
-  }
-  else if (follow_clock_)
-  {
-    if (seconds(start - last_batch_start_) < BATCH_PERIOD)
-      return false;  // clock_moved_ stays: the loop wakes when the period ends
-    clock_moved_ = false;
-    const std::int64_t clock = clock_now_ns_;
-    if (clock < 0)
-      return false;  // no /clock yet: nothing to follow
-    // the first clock, or one that went back (a bag played again): the scene goes on from it
-    if (anchor_clock_ns_ < 0 || clock < clockStandsFor() - static_cast<std::int64_t>(dt * 1e9))
-    {
-      reanchor(ClockAnchor::Now);
-      restHolders();
-    }
-    // whole steps since the anchor, from integer nanoseconds: exact for clocks near the epoch
-    // and for increments of exactly dt (the 1e-9 absorbs the quotient's rounding)
-    const double since_anchor =
-        std::floor(static_cast<double>(clock - anchor_clock_ns_) * 1e-9 / dt + 1e-9);
-    const double due =
-        since_anchor - static_cast<double>(simulator_->state().steps - anchor_steps_);
-    if (!(due >= 1.0))
-      return false;
-    wanted = static_cast<std::uint64_t>(std::min(due, 1e15));
-    last_batch_start_ = start;
-  }
-  else
-  {
-    if (seconds(start - last_batch_start_) < BATCH_PERIOD)
-      return false;
-    const double target =
-        anchor_sim_ + parameters_.real_time_factor * seconds(start - anchor_wall_);
-    const double due = std::floor((target - simulator_->state().time) / dt + 1e-9);
-    if (!(due >= 1.0))
-      return false;
-    wanted = static_cast<std::uint64_t>(std::min(due, 1e15));
-    last_batch_start_ = start;
-  }
+  const std::uint64_t wanted = stepsDue(start);
+  if (wanted == 0)
+    return false;
   last_good_ = simulator_->state();
   std::uint64_t taken = 0;
   bool out_of_time = false;  // the batch ran out of wall time with steps still due
@@ -774,42 +811,13 @@ bool SimulationRunner::runBatch()
         static_cast<int>(std::clamp<double>(std::floor(fit), 1.0,
                                             std::min({ static_cast<double>(wanted - taken), 1e6,
                                                        2.0 * static_cast<double>(last_chunk_) })));
-    // a live accuracy sample ends a chunk exactly on its step
-    int steps_now = accuracy_.stepsToNextSample(simulator_->state().steps, chunk);
-    // an applied force's last step ends a chunk too: it is dropped exactly after it
-    steps_now = static_cast<int>(expireForces(static_cast<std::uint64_t>(std::max(steps_now, 1))));
     last_chunk_ = chunk;
-    // holders' poses posted since the last chunk: known before the steps that reach them
-    followHolders();
-    const Clock::time_point chunk_start = Clock::now();
-    const double cpu_start = accuracy_.open() ? threadCpuSeconds() : 0.0;
-    const StepStatistics statistics = simulator_->step(steps_now);
-    if (accuracy_.open())
-      accuracy_.addLiveCpu(threadCpuSeconds() - cpu_start);
-    accuracy_.clearReferenceNow();
-    step_time_estimate_ = seconds(Clock::now() - chunk_start) / steps_now;
-    // an undone chunk's statistics go with it: reports count the steps that stand
-    if (const std::string reason = faultIn(simulator_->state(), statistics); !reason.empty())
-      fault(reason, last_good_);
-    else
-    {
-      batch.merge(statistics);
-      taken += static_cast<std::uint64_t>(steps_now);
-      unpublished_ = true;
-      expireForces(0);
-      // a command takes effect, and a silent commander's push ends, within a chunk
-      applyInbox();
-      expireCommands();
-      last_good_ = simulator_->state();
-      if (accuracy_.record(simulator_->state()))
-      {
-        // the batch ends on a sample: its snapshot can carry the reference beside it; the
-        // steps still due are no loss, and the next batch takes them without waiting a period
-        snapshot_due_ = true;
-        last_batch_start_ = Clock::time_point{};
-        break;
-      }
-    }
+    const std::uint64_t kept = simulator_->state().steps;
+    const bool go_on = runChunk(chunk, batch);
+    // the steps that stand (a fault put the chunk's back)
+    taken += simulator_->state().steps > kept ? simulator_->state().steps - kept : 0;
+    if (!go_on)
+      break;  // faulted, or a live accuracy sample ended the batch
     if (seconds(Clock::now() - start) >= BATCH_WALL_TIME || stopping_)
     {
       out_of_time = !stopping_;
@@ -842,116 +850,110 @@ bool SimulationRunner::runBatch()
       finishStep(false, fault_reason_ + " (" + std::to_string(step_request_->taken) + " of " +
                             std::to_string(step_request_->wanted) + " steps kept)");
   }
-  else if (!faulted_ && out_of_time && taken < wanted && !follow_clock_)
+  else if (!faulted_ && out_of_time && taken < wanted &&
+           pacer_.source() != Pacer::Source::FollowClock)
   {
-    // behind wall time: slow sim time down instead of building a backlog, and count the loss
-    window_dropped_ += static_cast<double>(wanted - taken) * dt;
-    reanchor();
+    // behind wall time: slow sim time down instead of building a backlog, and count the loss;
+    // on wall time the stamps then stand for later times: the holders move with them
+    if (pacer_.dropped(static_cast<double>(wanted - taken) * dt, simulator_->state().time))
+      holders_.resync(*simulator_);
   }
   return true;
 }
 
-std::string SimulationRunner::faultIn(const State& state, const StepStatistics& chunk) const
+bool SimulationRunner::runChunk(int steps, StepStatistics& batch)
 {
-  std::string reason = checkFault(state, chunk);
-  // the fault ends the fallback (the state is restored, the ledger opened again): say it was on
-  if (const StepControl& control = simulator_->data().control;
-      !reason.empty() && control.budget_fallback)
-    reason += "; the run had been taken by " + std::string(Simulator::STIFF_FALLBACK) +
-              " since t = " + formatValue(control.budget_fallback_time) + " s, after " +
-              parameters_.step.integrator + " overdrew ~energy_budget";
-  return reason;
-}
-
-std::string SimulationRunner::checkFault(const State& state, const StepStatistics& chunk) const
-{
-  const StepSettings& step = parameters_.step;
-  // the wording only where a check failed: this runs after every chunk
-  if (chunk.failed_check == StepCheck::None)
-    return checkState(state, chunk);
-  const std::string split =
-      step.max_substeps > 1
-          ? " even in ~max_substeps = " + std::to_string(step.max_substeps) + " sub-steps"
-          : " (~max_substeps = 1: no sub-steps)";
-  const std::string when = " at t = " + formatValue(state.time) + " s";
-  switch (chunk.failed_check)
+  // a live accuracy sample ends a chunk exactly on its step
+  int steps_now = accuracy_.stepsToNextSample(simulator_->state().steps, steps);
+  // an applied force's last step ends a chunk too: it is dropped exactly after it
+  steps_now = static_cast<int>(expireForces(static_cast<std::uint64_t>(std::max(steps_now, 1))));
+  // holders' poses posted since the last chunk, known before the steps that reach them; a
+  // holder's teleport ends the chunk on its step
+  if (!simulator_->tracks().empty())
   {
-    case StepCheck::AdaptiveGuard:
-      return "dopri5 could not meet ~adaptive_tolerance = " + formatValue(step.adaptive_tolerance) +
-             " within " + formatValue(step.dt) + " s" + when + " (over " +
-             std::to_string(DOPRI5_MAX_INTERNAL_STEPS) + " internal steps, or one under " +
-             formatValue(DOPRI5_MIN_INTERNAL_STEP) + " dt): loosen the tolerance or shorten ~dt";
-    case StepCheck::NonFinite:
-      return "step check non_finite failed" + split + when +
-             ": the state became non-finite; shorten ~dt, raise ~max_substeps or use "
-             "~integrator fast_projection";
-    case StepCheck::Projection:
-      return "step check projection failed" + split + when + ": a projection did not reach " +
-             "~projection_tolerance = " + formatValue(step.projection_tolerance) + " m in " +
-             "~projection_max_iterations = " + std::to_string(step.projection_max_iterations);
-    case StepCheck::EnergyRise:
-      return "step check energy_rise failed" + split + when +
-             ": the total energy of this conservative scene rose by more than " +
-             formatValue(Simulator::ENERGY_RISE_TOLERANCE) + " of its scale in one sub-step; " +
-             "shorten ~dt, raise ~max_substeps or change ~integrator";
-    case StepCheck::EnergyBudget:
+    holders_.follow(*simulator_, pacer_, simulator_->stepSettings().dt);
+    if (holders_.stepsToNextJump(*simulator_, 1) == 0 && holders_.afterChunk(*simulator_))
     {
-      const EnergyLedger& ledger = simulator_->energyLedger();
-      const double scale = simulator_->data().control.budget_failure_scale;
-      return "step check energy_budget failed" + when + ": energy budget exceeded, residual " +
-             formatValue(simulator_->data().control.budget_failure_residual) + " J > " +
-             formatValue(step.energy_budget * scale) + " J (~energy_budget " +
-             formatValue(step.energy_budget) + " of scale " + formatValue(scale) +
-             " J, since t = " + formatValue(ledger.t0) + " s): the run gained energy" +
-             (step.max_substeps > 1 ? std::string(" even in steps of ") +
-                                          Simulator::STIFF_FALLBACK + ", the stiff-safe method"
-                                    : std::string(" (~max_substeps = 1: no fallback to ") +
-                                          Simulator::STIFF_FALLBACK + ")") +
-             "; use rk4 or velocity_verlet, shorten ~dt, or set ~energy_budget 0 to run "
-             "unchecked";
+      abandonWindow();
+      afterChange();
     }
-    default:
-      break;
+    steps_now = static_cast<int>(
+        std::max<std::uint64_t>(holders_.stepsToNextJump(*simulator_, steps_now), 1));
   }
-  return checkState(state, chunk);
+  const Clock::time_point chunk_start = Clock::now();
+  const double cpu_start = accuracy_.open() ? threadCpuSeconds() : 0.0;
+  StepStatistics statistics = simulator_->step(steps_now);
+  if (accuracy_.open())
+    accuracy_.addLiveCpu(threadCpuSeconds() - cpu_start);
+  accuracy_.clearReferenceNow();
+  step_time_estimate_ = seconds(Clock::now() - chunk_start) / steps_now;
+  if (statistics.failed_check == StepCheck::HoldForce)
+  {
+    // the steps before the one over the hold's limit stand; the hold lets go of its particle
+    const StepStatistics over = statistics;
+    statistics.failed_check = StepCheck::None;
+    batch.merge(statistics);
+    unpublished_ = true;
+    letGo(over);
+    last_good_ = simulator_->state();
+    return !faulted_;
+  }
+  // an undone chunk's statistics go with it: reports count the steps that stand
+  if (const std::string reason =
+          faultOf(*simulator_, parameters_, simulator_->state(), statistics, last_good_);
+      !reason.empty())
+  {
+    fault(reason, last_good_);
+    return false;
+  }
+  batch.merge(statistics);
+  unpublished_ = true;
+  expireForces(0);
+  // a command takes effect, and a silent commander's push ends, within a chunk
+  applyInbox();
+  expireCommands();
+  if (!simulator_->tracks().empty() && holders_.afterChunk(*simulator_))
+  {
+    abandonWindow();  // a teleport: the shadow cannot know it
+    afterChange();
+  }
+  last_good_ = simulator_->state();
+  if (accuracy_.record(simulator_->state()))
+  {
+    // the batch ends on a sample: its snapshot can carry the reference beside it; the steps
+    // still due are no loss, and the next batch takes them without waiting a period
+    snapshot_due_ = true;
+    pacer_.startBatch(Clock::time_point{});
+    return false;
+  }
+  return true;
 }
 
-std::string SimulationRunner::checkState(const State& state, const StepStatistics& chunk) const
+void SimulationRunner::letGo(const StepStatistics& chunk)
 {
-  if (!isFinite(state))
-    return "the state became non-finite between t = " + formatValue(last_good_.time) +
-           " s and t = " + formatValue(state.time) + " s";
-  // the step's own measure where its projection took one: no rows evaluated again per chunk
-  const double error = chunk.end_position_error >= 0.0
-                           ? chunk.end_position_error
-                           : simulator_->diagnostics().max_position_error;
-  if (!(error <= parameters_.max_constraint_error))
-    return "the constraint error reached " + formatValue(error) +
-           " m at t = " + formatValue(state.time) +
-           " s, over ~max_constraint_error = " + formatValue(parameters_.max_constraint_error) +
-           " m";
-  return "";
+  const std::vector<Constraint> constraints =
+      holders_.letGo(simulator_->model(), chunk, simulator_->state().time);
+  try
+  {
+    changeHolders(constraints);
+  }
+  catch (const InvalidInput& e)
+  {
+    // not reached: fewer holds can always be met where more were
+    fault("a hold over its limit could not let go: " + std::string(e.what()), simulator_->state());
+  }
 }
 
 void SimulationRunner::fault(const std::string& reason, const State& good)
 {
   abandonWindow();
   faulted_ = true;
-  // a push the scene cannot follow faults it as an unstable method would: say that one acted
-  const std::string pushed =
-      perturbations_.empty()
-          ? std::string()
-          : "; forces from outside acted (" + std::to_string(perturbations_.appliedCount()) +
-                " ~apply_force, " + std::to_string(perturbations_.draggedCount()) + " drags, " +
-                std::to_string(perturbations_.commandedCount()) +
-                " ~wrench_command): one too large for the scene faults it as a method would";
-  fault_reason_ = reason + pushed +
-                  "; stepping stopped at the last good state (t = " + formatValue(good.time) +
-                  " s); call ~reset";
+  fault_reason_ = faultMessage(reason, perturbations_.appliedCount(), perturbations_.draggedCount(),
+                               perturbations_.commandedCount(), good.time);
   simulator_->restoreState(good);
   simulator_->constraintForces(forces_, multipliers_);
   // put back like a teleport: the fault's snapshot gets a stamp of its own
-  clock_base_ += TIME_JUMP;
+  pacer_.jump();
   snapshot_due_ = true;
 }
 
@@ -980,9 +982,11 @@ void SimulationRunner::apply(const SceneSession::Candidate& candidate)
   // settings first: if the scene is refused, put them back
   const StepSettings saved = simulator_->stepSettings();
   simulator_->setStepSettings(candidate.settings);
+  Scene scene = candidate.built.scene;
+  holders_.limitHolds(scene);
   try
   {
-    simulator_->setScene(candidate.built.scene, candidate.built.initial_state,
+    simulator_->setScene(scene, candidate.built.initial_state,
                          candidate.description.solver.solve_method);
   }
   catch (const InvalidInput&)
@@ -995,142 +999,48 @@ void SimulationRunner::apply(const SceneSession::Candidate& candidate)
   perturbations_.clearAll();
   session_.adopt(candidate.description, candidate.built.initial_state);
   // the clock runs on across the reset: stamps never go back (see Snapshot::stamp)
-  clock_base_ += time_before + TIME_JUMP;
+  pacer_.restart(time_before);
   parameters_.step = candidate.settings;
   faulted_ = false;
   fault_reason_.clear();
-  model_copy_ = std::make_shared<const Model>(simulator_->model());
-  attachments_.clear();  // they held particles of the scene that was
-  holders_.setModel(++tracks_serial_, simulator_->model());
-  simulator_->constraintForces(forces_, multipliers_);
+  holders_.setModel(simulator_->model(), true);  // attachments held the scene that was
+  afterChange(true);
   step_time_estimate_ = 0;
   last_chunk_ = 1;
-  window_valid_ = false;
-  reanchor();
   // last: its snapshot must show the new scene whole (model, forces, frames and clock together)
   interruptStep("a reset or scene change");
 }
 
-void SimulationRunner::postHolderSamples(std::uint64_t tracks_serial, int track,
-                                         std::vector<HolderSample> samples)
+void SimulationRunner::afterChange(bool model_changed)
 {
-  holders_.post(tracks_serial, track, std::move(samples));
-}
-
-double SimulationRunner::simTimeOf(std::int64_t stamp_ns) const
-{
-  if (follow_clock_)
-    return anchor_clock_ns_ < 0
-               ? std::numeric_limits<double>::quiet_NaN()
-               : anchor_clock_sim_ + static_cast<double>(stamp_ns - anchor_clock_ns_) * 1e-9;
-  if (parameters_.publish_clock)  // the node's clock is clock_base_ + sim time (Snapshot::stamp)
-    return static_cast<double>(stamp_ns) * 1e-9 - clock_base_;
-  return anchor_sim_ +
-         parameters_.real_time_factor * static_cast<double>(stamp_ns - anchor_ros_ns_) * 1e-9;
-}
-
-void SimulationRunner::followHolders()
-{
-  if (simulator_->tracks().empty())
-    return;
-  // a knot no sooner than a step ahead: a shorter first interval's acceleration (~1/h^2) explodes
-  const std::vector<std::pair<int, Vec3>> jumped = holders_.apply(
-      *simulator_, [this](std::int64_t stamp_ns) { return simTimeOf(stamp_ns); },
-      std::llround(parameters_.anchor_lag * 1e9), parameters_.anchor_max_jump,
-      simulator_->stepSettings().dt);
-  if (jumped.empty())
-    return;
-  // a teleported holder: where it alone holds the scene, the scene is carried along by its jump
-  // (links stay exact), then projected onto where the holders rest, like ~set_state
-  State moved = simulator_->state();
-  if (jumped.size() == simulator_->model().eliminated().size())
-  {
-    Vec3 carry = Vec3::Zero();
-    for (const auto& jump : jumped)
-      carry += jump.second / static_cast<double>(jumped.size());
-    moved.positions.colwise() += carry;
-  }
-  try
-  {
-    simulator_->setState(moved);
-  }
-  catch (const InvalidInput& e)
-  {
-    // the scene cannot follow: the holders rest where their particles are (nothing changed)
-    const Model& model = simulator_->model();
-    for (const auto& jump : jumped)
-    {
-      const int particle =
-          eliminatedParticle(model.scene().constraints[model.tracked()[jump.first]]);
-      simulator_->tracks()[jump.first].restart(simulator_->state().positions.col(particle));
-      holders_.refuseTeleport(jump.first, e.what());
-    }
-    return;
-  }
-  abandonWindow();
+  if (model_changed)
+    model_copy_ = std::make_shared<const Model>(simulator_->model());
   simulator_->constraintForces(forces_, multipliers_);
   last_good_ = simulator_->state();
   snapshot_due_ = true;
 }
 
-void SimulationRunner::restHolders()
+std::int64_t SimulationRunner::stampNow() const
 {
-  holders_.discard();
-  simulator_->restTracks();
-  simulator_->constraintForces(forces_, multipliers_);
-}
-
-void SimulationRunner::reanchor(ClockAnchor clock)
-{
-  anchor_wall_ = Clock::now();
-  anchor_sim_ = simulator_->state().time;
-  anchor_ros_ns_ = std::llround(command_clock_() * 1e9);
-  if (!follow_clock_)
-    return;
-  // following /clock: from the clock's time now (-1: from the first one), or from the time the
-  // state stands for (a settings change keeps the backlog and the count since the anchor)
-  anchor_clock_ns_ =
-      clock == ClockAnchor::Keep && anchor_clock_ns_ >= 0 ? clockStandsFor() : clock_now_ns_.load();
-  anchor_steps_ = simulator_->state().steps;
-  anchor_clock_sim_ = simulator_->state().time;
-}
-
-std::int64_t SimulationRunner::clockStandsFor() const
-{
-  if (anchor_clock_ns_ < 0)
-    return -1;
-  return anchor_clock_ns_ + std::llround((simulator_->state().time - anchor_clock_sim_) * 1e9);
-}
-
-void SimulationRunner::updateRate(Clock::time_point now)
-{
-  const double wall = seconds(now - window_wall_);
-  if (wall < RATE_WINDOW)
-    return;
-  const double sim = simulator_->state().time;
-  const bool idle = faulted_ || (paused_ && !step_request_);
-  if (window_valid_)
-    achieved_rtf_ = idle ? 0.0 : std::max(0.0, sim - window_sim_) / wall;
-  // lag: the share of the wanted sim time that was dropped to keep up (running only)
-  double lag = (idle || paused_) ? 0.0 : window_dropped_ / (parameters_.real_time_factor * wall);
-  if (follow_clock_)
+  const double time = simulator_->state().time;
+  if (!(paused_ || faulted_))
+    return pacer_.standsFor(time);
+  switch (pacer_.source())
   {
-    // following /clock nothing is dropped: behind is the backlog against the clock's advance
-    const std::int64_t clock = clock_now_ns_;
-    lag = 0.0;
-    if (!idle && !paused_ && anchor_clock_ns_ >= 0 && window_clock_ns_ >= 0 &&
-        clock > window_clock_ns_)
-      lag = std::max(0.0, static_cast<double>(clock - clockStandsFor()) * 1e-9 -
-                              simulator_->stepSettings().dt) /
-            (static_cast<double>(clock - window_clock_ns_) * 1e-9);
-    window_clock_ns_ = clock;
+    case Pacer::Source::FollowClock:
+      return pacer_.newestClock();
+    case Pacer::Source::Wall:
+      return std::llround(command_clock_() * 1e9);
+    case Pacer::Source::PublishClock:
+      break;
   }
-  behind_ = behind_monitor_.update(lag);
-  window_wall_ = now;
-  window_sim_ = sim;
-  window_dropped_ = 0;
-  window_valid_ = true;
-  snapshot_due_ = true;
+  return pacer_.standsFor(time);
+}
+
+void SimulationRunner::reanchor(Pacer::Anchor anchor)
+{
+  const State& state = simulator_->state();
+  pacer_.reanchor(state.time, state.steps, anchor);
 }
 
 void SimulationRunner::makeSnapshot()
@@ -1148,19 +1058,15 @@ void SimulationRunner::makeSnapshot()
   s->diagnostics = simulator_->diagnostics();
   s->ledger = simulator_->energyLedger();
   s->forward_path = simulator_->forwardPath();
-  if (const StepControl& control = simulator_->data().control; control.budget_fallback)
-    s->energy_fallback =
-        "energy budget overdrawn at t = " + formatValue(control.budget_fallback_time) + " s by " +
-        parameters_.step.integrator + " (residual " + formatValue(control.budget_failure_residual) +
-        " J > " + formatValue(parameters_.step.energy_budget * control.budget_failure_scale) +
-        " J, ~energy_budget " + formatValue(parameters_.step.energy_budget) + " of " +
-        formatValue(control.budget_failure_scale) + " J): " + Simulator::STIFF_FALLBACK +
-        " takes the steps until a reset, ~set_state or a settings change; use rk4 or "
-        "velocity_verlet, or shorten ~dt";
-  s->stamp = clock_base_ + s->state.time;
+  s->energy_fallback = energyFallbackText(*simulator_, parameters_);
+  s->stamp = pacer_.base() + s->state.time;
+  // a resting scene stands for the clock now: the newest /clock, or (wall) the publishing time
+  s->stamp_ns = (paused_ || faulted_) && pacer_.source() == Pacer::Source::Wall ? -1 : stampNow();
+  s->epoch = pacer_.epoch();
+  s->latency = pacer_.latency();
   s->step_time = step_time_;
-  s->real_time_factor = achieved_rtf_;
-  s->behind = behind_ && !paused_ && !faulted_;
+  s->real_time_factor = pacer_.achievedRealTimeFactor();
+  s->behind = pacer_.behind() && !paused_ && !faulted_;
   s->paused = paused_;
   s->stepping = step_request_.has_value();
   s->faulted = faulted_;
@@ -1173,13 +1079,10 @@ void SimulationRunner::makeSnapshot()
   s->applied_forces = static_cast<std::uint32_t>(perturbations_.appliedCount());
   s->dragged_particles = static_cast<std::uint32_t>(perturbations_.draggedCount());
   s->commanded_particles = static_cast<std::uint32_t>(perturbations_.commandedCount());
-  // following /clock, a resting scene stands for the clock's time now: its state still goes out
-  if (follow_clock_)
-    s->clock_stamp_ns = paused_ || faulted_ ? clock_now_ns_.load() : clockStandsFor();
   s->stale_commands = perturbations_.staleCommands();
-  s->tracks_serial = tracks_serial_;
+  s->tracks_serial = holders_.serial();
   s->holders = holders_.status();
-  s->anchor_lag = parameters_.anchor_lag;
+  s->releases = holders_.releases();
   for (const AnchorTrack& track : simulator_->tracks())
     s->holder_orientations.push_back(track.orientation(s->state.time));
   unpublished_ = false;
@@ -1207,18 +1110,8 @@ void SimulationRunner::updateAccuracy()
   const bool measurable = stepping && simulator_->tracks().empty();
   if (accuracy_.update(simulator_->state(), measurable, parameters_.step,
                        parameters_.accuracy_window, parameters_.publish_rate,
-                       simulator_->model().numParticles(), session_.scene(), clock_base_))
+                       simulator_->model().numParticles(), session_.scene(), pacer_.base()))
     snapshot_due_ = true;
-}
-
-bool BehindMonitor::update(double lag)
-{
-  lagging_windows_ = lag > SET ? lagging_windows_ + 1 : 0;
-  if (lagging_windows_ >= WINDOWS)
-    behind_ = true;
-  else if (lag < CLEAR)
-    behind_ = false;
-  return behind_;
 }
 
 }  // namespace constrained_particles

@@ -147,6 +147,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   grab_markers_ = std::make_unique<GrabMarkers>(nh_, *runner_, parameters_.fixed_frame);
   wrench_commands_ = std::make_unique<WrenchCommands>(nh_, *runner_, parameters_.frame_prefix);
   anchor_wrenches_ = std::make_unique<AnchorWrenches>(nh_, parameters_.frame_prefix);
+  anchor_wrenches_->update(*first);
   // holders' topics are named like any topic the node reads: relative to its namespace
   frame_anchors_ = std::make_unique<FrameAnchors>(
       ros::NodeHandle(), *runner_, parameters_.fixed_frame, parameters_.frame_prefix);
@@ -230,13 +231,15 @@ ros::Time SimulatorNode::stampOf(const Snapshot& snap, const ros::Time& now) con
 {
   if (parameters_.publish_clock)
     return ros::Time(snap.stamp);
+  ros::Time stamp;
   if (parameters_.follow_clock)  // the clock time the state stands for (0 before the first)
-  {
-    ros::Time stamp;
-    return snap.clock_stamp_ns > 0 ? stamp.fromNSec(static_cast<std::uint64_t>(snap.clock_stamp_ns))
-                                   : stamp;
-  }
-  return now;
+    return snap.stamp_ns > 0 ? stamp.fromNSec(static_cast<std::uint64_t>(snap.stamp_ns)) : stamp;
+  // a foreign /clock the steps do not follow: the time it shows; at rest: the time now
+  if (ros::Time::isSimTime() || snap.stamp_ns < 0)
+    return now;
+  // wall time: the time the state stands for, never after now
+  stamp.fromNSec(static_cast<std::uint64_t>(snap.stamp_ns));
+  return std::min(stamp, now);
 }
 
 const char* SimulatorNode::waitMessage() const
@@ -257,6 +260,19 @@ std::optional<ros::Time> SimulatorNode::stampFor(const Snapshot& snap, const ros
   if (waiting_for_clock_.exchange(false))
     ROS_INFO("simulator: %s has started (t = %.3f s): publishing",
              ros::names::resolve("/clock").c_str(), stamp.toSec());
+  if (parameters_.follow_clock)
+  {
+    // never ahead of the clock: after it went back, the old epoch's states are
+    if (static_cast<std::int64_t>(stamp.toNSec()) > runner_->newestClock())
+      return std::nullopt;
+    if (last_stamp_ && snap.epoch != last_epoch_)
+      ROS_INFO("simulator: /clock went back from %.3f s to %.3f s: stamps follow it from here",
+               last_stamp_->toSec(), stamp.toSec());
+    else if (last_stamp_ && stamp <= *last_stamp_)
+      return std::nullopt;
+    last_epoch_ = snap.epoch;
+    return stamp;
+  }
   if (last_stamp_ && stamp < *last_stamp_)
     ROS_WARN(
         "simulator: time went back from %.3f s to %.3f s (a clock restarted?): stamps "
@@ -298,8 +314,11 @@ void SimulatorNode::publish()
   last_stamp_ = header.stamp;
   if (parameters_.publish_clock)
   {
+    // the node's clock runs the latency ahead of the states it stamps: holders following it
+    // broadcast their poses before the steps reach them
     rosgraph_msgs::Clock clock;
-    clock.clock = header.stamp;
+    clock.clock = std::max(last_clock_, header.stamp + ros::Duration(snap->latency));
+    last_clock_ = clock.clock;
     clock_publisher_.publish(clock);
   }
   const int n = static_cast<int>(snap->state.positions.cols());
@@ -361,14 +380,26 @@ void SimulatorNode::publish()
     msg.applied_forces = snap->applied_forces;
     msg.dragged_particles = snap->dragged_particles;
     msg.commanded_particles = snap->commanded_particles;
-    msg.anchor_lag = snap->anchor_lag;
-    for (int k : snap->model->tracked())
-      if (const auto* anchor =
-              std::get_if<FrameAnchorConstraint>(&snap->model->scene().constraints[k]))
+    msg.anchor_lag = snap->latency;
+    for (std::size_t k = 0; k < snap->model->tracked().size(); ++k)
+      if (const auto* anchor = std::get_if<FrameAnchorConstraint>(
+              &snap->model->scene().constraints[snap->model->tracked()[k]]))
       {
         msg.held_particles.push_back(anchor->particle);
         msg.holders.push_back(anchor->frame.empty() ? anchor->topic : anchor->frame);
+        const bool counted = k < snap->holders.size();
+        msg.holder_overruns.push_back(
+            counted ? static_cast<std::uint32_t>(snap->holders[k].overruns) : 0u);
+        msg.holder_teleports.push_back(counted ? static_cast<std::uint32_t>(snap->holders[k].jumps)
+                                               : 0u);
       }
+    for (const Release& release : snap->releases)
+    {
+      msg.released_particles.push_back(release.particle);
+      msg.released_holders.push_back(release.holder);
+      msg.released_times.push_back(release.time);
+      msg.released_max_forces.push_back(release.max_force);
+    }
     const auto& contacts =
         std::get<std::vector<KindRecord<SurfaceContact>>>(snap->model->kindTables());
     for (std::size_t k = 0; k < contacts.size() && k < snap->contacts.size(); ++k)
@@ -653,35 +684,27 @@ bool SimulatorNode::applyForceCallback(ApplyForce::Request& request, ApplyForce:
 
 bool SimulatorNode::attachCallback(Attach::Request& request, Attach::Response& response)
 {
-  Vec3 offset(request.offset.x, request.offset.y, request.offset.z);
-  if (request.keep_offset)
-  {
-    // where the particle is now, in the frame's latest pose (tf2_eigen converts it)
-    const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
-    if (request.particle >= snap->state.positions.cols())
-      return answer(response, runner_->attach(request.particle, request.frame, offset));
-    // a node with no holder yet listens from now: tf gets up to 1 s to hear of the frame
-    frame_anchors_->listen();
-    try
-    {
-      // polled on the wall clock: a sim-time timeout would never end under a stopped /clock
-      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(1);
-      while (!frame_anchors_->buffer().canTransform(parameters_.fixed_frame, request.frame,
-                                                    ros::Time(0)) &&
-             std::chrono::steady_clock::now() < deadline)
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      const Eigen::Isometry3d frame =
-          tf2::transformToEigen(frame_anchors_->buffer().lookupTransform(
-              parameters_.fixed_frame, request.frame, ros::Time(0)));
-      offset = frame.inverse() * Vec3(snap->state.positions.col(request.particle));
-    }
-    catch (const std::exception& e)  // tf2::TransformException, or tf2's range errors
-    {
-      return refuse(response, "frame = '" + request.frame + "': keep_offset needs it in tf (" +
-                                  e.what() + "); nothing changed");
-    }
-  }
-  return answer(response, runner_->attach(request.particle, request.frame, offset));
+  const Vec3 offset(request.offset.x, request.offset.y, request.offset.z);
+  // a frame tf has not known within a second is refused naming it (a node with no holder yet
+  // listens from now); the runner checks the rest, and one it refuses anyway is not waited for
+  const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
+  const bool named =
+      request.particle < snap->state.positions.cols() && !request.frame.empty() &&
+      request.frame.front() != '/' && request.frame.rfind(parameters_.frame_prefix, 0) != 0 &&
+      limits::COORDINATE.contains(offset.x()) && limits::COORDINATE.contains(offset.y()) &&
+      limits::COORDINATE.contains(offset.z());
+  if (named && !frame_anchors_->waitForFrame(request.frame, 1.0))
+    return refuse(response,
+                  "frame = '" + request.frame +
+                      "' is not in tf (no pose of it arrived within 1 s, resolvable into '" +
+                      parameters_.fixed_frame + "'); nothing changed");
+  const RunnerReply reply =
+      runner_->attach(request.particle, request.frame, offset, request.keep_offset,
+                      frame_anchors_->poseLookup(request.frame));
+  response.moved = reply.max_displacement;
+  if (reply.stamp_ns > 0)
+    response.stamp.fromNSec(static_cast<std::uint64_t>(reply.stamp_ns));
+  return answer(response, reply);
 }
 
 bool SimulatorNode::detachCallback(Detach::Request& request, Detach::Response& response)
@@ -793,6 +816,7 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
   addSnapshotFields(*snap, add);
   add("fault limit: max_constraint_error [m]", formatValue(p.max_constraint_error));
   add("real_time_factor wanted", formatValue(p.real_time_factor));
+  add("latency behind the clock [s] (holders' samples arrive first)", formatValue(snap->latency));
   add("integrator", p.step.integrator);
   add("stabilization", stabilizationName(p.step.stabilization));
   add("max_substeps", std::to_string(p.step.max_substeps));

@@ -10,6 +10,7 @@ import rostest
 from constrained_particles.msg import SimState
 from constrained_particles.srv import Step
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import WrenchStamped
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import Empty
 from topic_recorder import Recorder
@@ -35,6 +36,7 @@ class FollowClockTest(WallClockWaits, unittest.TestCase):
         cls.pause = rospy.ServiceProxy(f"{NODE}/pause", Empty)
         cls.states = Recorder(f"{NODE}/state", SimState, keep=5000)
         cls.diagnostics = Recorder("/diagnostics", DiagnosticArray, keep=20)
+        cls.wrench = Recorder(f"{NODE}/anchor_wrench/particle_0", WrenchStamped, keep=100)
         cls.clock = rospy.Publisher("/clock", Clock, queue_size=100)
 
     def test_steps_up_to_each_clock_and_never_past_it(self):
@@ -45,13 +47,18 @@ class FollowClockTest(WallClockWaits, unittest.TestCase):
                           if "~follow_clock" in s.message), None), "the wait in /diagnostics")
         self.assertEqual(status.level, DiagnosticStatus.WARN)
         self.assertEqual(self.states.since(0.0), [])
-        # the first clock (sent until the node shows it): sim time 0 stands for it
-        self.wait_until(lambda: self.clock.get_num_connections() > 0, "the node subscribing")
-        first = self.wait_until(
-            lambda: (self.clock.publish(clock_of(START_NS)), self.states.latest())[1],
-            "a state stamped with the first clock", poll=0.05)
+        # the first clock, sent once both subscribers are connected (this process's own /clock
+        # subscription and the node's): sim time 0 stands for it, and its state and its pin's
+        # wrench go out (the first clock's state used to wait for the rate window's snapshot)
+        self.wait_until(lambda: self.clock.get_num_connections() >= 2, "the node subscribing")
+        self.wait_until(lambda: self.wrench.subscriber.get_num_connections() > 0,
+                        "the wrench topic connected")
+        self.clock.publish(clock_of(START_NS))
+        first = self.wait_until(self.states.latest, "a state stamped with the first clock", 30.0)
         self.assertEqual(first.steps, 0)
         self.assertEqual(first.header.stamp, clock_of(START_NS).clock)
+        wrench = self.wait_until(self.wrench.latest, "the pin's wrench at the first clock", 30.0)
+        self.assertEqual(wrench.header.stamp, clock_of(START_NS).clock)
         # irregular increments of whole steps (each ends exactly on a step: floor() at its edge),
         # and after each clock the scene has taken floor((c - c0) / dt) steps, never more
         rng = random.Random(37)

@@ -19,19 +19,37 @@ struct AnchorSample
   double time = 0.0;             ///< sim time [s]
   Vec3 position = Vec3::Zero();  ///< the held point (frame origin plus its offset) [m], fixed frame
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  ///< the holder's frame
-  /// dp/dt at this knot [m/s], set by AnchorTrack (0 until its successor arrives in time)
+  /// dp/dt at this knot [m/s], set by AnchorTrack
   Vec3 tangent = Vec3::Zero();
+  /// The tangent is the state's velocity where the track set off or resumed: never revised.
+  bool fixed = false;
 };
 
-/// The held point's motion between knots (sample times): a cubic Hermite spline whose tangents
-/// are the central differences of the neighbouring knots (Catmull-Rom on non-uniform times;
-/// Fritsch and Carlson 1980, eq. 2), 0 at the first and last knot. Position and velocity are
-/// continuous (C1), the acceleration piecewise linear; the spline passes through every knot
-/// exactly. Before the first knot and after the last the point rests there, so a holder that
-/// stops (its broadcaster dies) brings the point to rest smoothly; with no knot at all it rests
-/// at hold(). An append never changes the motion from `now` on: a knot's tangent becomes the
-/// central difference when its successor arrives only if the interval before it has not begun
-/// (else it stays 0: the point comes to rest there, then sets off again).
+/// The held point's motion between knots (sample times): a cubic Hermite spline (C1: position
+/// and velocity continuous, acceleration piecewise linear) through every knot exactly.
+///
+/// Tangents (per coordinate):
+/// - an inner knot k: the derivative of the parabola through knots k-1, k, k+1 (second order on
+///   uneven knots: d = (h1 d0 + h0 d1) / (h0 + h1), d0 and d1 the secants of the intervals before
+///   and after, h0 and h1 their lengths), limited where the samples are monotone so that no
+///   interval overshoots its knots (0 beside a flat interval, at most 3 min(|d0|, |d1|) where d0
+///   and d1 agree in sign: Fritsch and Carlson 1980, SIAM J. Numer. Anal. 17(2), sec. 4); where
+///   they turn (d0 d1 < 0) the parabola's, as the turn lies between them;
+/// - the newest knot, until its successor arrives: the parabola's one-sided derivative from the
+///   last three knots, limited as Moler's pchip ends (0 against the last secant's sign, at most 3
+///   times it where the secants turn), the secant with two; revised when the successor arrives if
+///   the interval ending at it has not begun (an append never changes the motion from `now` on);
+/// - the first knot (where the track set off from rest, or resumed): the state's velocity there.
+///
+/// Past the newest knot the point coasts: it goes on with the newest tangent v, slowing
+/// uniformly to rest over horizon() H (p = p_n + v (s - s^2 / (2H)) at s = t - t_n, then rest at
+/// p_n + v H / 2), so steps that run ahead of the samples carry the motion on smoothly; the next
+/// sample then resumes from where and how fast the point coasts. With no knot it rests at hold().
+///
+/// Teleports: a sample that jumped (appendJump) is a knot on the path continued from the newest
+/// knot at its velocity, and a jump scheduled at its time with the displacement to where the
+/// holder really is; knots after it are kept in the frame before the jump. The caller carries the
+/// scene along when the steps reach it (takeJump), which moves every knot with it.
 class AnchorTrack
 {
 public:
@@ -39,46 +57,105 @@ public:
   enum class Append
   {
     Taken,      ///< a knot now
-    Late,       ///< its time is not after `now` (it would rewrite the past): ignored
-    Unordered,  ///< its time is not after the last knot's: ignored
+    Late,       ///< its time is not at least `lead` after `now` (it would rewrite the past)
+    Unordered,  ///< its time is not after the last knot's (plus `spacing`): ignored
   };
+  /// A teleport the steps have not reached: at `time` [s] the point moves by `displacement` [m].
+  struct Jump
+  {
+    double time = 0.0;
+    Vec3 displacement = Vec3::Zero();
+  };
+  /// Default horizon() [s].
+  static constexpr double DEFAULT_HORIZON = 0.25;
 
   explicit AnchorTrack(const Vec3& hold = Vec3::Zero()) : hold_(hold)
   {
   }
 
-  /// Adds a knot at sample.time >= now + lead (`lead` [s] >= 0 keeps the first interval from
-  /// being so short that its acceleration, ~1/h^2, explodes). Where the track stood still at
-  /// `now` (no knot after it), a knot is first put at `now` where the point rests, so it sets off
-  /// from there instead of jumping to the path the new knot makes.
-  /// `spacing` [s] >= 0: a knot closer than this to the last one is Unordered (the same reason).
+  /// Adds a knot at sample.position and sample.time >= now + lead (`lead` [s] >= 0 keeps the
+  /// first interval from being so short that its acceleration, ~1/h^2, explodes). Where the
+  /// track has no knot after `now` (at rest, or coasting past its newest), a knot is first put at
+  /// `now` where the point is, with the velocity it has, so it sets off from there instead of
+  /// jumping to the path the new knot makes. `spacing` [s] >= 0: a knot closer than this to the
+  /// last one is Unordered.
   Append append(const AnchorSample& sample, double now, double lead = 0.0, double spacing = 0.0);
-  /// Forgets every knot: the point rests at `position` until the next append (a teleport).
+  /// A sample the holder teleported to: taken as append() takes a sample (Late and Unordered
+  /// alike), but on the path continued from the newest knot, with a Jump scheduled at its time
+  /// to sample.position. A sample too late for a knot is a jump at `now` (returned Late).
+  Append appendJump(const AnchorSample& sample, double now, double lead = 0.0,
+                    double spacing = 0.0);
+  /// The earliest jump the steps have not taken (null if none).
+  const Jump* nextJump() const
+  {
+    return jumps_.empty() ? nullptr : &jumps_.front();
+  }
+  /// Takes the earliest jump: every knot and the hold move by its displacement, returned [m].
+  /// Call when the steps reach its time; nextJump() must not be null.
+  Vec3 takeJump();
+  /// Forgets every knot and jump: the point rests at `position` until the next append.
   void restart(const Vec3& position);
+  /// Forgets the knots and jumps after `now`: the point goes on from where and as fast as it
+  /// moves now (coasting to rest), until the next append sets off from there.
+  void resync(double now);
   /// p(t), v(t), a(t) [m, m/s, m/s^2] at sim time `time`.
   ImposedMotion motion(double time) const;
   /// The holder's orientation at `time` (slerp between knots; identity with none).
   Eigen::Quaterniond orientation(double time) const;
   /// Drops knots no longer needed from `time` on (motion(t >= time) unchanged).
   void dropBefore(double time);
+  /// True if `time` is past the newest sample's knot while it was moving: the point coasts.
+  bool coasting(double time) const
+  {
+    return !knots_.empty() && time > knots_.back().time && !knots_.back().fixed &&
+           !knots_.back().tangent.isZero();
+  }
   /// Where the point rests with no knot.
   const Vec3& hold() const
   {
     return hold_;
   }
+  /// The time [s] over which a coasting point comes to rest (> 0).
+  double horizon() const
+  {
+    return horizon_;
+  }
+  void setHorizon(double horizon)
+  {
+    horizon_ = horizon > 0.0 ? horizon : DEFAULT_HORIZON;
+  }
   std::size_t size() const
   {
     return knots_.size();
   }
-  /// The last knot (size() > 0).
+  /// The last knot (size() > 0), in the frame before any jump not taken yet.
   const AnchorSample& last() const
   {
     return knots_.back();
   }
 
 private:
+  /// Whether a sample at `time` may be a knot (Taken), or why not.
+  Append admit(double time, double now, double lead, double spacing) const;
+  /// Puts a knot at `now` where the point is and as fast as it moves, dropping older knots, if
+  /// none is after `now`: where an appended knot sets off from.
+  void resumeAt(double now, const Eigen::Quaterniond& orientation);
+  /// Every knot replaced by one at `now` where the point is, with the velocity it has (fixed).
+  void startAt(double now, const Eigen::Quaterniond& orientation);
+  /// Appends `knot` after the last (its time checked by the caller), with the tangents it sets.
+  void pushKnot(const AnchorSample& knot, double now);
+  /// The tangent of knot k from k - 1, k and k + 1 (an inner knot).
+  Vec3 innerTangent(std::size_t k) const;
+  /// The newest knot's provisional tangent (from up to three knots).
+  Vec3 newestTangent() const;
+  /// Where the newest knot's path leads at `time` >= its time, at its velocity.
+  Vec3 continued(double time) const;
+
   std::deque<AnchorSample> knots_;
+  std::deque<Jump> jumps_;
+  Vec3 pending_ = Vec3::Zero();  // sum of the jumps not taken: knots are stored before them
   Vec3 hold_;
+  double horizon_ = DEFAULT_HORIZON;
 };
 
 }  // namespace constrained_particles

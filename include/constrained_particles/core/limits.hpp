@@ -66,6 +66,9 @@ constexpr Range DAMPING{ 0.0, false, 1e6, "N s/m", false };
 constexpr Range DRAG{ 0.0, false, 1e6, "kg/m", false };
 /// Coulomb's friction coefficient mu [1] of a contact (rubber on concrete is about 1).
 constexpr Range FRICTION{ 0.0, false, 10.0, "1", false };
+/// The largest force a hold (a frame_anchor, an ~attach) carries before it lets go [N]; 0: the
+/// node's ~anchor_max_force (a scene file's field), or none (the core).
+constexpr Range HOLD_FORCE{ 0.0, false, 1e9, "N", false };
 /// Newton's coefficient of restitution e [1] of a contact: 0 inelastic, 1 elastic.
 constexpr Range RESTITUTION{ 0.0, false, 1.0, "1", false };
 /// A constant force component [N].
@@ -160,13 +163,14 @@ constexpr Range STUDY_METHODS{ 0.0, false, 256.0, "1", true };
 constexpr Range ACCURACY_WINDOW{ 0.0, false, 60.0, "s", false };
 /// A ~wrench_command acts until a newer one or this long after it [s].
 constexpr Range WRENCH_TIMEOUT{ 0.0, true, 60.0, "s", false };
-/// A frame_anchor's particle at stamp t is where its holder was at t - this [s]: time for the
-/// holder's poses to arrive before the steps reach them (AnchorFollower).
-/// At least two of FrameAnchors' 10 ms sample intervals: the spline needs the sample after.
-constexpr Range ANCHOR_LAG{ 0.02, false, 10.0, "s", false };
-/// A holder moving farther than this between two samples teleported: the scene is projected onto
-/// its new pose instead of following it [m].
+/// The latency a scene with holders runs behind its clock [s], for their samples to arrive before
+/// the steps reach them (HolderSession); 0: chosen from the samples' arrival.
+constexpr Range ANCHOR_LAG{ 0.0, false, 10.0, "s", false };
+/// A holder moving farther than this between two samples teleported: the scene is carried along
+/// instead of following it [m].
 constexpr Range ANCHOR_MAX_JUMP{ 0.0, true, 1e3, "m", false };
+/// A holder moving faster than this between two samples teleported, like a jump [m/s].
+constexpr Range ANCHOR_MAX_SPEED{ 0.0, true, 1e4, "m/s", false };
 
 }  // namespace limits
 

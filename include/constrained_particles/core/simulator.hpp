@@ -120,6 +120,10 @@ public:
   {
     return data_->tracks;
   }
+  const std::vector<AnchorTrack>& tracks() const
+  {
+    return data_->tracks;
+  }
   /// Every track at rest where its point is now (AnchorTrack::restart): the held particles
   /// stopped, the velocities projected onto the constraints again and the energy ledger opened
   /// (the stop is no step's doing). For when the stamps a track's knots stood for are gone (an
@@ -223,6 +227,10 @@ private:
   /// attemptUntilPassed, then the booking and the energy budget: a step that overdraws it is
   /// retaken by the stiff-safe method, which keeps the run (control.budget_fallback)
   StepOutcome takeStep(StepPlan& plan, StepStatistics& total);
+  /// a taken step's holds against their max_force (driven scenes evaluate the reactions at the
+  /// step's end): one over it, or a step that could not be taken at all while holds with a
+  /// limit held the scene, fails StepCheck::HoldForce naming the hold in `total`
+  void checkHolds(StepOutcome& outcome, StepStatistics& total);
   /// a failed step: the state and the ledger as they were at control.start
   void putBack(const EnergyLedger& ledger_before);
   /// an accepted step: counted, and what the next step may reuse marked
@@ -250,7 +258,15 @@ private:
   bool conservative_ = false;   // only conservative forces, no driven anchor: energy is checked
   bool has_stiffness_ = false;  // rows or springs: the stability estimate has something to see
   bool driven_ = false;  // a driven anchor: its reactions are evaluated at each step's end (ledger)
-  mutable RowData diagnostic_rows_;  // workspaces of diagnostics()
+  struct HoldLimit
+  {
+    int tracked;       // Model::tracked() index
+    int eliminated;    // Model::eliminated() index (its reaction's)
+    double max_force;  // [N]
+  };
+  std::vector<HoldLimit> hold_limits_;  // the tracked records with a max_force
+  std::vector<double> hold_loads_;      // their reactions' size at the last accepted step [N]
+  mutable RowData diagnostic_rows_;     // workspaces of diagnostics()
   mutable Eigen::VectorXd diagnostic_rates_;
 };
 

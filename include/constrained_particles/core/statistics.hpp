@@ -156,10 +156,14 @@ enum class StepCheck
   SingularSolve,  ///< J W J^T became singular where the previous step's was not
   AdaptiveGuard,  ///< dopri5 hit its internal step guard
   EnergyBudget,   ///< the energy ledger's residual passed energy_budget of its scale
+  /// a hold (a tracked record with max_force) would carry more than its max_force, or holds
+  /// made the step impossible (no split or fallback could take it): the step is put back and
+  /// StepStatistics::hold names the hold, for the caller to let go
+  HoldForce,
 };
-constexpr int NUM_STEP_CHECKS = 7;
+constexpr int NUM_STEP_CHECKS = 8;
 /// "none", "non_finite", "projection", "energy_rise", "singular_solve", "adaptive_guard",
-/// "energy_budget".
+/// "energy_budget", "hold_force".
 const char* stepCheckName(StepCheck check);
 
 /// Statistics of a batch of steps (Simulator::step(count)): the worst and the totals over all of
@@ -194,6 +198,12 @@ struct StepStatistics
   /// every step accepted); that step was put back and the batch ended (with max_substeps = 1
   /// the step stands and the batch goes on: the checks only report). The node faults on it
   StepCheck failed_check = StepCheck::None;
+  /// failed_check HoldForce: the hold (its Model::tracked() index) that carried too much, the
+  /// force it would have carried [N] (infinite: the holds made the step impossible) and the
+  /// check the step failed then (StepCheck::None: it passed, over the limit)
+  int hold = -1;
+  double hold_force = 0.0;
+  StepCheck hold_failure = StepCheck::None;
   double max_frequency = 0;  ///< largest estimated omega_max [rad/s] (stability.hpp)
   EffectCounters effects;    ///< evaluations during the batch
   /// The largest constraint violation at the batch's final state, as the last accepted step's

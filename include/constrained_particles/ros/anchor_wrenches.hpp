@@ -35,6 +35,9 @@ class AnchorWrenches
 public:
   /// `node` the private handle (~), `frame_prefix` the particle frames' (~frame_prefix).
   AnchorWrenches(ros::NodeHandle node, std::string frame_prefix);
+  /// Advertises the topics of `snap`'s held particles (a new scene or holders: see the class),
+  /// so that subscribers connect before anything is published (the first /clock's wrench).
+  void update(const Snapshot& snap);
   /// Publishes every held particle's holderForce() from `snap`, stamped with `header` (frame:
   /// ~fixed_frame, whose axes the force is in; a frame_anchor's in its holder's tf frame,
   /// turned by the holder's orientation at the state's time, Snapshot::holder_orientations).

@@ -1,6 +1,7 @@
 /// @file frame_anchors.hpp
-/// @brief The node's side of frame anchors: samples each holder (a tf frame, or a
-/// geometry_msgs/PoseStamped topic) and posts the poses to the runner, which never waits for tf.
+/// @brief The node's side of frame anchors: each holder sampled at its own broadcasts (a tf
+/// frame's, or a geometry_msgs/PoseStamped topic's) and posted to the runner, which never waits
+/// for tf; the holders' /diagnostics.
 #pragma once
 
 #include "constrained_particles/ros/simulation_runner.hpp"
@@ -8,47 +9,61 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
 
+#include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
 namespace constrained_particles
 {
-/// Samples holders for SimulationRunner::postHolderSamples. A tf frame is looked up in
-/// ~fixed_frame every SAMPLE_PERIOD of its stamps, up to the newest tf holds (tf2 interpolates
-/// linearly between broadcasts; AnchorTrack's spline runs through these samples), on a timer of
-/// its own: tf2's listener fills its buffer on its own thread, and the runner only reads what was
-/// posted. A PoseStamped topic's poses are taken at their stamps, resolved into ~fixed_frame
-/// through tf at that stamp. A frame not (yet) in tf holds its particle where it is, logged once
-/// and a WARN in /diagnostics naming it, until it appears.
+/// Samples holders for SimulationRunner::postHolderSamples.
+///
+/// tf: FrameAnchors subscribes to /tf and /tf_static itself and inserts every transform into
+/// tf2's Buffer exactly as tf2_ros::TransformListener does (tf2 keeps the transforms and resolves
+/// a chain at a stamp; its listener hides which stamps arrived, and those are the samples). A
+/// holder frame is sampled at the stamp of every broadcast of a frame between it and
+/// ~fixed_frame (its own, and its parents'), its pose there resolved by tf2 (exact for the frame
+/// broadcast, the others interpolated at that stamp), never on a grid of its own. A chain all on
+/// /tf_static is one still sample. A PoseStamped topic's poses are samples at their stamps,
+/// resolved into ~fixed_frame through tf at that stamp. ROS time going back (a bag played again)
+/// clears the buffer, as tf2_ros's listener does, and the sampling starts again.
 class FrameAnchors
 {
 public:
-  /// Grid of the tf samples [s] (a 30 Hz broadcaster gives about 3 per broadcast interval).
-  static constexpr double SAMPLE_PERIOD = 0.01;
-  /// A holder whose newest sample is this much older than ~anchor_lag [s] is reported stopped
-  /// (WARN): a moving or resting tf frame is broadcast all along.
+  /// The timer's period [s]: poses whose parents tf could not resolve yet are tried again, and
+  /// frames not yet in tf looked for.
+  static constexpr double RETRY_PERIOD = 0.01;
+  /// A moving holder whose newest broadcast arrived this long ago [s] is reported stopped (WARN).
   static constexpr double STALE_AFTER = 1.0;
+  /// Broadcast stamps kept per frame for holders attached later [s].
+  static constexpr double HISTORY = 2.0;
 
   /// `frame_prefix` the node's particle frames' (~frame_prefix): a holder may not be one.
   FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame,
                std::string frame_prefix);
-  /// Starts tf2's listener if it is not listening yet (only a node with a holder listens: every
-  /// /tf message a listener takes is one more way for tf2 to fail).
+  ~FrameAnchors();
+  /// Subscribes to /tf and /tf_static if not yet (only a node with a holder, or asked to
+  /// attach, listens: every /tf message it takes is one more way for tf2 to fail).
   void listen();
 
   /// Follows the holders of `snap`'s model (a new Snapshot::tracks_serial: new subscriptions).
   void update(const Snapshot& snap);
-  /// Diagnostics rows (key, value) for every holder; true if one wants a WARN, with `warning`
-  /// saying which and why.
+  /// Diagnostics rows (key, value) for every holder and every hold let go; true if one wants a
+  /// WARN, with `warning` saying which and why.
   bool report(const Snapshot& snap,
               const std::function<void(const std::string&, const std::string&)>& add,
               std::string& warning);
+  /// Waits (wall time) up to `timeout` [s] for `frame` to be in tf; true if it is.
+  bool waitForFrame(const std::string& frame, double timeout);
+  /// `frame`'s pose in ~fixed_frame at a stamp, looked up without waiting (for ~attach).
+  SimulationRunner::PoseLookup poseLookup(const std::string& frame);
   /// tf, for the anchor wrenches' frames.
   tf2_ros::Buffer& buffer()
   {
@@ -56,52 +71,73 @@ public:
   }
 
 private:
+  struct Broadcast
+  {
+    std::int64_t stamp_ns, arrival_ns;
+  };
   struct Holder
   {
     int track = 0;
     int particle = 0;
     std::string frame, topic;
     Vec3 offset = Vec3::Zero();
-    std::int64_t next_ns = -1;    // the next grid stamp to sample [ns], -1: from the newest
-    std::int64_t posted_ns = -1;  // the newest stamp posted [ns]
-    bool found = false;           // the frame was in tf at the last look
-    bool warned = false;          // its absence was logged
-    std::string missing;          // why it is not followed now (tf's words), '' if it is
-    std::uint64_t non_finite = 0, untransformable = 0;
-    std::uint64_t logged_jumps = 0;                   // teleports already logged
-    std::uint64_t logged_refused = 0;                 // refused teleports already logged
-    std::uint64_t logged_future = 0;                  // samples ahead of the clock already reported
-    std::uint64_t logged_dropped = 0;                 // dropped samples already reported
-    std::string refused;                              // why it is never followed ('' if it may be)
+    std::int64_t since_ns = -1;  // samples wanted after this stamp [ns] (an attach's)
+    /// What goes on while the runner keeps the holder (an attach or detach of another)
+    struct Sampling
+    {
+      std::int64_t posted_ns = -1;                   // the newest stamp posted [ns]
+      std::map<std::int64_t, std::int64_t> waiting;  // stamps to sample -> their arrival [ns]
+      bool found = false;                            // the frame was in tf at the last look
+      bool warned = false;                           // its absence was logged
+      bool still = false;  // its chain is all on /tf_static: one sample is its path
+      std::int64_t newest_arrival_ns = -1;  // when its newest broadcast arrived (ROS time) [ns]
+      std::uint64_t non_finite = 0, untransformable = 0;
+      std::uint64_t logged_jumps = 0;     // teleports already logged
+      std::uint64_t logged_refused = 0;   // refused teleports already logged
+      std::uint64_t logged_future = 0;    // samples ahead of the clock already reported
+      std::uint64_t logged_dropped = 0;   // dropped samples already reported
+      std::uint64_t logged_overruns = 0;  // overruns already reported
+    } s;
+    std::string missing;  // why it is not followed now (tf's words), '' if it is
+    std::string refused;  // why it is never followed ('' if it may be)
     std::vector<geometry_msgs::PoseStamped> pending;  // poses tf could not resolve yet
     ros::Subscriber subscriber;
   };
-  void sample(const ros::WallTimerEvent&);
-  void sampleFrame(Holder& holder);
+  void tfCallback(const ros::MessageEvent<tf2_msgs::TFMessage const>& event, bool is_static);
+  void retry(const ros::WallTimerEvent&);
+  /// The frames whose motion moves `frame` in ~fixed_frame: those between them in tf's tree.
+  std::set<std::string> chainOf(const std::string& frame) const;
+  /// The holder's waiting stamps that tf can resolve, posted (in order); at most `oldest_ns`
+  /// behind now: given up and counted.
+  void sampleWaiting(Holder& holder, std::int64_t now_ns);
+  /// A holder frame's state in tf now: found, still (a static chain: posted once), or missing.
+  void lookFor(Holder& holder, std::int64_t now_ns);
   void poseCallback(int track, const geometry_msgs::PoseStamped::ConstPtr& msg);
   /// A pose in `holder`'s topic resolved into ~fixed_frame and posted; false if tf cannot yet
   /// (its stamp newer than tf's newest: kept to try again).
   bool takePose(Holder& holder, const geometry_msgs::PoseStamped& msg, bool last_try);
-  /// The held point and orientation of a transform of the holder's frame into ~fixed_frame.
-  static HolderSample toSample(const geometry_msgs::Transform& transform, const Vec3& offset,
-                               std::int64_t stamp_ns);
-  /// As above, of the holder's pose in ~fixed_frame.
+  /// Forgets every sample in flight: ROS time went back.
+  void restartSampling();
+  /// The held point and orientation of the holder's pose in ~fixed_frame.
   static HolderSample toSample(const Eigen::Isometry3d& pose, const Vec3& offset,
-                               std::int64_t stamp_ns);
+                               std::int64_t stamp_ns, std::int64_t arrival_ns);
 
-  // the timer and the pose callbacks on a queue and thread of their own: service calls waiting
-  // for the runner on the node's queue cannot hold up the sampling
+  // the tf and pose callbacks and the timer on a queue and thread of their own: service calls
+  // waiting for the runner on the node's queue cannot hold up the sampling
   ros::CallbackQueue queue_;
   ros::NodeHandle node_;
   SimulationRunner& runner_;
   std::string fixed_frame_;
   std::string frame_prefix_;
   tf2_ros::Buffer buffer_;
-  std::mutex listener_mutex_;                             // guards listener_'s creation
-  std::unique_ptr<tf2_ros::TransformListener> listener_;  // its own thread; made by listen()
-  std::mutex mutex_;          // guards below: timer, pose callbacks and publish()
-  std::uint64_t serial_ = 0;  // Snapshot::tracks_serial followed
+  std::mutex mutex_;  // guards below: the callbacks, the timer, update() and report()
+  ros::Subscriber tf_subscriber_, tf_static_subscriber_;
+  ros::Time last_update_;                                 // ROS time at the last /tf message
+  std::map<std::string, std::string> parent_;             // child frame -> its parent
+  std::map<std::string, std::deque<Broadcast>> history_;  // child frame -> recent broadcasts
+  std::uint64_t serial_ = 0;                              // Snapshot::tracks_serial followed
   std::vector<Holder> holders_;
+  std::size_t logged_releases_ = 0;  // holds let go already logged (Snapshot::releases)
   ros::WallTimer timer_;
   ros::AsyncSpinner spinner_;  // last: stopped (destroyed) first
 };

@@ -61,10 +61,14 @@ struct NodeParameters
   double accuracy_window = 0.0;
   /// A ~wrench_command acts until a newer one for its particle or this long after it [s]
   double wrench_timeout = 0.5;
-  /// A frame_anchor's particle at stamp t is where its holder was at t - anchor_lag [s]
-  double anchor_lag = 0.1;
-  /// A holder that moves farther between two samples teleported: the scene is projected [m]
+  /// The latency a scene with holders runs behind its clock [s]; 0: chosen from their samples
+  double anchor_lag = 0.0;
+  /// A holder that moves farther between two samples teleported: the scene carried along [m]
   double anchor_max_jump = 0.5;
+  /// A holder that moves faster between two samples teleported [m/s]
+  double anchor_max_speed = 10.0;
+  /// The largest force a hold carries before it lets go [N]; 0: 50 times the scene's weight
+  double anchor_max_force = 0.0;
 
   /// The node's own settings (the step's are StepSettings::fields()): name, member, range.
   static constexpr auto fields()
@@ -92,10 +96,19 @@ struct NodeParameters
               &limits::WRENCH_TIMEOUT,
               "a ~wrench_command acts until a newer one or this long after it"),
         field("anchor_lag", &NodeParameters::anchor_lag, FieldKind::Number, &limits::ANCHOR_LAG,
-              "a frame_anchor's particle at stamp t is where its holder was at t - this"),
+              "the latency a scene with holders runs behind its clock, 0 = chosen from their "
+              "samples' arrival"),
         field("anchor_max_jump", &NodeParameters::anchor_max_jump, FieldKind::Number,
               &limits::ANCHOR_MAX_JUMP,
-              "a holder that moves farther between two samples teleported: the scene is projected"),
+              "a holder that moves farther between two samples teleported: the scene is carried "
+              "along"),
+        field("anchor_max_speed", &NodeParameters::anchor_max_speed, FieldKind::Number,
+              &limits::ANCHOR_MAX_SPEED,
+              "a holder that moves faster between two samples teleported"),
+        field("anchor_max_force", &NodeParameters::anchor_max_force, FieldKind::Number,
+              &limits::HOLD_FORCE,
+              "the largest force a hold carries before it lets go, 0 = 50 times the scene's "
+              "weight"),
         field("scenario", &NodeParameters::scenario, FieldKind::Name, nullptr,
               "scene name or scene file path"),
         field("scene_directory", &NodeParameters::scene_directory, FieldKind::Name, nullptr,

@@ -1,27 +1,32 @@
 /// @file simulation_runner.hpp
 /// @brief The thread that owns the simulation. Only it steps; every change (reset, new surface or
-/// chain, teleport, pause, step N, reconfigure) is queued as a request and applied between
-/// batches of steps, and its caller is answered once it is applied (turtlesim's queue-and-apply
-/// shape). After batches it hands out immutable snapshots, so publishers never take a lock the
-/// physics holds and never solve anything. Needs no ROS master: the core tests drive it directly.
+/// chain, teleport, pause, step N, reconfigure, attach) is queued as a request and applied
+/// between batches of steps, and its caller is answered once it is applied (turtlesim's
+/// queue-and-apply shape). After batches it hands out immutable snapshots, so publishers never
+/// take a lock the physics holds and never solve anything. Pacing and clocks are the Pacer's,
+/// holders the HolderSession's, the fault wording fault_policy's: the runner calls them, never
+/// the reverse. Needs no ROS master: the tests drive it directly.
 #pragma once
 
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/ros/accuracy_monitor.hpp"
-#include "constrained_particles/ros/anchor_follower.hpp"
+#include "constrained_particles/ros/holder_session.hpp"
+#include "constrained_particles/ros/pacer.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 #include "constrained_particles/ros/perturbations.hpp"
 #include "constrained_particles/ros/scene_session.hpp"
 #include "constrained_particles/ros/shadow_reference.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
+#include <Eigen/Geometry>
+
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <functional>
-#include <map>
 #include <future>
 #include <limits>
 #include <memory>
@@ -40,7 +45,8 @@ struct RunnerReply
   std::string field;              ///< the refused field, when one was named
   double sim_time = 0;            ///< sim time once applied [s]
   std::uint64_t steps_taken = 0;  ///< ~step: steps taken (fewer if interrupted or faulted)
-  double max_displacement = 0;    ///< teleport: largest move of a particle by projection [m]
+  double max_displacement = 0;    ///< teleport, attach: largest move of a particle [m]
+  std::int64_t stamp_ns = -1;     ///< attach: the stamp of the state the hold began at [ns]
   /// Batches of steps that ended between queueing and applying the request: at most 1, the one
   /// under way (a request waits for no more than one batch).
   std::uint64_t batches_waited = 0;
@@ -68,13 +74,21 @@ struct Snapshot
   std::string energy_fallback;
   /// The stage path the steps take under the settings in force, and why (forward_path.hpp).
   PathChoice forward_path;
-  /// Monotone clock [s]: sim time plus the time of every earlier reset, plus TIME_JUMP per reset,
-  /// scene change, teleport or fault, so a stamp taken from it is never repeated or earlier than
-  /// one before.
+  /// ~publish_clock's clock [s] at this state: sim time plus the time of every earlier reset,
+  /// plus Pacer::TIME_JUMP per reset, scene change, teleport or fault, so it never repeats or
+  /// goes back (Pacer::base()).
   double stamp = 0;
+  /// The ROS time [ns] this state stands for (Pacer::standsFor): its outputs' stamp. -1: none
+  /// (no /clock yet; on wall time while paused or faulted: the time it is published at).
+  std::int64_t stamp_ns = -1;
+  /// /clock epochs (~follow_clock): one more each time the clock went back.
+  std::uint64_t epoch = 0;
+  /// The latency [s] the scene runs behind its clock so that its holders' samples arrive first
+  /// (0 without a holder): a state stamped t is taken no sooner than at clock t + latency.
+  double latency = 0;
   double step_time = 0;         ///< wall time per step over the last batch [s]
   double real_time_factor = 0;  ///< achieved sim seconds per wall second over the last window
-  bool behind = false;  ///< sustained lag behind the wanted real-time factor (BehindMonitor)
+  bool behind = false;          ///< sustained shortfall against the wanted real-time factor
   bool paused = false;
   bool stepping = false;  ///< a ~step request is running
   bool faulted = false;   ///< stepping stopped until a reset (fault_reason says why)
@@ -92,41 +106,18 @@ struct Snapshot
   std::uint32_t applied_forces = 0, dragged_particles = 0;
   /// Particles a ~wrench_command pushes now.
   std::uint32_t commanded_particles = 0;
-  /// ~follow_clock: the /clock time [ns] the state stands for (the clock at the last anchor plus
-  /// the sim time since; while paused or faulted, the newest clock), -1 before the first /clock;
-  /// the stamp of what is published.
-  std::int64_t clock_stamp_ns = -1;
   /// Wrench commands dropped on arrival because a scene change came first (not counted by the
   /// node, which took them).
   std::uint64_t stale_commands = 0;
-  /// One more for each change of the model's holders (a scene change, attach, detach): what
-  /// SimulationRunner::postHolderSamples is told; from 1.
+  /// One more for each change of the model's holders (a scene change, attach, detach, a hold let
+  /// go): what SimulationRunner::postHolderSamples is told; from 1.
   std::uint64_t tracks_serial = 0;
   /// Each tracked record's counts (Model::tracked() order) and its holder's orientation at the
   /// state's time (the frame a frame anchor's wrench is expressed in).
   std::vector<HolderStatus> holders;
   std::vector<Eigen::Quaterniond> holder_orientations;
-  /// ~anchor_lag [s]: a held particle at time t is where its holder's sample stamped t - lag put it
-  double anchor_lag = 0;
-};
-
-/// Whether stepping is behind its real-time factor, with hysteresis: a single slow window of a
-/// busy machine does not turn it on, a single fast one does not turn it off.
-class BehindMonitor
-{
-public:
-  /// On after WINDOWS consecutive windows that each dropped more than SET of the wanted sim time.
-  static constexpr double SET = 0.05;
-  static constexpr int WINDOWS = 2;
-  /// Off after a window that dropped less than CLEAR (between CLEAR and SET it stays as it is).
-  static constexpr double CLEAR = 0.01;
-
-  /// Takes one window's lag (dropped / wanted sim time, 0 while paused); returns `behind`.
-  bool update(double lag);
-
-private:
-  int lagging_windows_ = 0;
-  bool behind_ = false;
+  /// Holds that let go since the scene started (over their max_force, or impossible).
+  std::vector<Release> releases;
 };
 
 /// Runs one simulation on its own thread.
@@ -140,15 +131,9 @@ public:
   /// state, constraint error over ~max_constraint_error, a dopri5 step forced at its guards): a
   /// fault keeps every good chunk.
   static constexpr double CHECK_WALL_TIME = 0.002;  // [s]
-  /// Shortest wall time between the starts of two paced batches: steps due sooner wait for the
-  /// next batch, so a small scene at a high real-time factor takes them together instead of
-  /// waking for each (a batch's fixed cost, its fault check and rate window, is paid once per
-  /// period, not per step). A ~step request runs at once.
-  static constexpr double BATCH_PERIOD = 0.001;  // [s]
-  /// Forward jump of Snapshot::stamp at each reset, scene change, teleport or fault [s].
-  static constexpr double TIME_JUMP = 1e-3;
-  /// Window over which the achieved real-time factor and the lag are measured [s].
-  static constexpr double RATE_WINDOW = 1.0;
+  static constexpr double BATCH_PERIOD = Pacer::BATCH_PERIOD;
+  static constexpr double TIME_JUMP = Pacer::TIME_JUMP;
+  static constexpr double RATE_WINDOW = Pacer::RATE_WINDOW;
 
   /// Who reads statistics: each gets the merged statistics of every step since it last read.
   enum class Reader
@@ -156,6 +141,9 @@ public:
     State,
     Diagnostics
   };
+  /// The pose [m] of a tf frame in the fixed frame at a stamp [ns], if tf holds it (the node
+  /// looks it up without waiting; nullopt: not yet, or never).
+  using PoseLookup = std::function<std::optional<Eigen::Isometry3d>(std::int64_t stamp_ns)>;
 
   /// Compiles `scene` with `parameters` (its `solver` section, then the step settings the user
   /// gave: parameters.step_given). Does not step until start().
@@ -207,13 +195,17 @@ public:
   /// Refused naming `particle`, `force.x` .. or `duration` and the valid range; at most
   /// Perturbations::MAX_APPLIED_FORCES at once. A reset or scene change ends them all.
   RunnerReply applyForce(long particle, const Vec3& force, double duration);
-  /// ~attach: holds `particle` at `offset` [m] (in the frame's axes) of tf frame `frame` from now
-  /// on, a frame_anchor added to the running scene (Simulator::setConstraints): it rests where it
-  /// is until the frame's poses arrive (FrameAnchors), then follows them. Refused naming
-  /// `particle` (out of range, or already held: by a pin, an anchor or an attachment), `frame`
-  /// (empty) or `offset` (outside limits::COORDINATE), with nothing changed. Kept across ~pause;
-  /// a reset or scene change ends every attachment.
-  RunnerReply attach(long particle, const std::string& frame, const Vec3& offset);
+  /// ~attach: holds `particle` with tf frame `frame` from the state the request is applied at
+  /// (stamp t): at `offset` [m] in the frame's axes (the particle moved there, the scene
+  /// projected after it: the reply's max_displacement), or where it is (`keep_offset`: the offset
+  /// is the particle's place in the frame's pose at t). The frame's pose at t comes from
+  /// `pose_at`; while tf has none yet the runner waits for it without stepping, at most
+  /// HolderSession::ATTACH_WAIT, then refuses naming `frame`. Refused naming `particle` (out of
+  /// range, already held, joined to held particles only), `frame` (empty, a leading /, one of
+  /// this node's particle frames) or `offset` (outside limits::COORDINATE), with nothing
+  /// changed. Kept across ~pause; a reset or scene change ends every attachment.
+  RunnerReply attach(long particle, const std::string& frame, const Vec3& offset, bool keep_offset,
+                     PoseLookup pose_at);
   /// ~detach: lets go of an attached `particle`: it goes on from the velocity it has. Refused
   /// naming `particle` if it is not attached (a scene's own pins and anchors stay).
   RunnerReply detach(long particle);
@@ -235,18 +227,18 @@ public:
   /// scene change ends them all.
   void commandWrench(std::uint64_t scene_serial, int particle, const Vec3& force);
   /// Thread-safe: the newest /clock [ns since its epoch]. With ~follow_clock the runner steps
-  /// the scene up to it, never past it: the first clock (and the clock at a reset, teleport,
-  /// unpause, or one that went back) is anchored to the step count then, and after clock c the
-  /// scene has taken floor((c - anchor clock) / dt) steps since the anchor, the remainder
-  /// carried over (a settings change keeps the anchor's clock time); no clock yet, no steps.
+  /// the scene up to it less the latency (Pacer), never past it; no clock yet, no steps.
   /// Paced by the clock alone (~real_time_factor unused); ~step refused.
   void followClock(std::int64_t clock_ns);
+  /// Thread-safe: the newest /clock followed [ns] (-1: none; without ~follow_clock: -1).
+  std::int64_t newestClock() const
+  {
+    return pacer_.newestClock();
+  }
   /// Thread-safe, not waited for: poses of the holder of track `track` (Model::tracked() order)
-  /// of the model with Snapshot::tracks_serial `tracks_serial`, stamped on the node's ROS clock.
-  /// A sample stamped s is where the held particle is at the sim time that stands for s +
-  /// ~anchor_lag (AnchorFollower), taken at the next chunk of steps; a sample farther than
-  /// ~anchor_max_jump from the one before projects the scene onto it (like ~set_state). Ignored
-  /// while paused or faulted.
+  /// of the model with Snapshot::tracks_serial `tracks_serial`, stamped on the node's ROS clock:
+  /// a sample stamped s is where the held particle is at the sim time that stands for s
+  /// (HolderSession), taken at the next chunk of steps. Ignored while paused or faulted.
   void postHolderSamples(std::uint64_t tracks_serial, int track, std::vector<HolderSample> samples);
   /// The clock ~wrench_timeout is measured on [s] (the node's ROS time: wall, or /clock under
   /// /use_sim_time); steady wall seconds until set. Set before start().
@@ -267,6 +259,14 @@ private:
     double sim_time = 0;  // after the steps taken [s]
     std::shared_ptr<std::promise<RunnerReply>> reply;
   };
+  /// An ~attach waiting for tf to hold its frame's pose at the state's stamp (no step meanwhile).
+  struct PendingAttach
+  {
+    HolderSession::AttachRequest request;
+    PoseLookup pose_at;
+    std::shared_ptr<std::promise<RunnerReply>> reply;
+    Clock::time_point deadline;
+  };
 
   RunnerReply submit(std::function<RunnerReply()> apply);
   /// Applies the candidate `make` returns (SceneSession) and answers "`what`; scene ... reset".
@@ -282,25 +282,6 @@ private:
   void applyInbox();
   /// Ends the wrench commands whose timeout passed by the command clock's now.
   void expireCommands();
-  /// How a clock anchor moves (~follow_clock): to the newest clock (a reset, teleport or
-  /// unpause: the scene goes on from the clock's time now), or kept at the clock time the state
-  /// stands for (a settings change: the backlog and floor((c - c0) / dt) are kept).
-  enum class ClockAnchor
-  {
-    Now,
-    Keep
-  };
-  /// The sim time [s] that stands for ROS time `stamp_ns` (NaN: none yet): the /clock anchor
-  /// under ~follow_clock, the node's own clock with ~publish_clock, else the wall anchor scaled
-  /// by the real-time factor.
-  double simTimeOf(std::int64_t stamp_ns) const;
-  /// Takes the holder samples posted since the last chunk; projects after a teleport.
-  void followHolders();
-  /// Every holder's point at rest where it is now: the mapping from stamps to sim time moved (a
-  /// teleport, an unpause, a clock that went back), so earlier knots no longer stand for it.
-  void restHolders();
-  /// The clock time [ns] the state stands for under ~follow_clock (-1 before the first clock).
-  std::int64_t clockStandsFor() const;
   /// Wakes the loop after a post from another thread (taken under its lock: never between its
   /// check of what is posted and its wait).
   void wakeLoop();
@@ -311,14 +292,15 @@ private:
   void loop();
   /// Applies the queued requests; true if there were any.
   bool applyRequests();
+  /// The steps due now: a ~step's rest, or the Pacer's (a new /clock epoch rests the holders).
+  std::uint64_t stepsDue(Clock::time_point start);
   /// One batch of due steps, bounded by BATCH_WALL_TIME; false if none were due.
   bool runBatch();
-  /// Why `state`, reached by a chunk with `chunk` statistics, is a fault, or empty if it is not.
-  std::string faultIn(const State& state, const StepStatistics& chunk) const;
-  /// faultIn's reason before it says whether the energy budget's fallback had the run.
-  std::string checkFault(const State& state, const StepStatistics& chunk) const;
-  /// The checks of the state itself (finite, within ~max_constraint_error): why not, or empty.
-  std::string checkState(const State& state, const StepStatistics& chunk) const;
+  /// One chunk of at most `steps` steps, its holders followed before and after; false if it
+  /// faulted (the good state put back).
+  bool runChunk(int steps, StepStatistics& batch);
+  /// A hold over its limit let go (StepCheck::HoldForce in `chunk`): the scene goes on without it.
+  void letGo(const StepStatistics& chunk);
   /// Stops stepping, puts back `good` and records why.
   void fault(const std::string& reason, const State& good);
   /// Ends a running ~step early (nothing if none runs).
@@ -327,35 +309,38 @@ private:
   /// Runs `candidate` (SceneSession) from its start, its settings current.
   /// @throws InvalidInput if the simulator refuses it; nothing changes
   void apply(const SceneSession::Candidate& candidate);
-  /// Restarts wall-time pacing from the current sim time.
-  void reanchor(ClockAnchor clock = ClockAnchor::Now);
-  void updateRate(Clock::time_point now);
+  /// Replaces the running scene's constraints (an attachment made or ended, a hold let go),
+  /// state kept; the holders' model set anew. @throws InvalidInput if the scene refuses them
+  ProjectionReport changeHolders(const std::vector<Constraint>& constraints);
+  /// Tries the pending ~attach once: applied, refused, or still waiting (false).
+  bool tryAttach();
+  /// The ~attach at the state now with the frame's pose `pose` there.
+  RunnerReply attachAt(const HolderSession::AttachRequest& request, const Eigen::Isometry3d& pose);
+  /// The latency the holders ask, handed to the pacer.
+  void updateLatency(Clock::time_point now);
+  /// Restarts pacing from the current state.
+  void reanchor(Pacer::Anchor anchor = Pacer::Anchor::Now);
   void makeSnapshot();
   /// Live accuracy (AccuracyMonitor::update) after a batch; a finished report makes a snapshot.
   void updateAccuracy();
   /// Ends the open accuracy window unmeasured (the state or settings changed under it).
   void abandonWindow();
+  /// The forces and multipliers (and, `model_changed`, the model copy) after a change of state
+  /// or model between steps; a snapshot due.
+  void afterChange(bool model_changed = false);
+  /// The stamp [ns] the state stands for now: Pacer::standsFor, or the clock now while paused or
+  /// faulted (the newest /clock, the ROS time on wall time).
+  std::int64_t stampNow() const;
 
   // owned by the physics thread once started (the constructor and stop() before it)
   NodeParameters parameters_;
   SceneSession session_;         // the scene and the user's step settings (scene_session.hpp)
   const double wrench_timeout_;  // ~wrench_timeout [s]: read by commandWrench on any thread
-  const bool follow_clock_;      // ~follow_clock: paced by followClock(), not the wall
-  std::function<double()> command_clock_;         // ~wrench_timeout's clock [s]
-  std::atomic<std::int64_t> clock_now_ns_{ -1 };  // the newest /clock [ns], -1: none yet
-  std::atomic<bool> clock_moved_{ false };        // a /clock arrived since the loop last stepped
-  std::int64_t anchor_clock_ns_ = -1;             // the clock at the anchor, -1: none yet
-  std::uint64_t anchor_steps_ = 0;                // State::steps at the anchor
-  double anchor_clock_sim_ = 0;                   // sim time at the anchor [s]
-  std::int64_t window_clock_ns_ = -1;             // the clock at the rate window's start
-  std::uint64_t stale_commands_ = 0;              // see Snapshot::stale_commands
-  AnchorFollower holders_;                        // holder samples onto the tracks
-  std::vector<int> attachments_;                  // particles ~attach holds (scene order)
-  /// Replaces the running scene's constraints (an attachment made or ended), state kept.
-  RunnerReply changeHolders(const std::vector<Constraint>& constraints, const std::string& what);
-  std::uint64_t tracks_serial_ = 0;  // see Snapshot::tracks_serial
-  std::int64_t anchor_ros_ns_ = 0;   // the command clock at the wall anchor [ns]
-  bool unpublished_ = false;         // steps taken since the last snapshot
+  std::function<double()> command_clock_;  // ~wrench_timeout's clock [s]
+  Pacer pacer_;                            // when steps are due, what a state stands for
+  HolderSession holders_;                  // holders' samples, attachments, holds let go
+  std::optional<PendingAttach> pending_attach_;
+  bool unpublished_ = false;  // steps taken since the last snapshot
   std::unique_ptr<Simulator> simulator_;
   std::shared_ptr<const Model> model_copy_;
   std::uint64_t snapshot_serial_ = 0;  // 0: none yet, for readers
@@ -365,17 +350,13 @@ private:
   State last_good_;
   Points forces_;  // the constraint forces and multipliers of the snapshot to come
   Eigen::VectorXd multipliers_;
-  double clock_base_ = 0;                          // Snapshot::stamp - sim time [s]
   double step_time_ = 0, step_time_estimate_ = 0;  // [s] per step: last batch, last chunk
   int last_chunk_ = 1;                             // steps in the last chunk
-  Clock::time_point last_batch_start_;             // of the last paced batch that stepped
-  Clock::time_point anchor_wall_, window_wall_, last_snapshot_wall_;
-  double anchor_sim_ = 0, window_sim_ = 0, window_dropped_ = 0, achieved_rtf_ = 0;
-  BehindMonitor behind_monitor_;
+  Clock::time_point last_snapshot_wall_;
   Perturbations perturbations_;  // pushes, drags and wrench commands (perturbations.hpp)
   double next_command_expiry_ = std::numeric_limits<double>::infinity();  // command clock [s]
   AccuracyMonitor accuracy_;  // live accuracy windows (accuracy_monitor.hpp)
-  bool behind_ = false, window_valid_ = false, snapshot_due_ = true;
+  bool snapshot_due_ = true;
 
   mutable std::mutex queue_mutex_;  // guards the queue and the wake-up
   std::condition_variable wake_;

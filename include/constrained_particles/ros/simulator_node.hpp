@@ -69,18 +69,19 @@ public:
 private:
   /// The clock a message about `snap` is stamped with: its sim time (Snapshot::stamp) with
   /// ~publish_clock; with ~follow_clock the /clock time its state stands for
-  /// (Snapshot::clock_stamp, 0 before the first /clock); else `now` (wall time, or a foreign
-  /// /clock under /use_sim_time).
+  /// (Snapshot::stamp_ns, 0 before the first /clock); on wall time the ROS time it stands for
+  /// (never after `now`; `now` while paused or faulted); under a foreign /clock, `now`.
   ros::Time stampOf(const Snapshot& snap, const ros::Time& now) const;
   /// Why nothing goes out before a /clock: CLOCK_WAIT_MESSAGE, or FOLLOW_WAIT_MESSAGE.
   const char* waitMessage() const;
-  /// The stamp of what publish() sends for `snap`: its sim time (Snapshot::stamp) with
-  /// ~publish_clock, else ros::Time::now() taken before the snapshot (`now`: wall time, or a
-  /// foreign /clock under /use_sim_time). Empty when nothing may go out: the stamp has not
-  /// advanced past the last one sent (tf2 drops a repeat: TF_REPEATED_DATA), or it is 0 because
-  /// /use_sim_time is set and no /clock has arrived (then says so once, and in /diagnostics).
-  /// A stamp earlier than the last one sent (a foreign clock restarted, as rosbag play --loop
-  /// does) starts a new timeline, with a warning. Caller holds publish_mutex_.
+  /// The stamp of what publish() sends for `snap` (stampOf). Empty when nothing may go out: the
+  /// stamp has not advanced past the last one sent (tf2 drops a repeat: TF_REPEATED_DATA); it
+  /// is 0 because /use_sim_time is set and no /clock has arrived (then says so once, and in
+  /// /diagnostics); or, following /clock, it is ahead of the newest clock (a state of the epoch
+  /// before the clock went back: a tf2 listener would keep it as its newest for a whole loop).
+  /// Following /clock, a new epoch (Snapshot::epoch) starts a new timeline; otherwise a stamp
+  /// earlier than the last one sent (a foreign clock restarted) does, with a warning. Caller
+  /// holds publish_mutex_.
   std::optional<ros::Time> stampFor(const Snapshot& snap, const ros::Time& now);
   /// ~publish_clock, for CLOCK_CHECK_PERIOD after advertising: gives way (refusal(), shutdown)
   /// to another live /clock publisher whose name sorts first.
@@ -139,6 +140,8 @@ private:
 
   std::mutex publish_mutex_;  // publish() only: timer callbacks may overlap on the spinner
   std::optional<ros::Time> last_stamp_;  // the stamp of the last /tf and ~state sent
+  std::uint64_t last_epoch_ = 0;         // its Snapshot::epoch
+  ros::Time last_clock_;                 // ~publish_clock: the last /clock sent
   // stamps are sim time (~publish_clock or /use_sim_time): they may stand still, so /tf and
   // ~state go out (latched) whoever listens, and a late /tf subscriber gets the last frames
   bool sim_time_stamps_ = false;

@@ -23,6 +23,9 @@ struct FrameAnchorConstraint
   std::string frame;             ///< the holder's tf frame (or the empty string with `topic`)
   std::string topic;             ///< a geometry_msgs/PoseStamped topic instead of `frame`
   Vec3 offset{ 0.0, 0.0, 0.0 };  ///< the held point in the holder's frame [m]
+  /// The largest force [N] the hold carries: a step over it is put back and reported
+  /// (StepCheck::HoldForce), for the caller to let go; 0: no limit (the node fills in its own).
+  double max_force = 0.0;
   int track = 0;  ///< its index in Data::tracks (Model::compile numbers them in scene order)
 
   static constexpr const char* KIND = "frame_anchor";
@@ -39,7 +42,11 @@ struct FrameAnchorConstraint
                            field("topic", &FrameAnchorConstraint::topic, FieldKind::Name, nullptr,
                                  "a geometry_msgs/PoseStamped topic instead of a frame"),
                            field("offset", &FrameAnchorConstraint::offset, FieldKind::Vector,
-                                 &limits::COORDINATE, "the held point in the holder's frame"));
+                                 &limits::COORDINATE, "the held point in the holder's frame"),
+                           field("max_force", &FrameAnchorConstraint::max_force, FieldKind::Number,
+                                 &limits::HOLD_FORCE,
+                                 "the largest force the hold carries before it lets go (0: "
+                                 "the node's ~anchor_max_force)"));
   }
 };
 

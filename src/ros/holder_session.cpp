@@ -1,0 +1,454 @@
+/// @file holder_session.cpp
+/// @brief HolderSession: holders' samples onto the tracks, their latency, teleports, attach,
+/// detach and holds that let go.
+#include "constrained_particles/ros/holder_session.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace constrained_particles
+{
+namespace
+{
+std::string holderName(const Constraint& constraint)
+{
+  if (const auto* anchor = std::get_if<FrameAnchorConstraint>(&constraint))
+    return anchor->frame.empty() ? anchor->topic : anchor->frame;
+  return "";
+}
+
+// The weight of the whole scene [N], with g at least standard gravity (a scene without gravity
+// still has holds that carry something)
+double sceneWeight(const Scene& scene)
+{
+  double g = 0.0;
+  for (const Force& force : scene.forces)
+    if (const auto* gravity = std::get_if<GravityForce>(&force))
+      g = std::max(g, gravity->acceleration.norm());
+  double mass = 0.0;
+  for (double m : scene.masses)
+    mass += m;
+  return mass * std::max(g, 9.81);
+}
+}  // namespace
+
+void HolderSession::post(std::uint64_t serial, int track, std::vector<HolderSample> samples)
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (serial != posted_serial_ || samples.empty())
+    return;
+  // bounded: a physics thread that stopped taking them (paused) holds at most this many posts
+  if (inbox_.size() >= 10000)
+    inbox_.erase(inbox_.begin());
+  inbox_.push_back(Post{ serial, track, std::move(samples) });
+}
+
+void HolderSession::setModel(const Model& model, bool scene_changed)
+{
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    posted_serial_ = ++serial_;
+    inbox_.clear();
+  }
+  if (scene_changed)
+  {
+    attachments_.clear();
+    releases_.clear();
+  }
+  std::vector<HolderStatus> status;
+  std::vector<Holder> holders;
+  for (int k : model.tracked())
+  {
+    const Constraint& constraint = model.scene().constraints[k];
+    HolderStatus fresh;
+    fresh.particle = eliminatedParticle(constraint);
+    fresh.holder = holderName(constraint);
+    Holder holder;
+    // a holder kept (an attach or detach of another): its counts, and its samples' place
+    const auto kept =
+        std::find_if(status_.begin(), status_.end(),
+                     [&fresh](const HolderStatus& s)
+                     { return s.particle == fresh.particle && s.holder == fresh.holder; });
+    // a scene change starts every holder again: its track, its counts and what its arrivals
+    // asked (a new run measures its own)
+    if (kept != status_.end() && !scene_changed)
+    {
+      holder = holders_[static_cast<std::size_t>(kept - status_.begin())];
+      fresh = *kept;
+    }
+    status.push_back(fresh);
+    holders.push_back(std::move(holder));
+  }
+  status_.swap(status);
+  holders_.swap(holders);
+}
+
+double HolderSession::holdLimit(const Scene& scene) const
+{
+  return limits_.max_force > 0.0 ? limits_.max_force : MAX_FORCE_WEIGHTS * sceneWeight(scene);
+}
+
+void HolderSession::limitHolds(Scene& scene) const
+{
+  const double limit = holdLimit(scene);
+  for (Constraint& constraint : scene.constraints)
+    if (auto* anchor = std::get_if<FrameAnchorConstraint>(&constraint);
+        anchor && anchor->max_force <= 0.0)
+      anchor->max_force = limit;
+}
+
+void HolderSession::discard()
+{
+  std::lock_guard<std::mutex> lock(mutex_);
+  inbox_.clear();
+}
+
+void HolderSession::measure(int k, const HolderSample& sample)
+{
+  HolderStatus& status = status_[k];
+  Holder& holder = holders_[k];
+  if (sample.still)
+  {
+    holder.still = true;  // a frame on /tf_static: it never moves, and needs no latency
+    status.needed_latency = 0.0;
+    return;
+  }
+  holder.still = false;
+  std::deque<Arrival>& arrivals = holder.arrivals;
+  if (!arrivals.empty() && sample.stamp_ns <= arrivals.back().stamp_ns)
+    return;  // repeated or out of order: it measures nothing
+  arrivals.push_back(Arrival{ sample.stamp_ns, sample.arrival_ns, 0 });
+  const std::size_t n = arrivals.size();
+  // the steps leaving knot k - 2 need knot k (its tangent's successor) to have arrived
+  if (n >= 3)
+  {
+    arrivals.back().need_ns =
+        std::max<std::int64_t>(0, sample.arrival_ns - arrivals[n - 3].stamp_ns);
+  }
+  const std::int64_t window = std::llround(LATENCY_WINDOW * 1e9);
+  while (arrivals.size() > 3 &&
+         (arrivals.front().stamp_ns < sample.stamp_ns - window || arrivals.size() > 4096))
+    arrivals.pop_front();
+  if (arrivals.size() < 3)
+    return;
+  std::int64_t worst = 0;
+  for (std::size_t i = 2; i < arrivals.size(); ++i)
+    worst = std::max(worst, arrivals[i].need_ns);
+  status.needed_latency = static_cast<double>(worst) * 1e-9;
+  holder.measured = true;
+}
+
+void HolderSession::follow(Simulator& simulator, const Pacer& pacer, double lead)
+{
+  std::vector<Post> posts;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    posts.swap(inbox_);
+  }
+  std::vector<AnchorTrack>& tracks = simulator.tracks();
+  const double now = simulator.state().time;
+  for (Post& post : posts)
+  {
+    if (post.serial != serial_ || post.track < 0 || post.track >= static_cast<int>(tracks.size()) ||
+        post.track >= static_cast<int>(status_.size()))
+      continue;
+    for (const HolderSample& sample : post.samples)
+      take(post.track, sample, tracks[post.track], now, pacer.simTimeOf(sample.stamp_ns), lead);
+  }
+  for (AnchorTrack& track : tracks)
+    track.dropBefore(now);
+}
+
+void HolderSession::take(int k, const HolderSample& sample, AnchorTrack& track, double now,
+                         double time, double lead)
+{
+  HolderStatus& status = status_[k];
+  Holder& holder = holders_[k];
+  status.last_stamp = static_cast<double>(sample.stamp_ns) * 1e-9;
+  if (!std::isfinite(time))
+  {
+    ++status.late;  // no clock to place it on yet
+    return;
+  }
+  if (time > now + wantedLatency() + FUTURE_LIMIT)
+  {
+    ++status.future;
+    return;
+  }
+  if (!(sample.position.cwiseAbs().maxCoeff() <= limits::COORDINATE.high) ||
+      !sample.orientation.coeffs().allFinite())
+  {
+    ++status.out_of_range;
+    return;
+  }
+  measure(k, sample);  // a sample of the holder's clock, late or not: what latency it needs
+  // a teleport: farther than ~anchor_max_jump, or faster than ~anchor_max_speed, from the last
+  // sample (or, the first since the track started, from where the point is now)
+  const Vec3 from = holder.has_previous ? holder.previous : track.motion(now).position;
+  const double interval = holder.has_previous
+                              ? static_cast<double>(sample.stamp_ns - holder.previous_ns) * 1e-9
+                              : time - now;
+  const double distance = (sample.position - from).norm();
+  const bool jump = holder.replace || distance > limits_.max_jump ||
+                    (interval > 0.0 && distance > limits_.max_speed * interval);
+  AnchorSample knot;
+  knot.time = time;
+  knot.position = sample.position;
+  knot.orientation = sample.orientation;
+  const double ahead = std::max(lead, MIN_SPACING);
+  const AnchorTrack::Append appended = jump ? track.appendJump(knot, now, ahead, MIN_SPACING)
+                                            : track.append(knot, now, ahead, MIN_SPACING);
+  if (appended == AnchorTrack::Append::Unordered)
+  {
+    ++status.unordered;
+    return;
+  }
+  if (holder.replace)
+  {
+    ++status.replaced;  // the clock went back: not the holder's own jump
+    holder.replace = false;
+  }
+  else if (jump)
+  {
+    ++status.jumps;  // scheduled at its time, or (too late for a knot) at once
+    status.last_jump = distance;
+  }
+  else if (appended == AnchorTrack::Append::Late)
+    ++status.late;
+  if (appended == AnchorTrack::Append::Taken)
+    ++status.taken;
+  holder.has_previous = true;
+  holder.previous = sample.position;
+  holder.previous_ns = sample.stamp_ns;
+}
+
+std::uint64_t HolderSession::stepsToNextJump(const Simulator& simulator, std::uint64_t limit) const
+{
+  const double now = simulator.state().time, dt = simulator.stepSettings().dt;
+  std::uint64_t steps = limit;
+  for (const AnchorTrack& track : simulator.tracks())
+    if (const AnchorTrack::Jump* jump = track.nextJump())
+    {
+      const double until = std::ceil((jump->time - now) / dt - 1e-9);
+      steps = std::min<std::uint64_t>(
+          steps, until <= 0.0 ? 0 : static_cast<std::uint64_t>(std::min(until, 1e15)));
+    }
+  return steps;
+}
+
+bool HolderSession::afterChunk(Simulator& simulator)
+{
+  bool changed = false;
+  const Model& model = simulator.model();
+  for (std::size_t k = 0; k < simulator.tracks().size() && k < status_.size(); ++k)
+  {
+    const double now = simulator.state().time;
+    AnchorTrack& track = simulator.tracks()[k];
+    HolderStatus& status = status_[k];
+    while (track.nextJump() && track.nextJump()->time <= now + 1e-12)
+    {
+      const Vec3 displacement = track.takeJump();
+      const int particle = status.particle;
+      // held by this holder alone, the scene goes with it rigidly: links exact, velocities (and
+      // its kinetic energy) kept; with other holders it is projected onto where they all hold
+      State moved = simulator.state();
+      if (model.eliminated().size() == 1)
+        moved.positions.colwise() += displacement;
+      else
+        moved.positions.col(particle) += displacement;
+      try
+      {
+        simulator.setState(moved);
+        changed = true;
+      }
+      catch (const InvalidInput& e)
+      {
+        // the scene cannot follow: the holder rests where its particle is (nothing changed)
+        simulator.tracks()[k].restart(simulator.state().positions.col(particle));
+        holders_[k].has_previous = false;
+        ++status.refused;
+        status.last_refusal = e.what();
+        break;
+      }
+    }
+    const bool coasting = track.coasting(now);
+    if (coasting && !status.coasting)
+      ++status.overruns;
+    status.coasting = coasting;
+  }
+  return changed;
+}
+
+double HolderSession::wantedLatency() const
+{
+  if (status_.empty())
+    return 0.0;
+  if (limits_.lag > 0.0)
+    return limits_.lag;
+  double worst = 0.0;
+  for (std::size_t k = 0; k < status_.size(); ++k)
+    worst = std::max(worst, holders_[k].still      ? 0.0
+                            : holders_[k].measured ? status_[k].needed_latency
+                                                   : INITIAL_LATENCY);
+  return std::min(worst * LATENCY_FACTOR + LATENCY_MARGIN, limits::ANCHOR_LAG.high);
+}
+
+void HolderSession::rest(Simulator& simulator, bool new_epoch)
+{
+  discard();
+  for (Holder& holder : holders_)
+  {
+    holder.has_previous = false;
+    holder.replace = new_epoch;
+  }
+  for (HolderStatus& status : status_)
+    status.coasting = false;
+  simulator.restTracks();
+}
+
+void HolderSession::resync(Simulator& simulator)
+{
+  discard();
+  const double now = simulator.state().time;
+  for (AnchorTrack& track : simulator.tracks())
+    track.resync(now);
+  for (Holder& holder : holders_)
+    holder.has_previous = false;
+}
+
+std::optional<std::string> HolderSession::checkAttach(const Model& model,
+                                                      const AttachRequest& request,
+                                                      const std::string& frame_prefix,
+                                                      std::string& field) const
+{
+  const int n = model.numParticles();
+  const long particle = request.particle;
+  field = "particle";
+  if (particle < 0 || particle >= n)
+    return "particle = " + std::to_string(particle) + ", must be in [0, " + std::to_string(n - 1) +
+           "] (the scene's particles)";
+  for (std::size_t k = 0; k < model.eliminated().size(); ++k)
+    if (model.eliminatedParticles()[k] == particle)
+    {
+      const bool attached =
+          std::find(attachments_.begin(), attachments_.end(), particle) != attachments_.end();
+      return "particle = " + std::to_string(particle) + " is already held (by " +
+             (attached ? std::string("an attachment; ~detach it first")
+                       : std::string("the scene's ") +
+                             kindOf(model.scene().constraints[model.eliminated()[k]])) +
+             ")";
+    }
+  // a row between this particle and held ones only would have nothing left to move: its
+  // violation, made by the holders, could not be projected away (a fault, not a grip)
+  for (const RowRecord& record : model.rowRecords())
+  {
+    bool touches = false, free = false;
+    for (int b = record.first_block; b < record.first_block + record.rows * record.particles; ++b)
+    {
+      const int i = model.blockParticle()[b];
+      touches = touches || i == particle;
+      free = free || (i != particle && model.inverseMasses()[i] > 0.0);
+    }
+    if (touches && !free)
+      return "particle = " + std::to_string(particle) + ": its " +
+             kindOf(model.scene().constraints[record.constraint]) +
+             " joins it to held particles only (pinned, anchored or attached): held too, nothing "
+             "could move to keep it; grab a particle with a free neighbour";
+  }
+  field = "frame";
+  if (request.frame.empty() || request.frame.front() == '/')
+    return "frame = '" + request.frame + "', must name a tf frame (non-empty, no leading /)";
+  if (request.frame.rfind(frame_prefix, 0) == 0)
+    return "frame = '" + request.frame +
+           "' is one of this node's particle frames (~frame_prefix '" + frame_prefix +
+           "'): a particle cannot follow the scene itself";
+  field = "offset";
+  try
+  {
+    requireInRange("offset", request.offset, limits::COORDINATE);
+  }
+  catch (const InvalidInput& e)
+  {
+    field = e.field();
+    return std::string(e.what());
+  }
+  field.clear();
+  return std::nullopt;
+}
+
+FrameAnchorConstraint HolderSession::anchorFor(const AttachRequest& request,
+                                               const Eigen::Isometry3d& pose,
+                                               const Vec3& particle_position,
+                                               const Scene& scene) const
+{
+  FrameAnchorConstraint anchor;
+  anchor.particle = static_cast<int>(request.particle);
+  anchor.frame = request.frame;
+  // keep_offset: where the particle is, in the frame's axes at the state's stamp
+  anchor.offset = request.keep_offset ? Vec3(pose.inverse() * particle_position) : request.offset;
+  anchor.max_force = holdLimit(scene);
+  return anchor;
+}
+
+void HolderSession::attached(int particle, std::int64_t since_ns)
+{
+  attachments_.push_back(particle);
+  for (HolderStatus& status : status_)
+    if (status.particle == particle)
+      status.since_ns = since_ns;
+  releases_.erase(std::remove_if(releases_.begin(), releases_.end(),
+                                 [particle](const Release& r) { return r.particle == particle; }),
+                  releases_.end());
+}
+
+std::optional<std::vector<Constraint>> HolderSession::detachFrom(const Model& model, long particle,
+                                                                 std::string& attached_now) const
+{
+  attached_now.clear();
+  for (int i : attachments_)
+    attached_now += (attached_now.empty() ? "" : ", ") + std::to_string(i);
+  if (std::find(attachments_.begin(), attachments_.end(), particle) == attachments_.end())
+    return std::nullopt;
+  std::vector<Constraint> constraints;
+  for (const Constraint& c : model.scene().constraints)
+    // the attachment's record: no other can hold its particle (attach refuses a held one)
+    if (!(std::holds_alternative<FrameAnchorConstraint>(c) && eliminatedParticle(c) == particle))
+      constraints.push_back(c);
+  return constraints;
+}
+
+void HolderSession::detached(int particle)
+{
+  attachments_.erase(std::remove(attachments_.begin(), attachments_.end(), particle),
+                     attachments_.end());
+}
+
+std::vector<Constraint> HolderSession::letGo(const Model& model, const StepStatistics& failed,
+                                             double time)
+{
+  const int record = model.tracked()[failed.hold];
+  const Constraint& held = model.scene().constraints[record];
+  Release release;
+  release.particle = eliminatedParticle(held);
+  release.holder = holderName(held);
+  release.time = time;
+  if (const auto* anchor = std::get_if<FrameAnchorConstraint>(&held))
+    release.max_force = anchor->max_force;
+  release.why = failed.hold_failure == StepCheck::None
+                    ? "it would have carried " + formatValue(failed.hold_force) +
+                          " N, over its max_force " + formatValue(release.max_force) + " N"
+                    : std::string("the holds made the next step impossible (step check ") +
+                          stepCheckName(failed.hold_failure) +
+                          " failed at every split): it carried most against its max_force " +
+                          formatValue(release.max_force) + " N";
+  releases_.push_back(release);
+  detached(release.particle);
+  std::vector<Constraint> constraints;
+  for (std::size_t k = 0; k < model.scene().constraints.size(); ++k)
+    if (static_cast<int>(k) != record)
+      constraints.push_back(model.scene().constraints[k]);
+  return constraints;
+}
+
+}  // namespace constrained_particles

@@ -1,0 +1,168 @@
+/// @file test_holder_session.cpp
+/// @brief HolderSession: holder samples onto a simulator's tracks, teleports, latency, holds that
+/// let go (no ROS master).
+#include "constrained_particles/ros/holder_session.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace constrained_particles;
+
+namespace
+{
+// a chain of 3 hanging from a frame anchor at the origin
+Simulator heldChain()
+{
+  Scene scene;
+  scene.masses = { 0.1, 0.1, 0.1 };
+  scene.constraints = { LinkConstraint{ 0, 1, 0.2 }, LinkConstraint{ 1, 2, 0.2 } };
+  FrameAnchorConstraint anchor;
+  anchor.particle = 0;
+  anchor.frame = "hand";
+  scene.constraints.push_back(anchor);
+  scene.forces = { GravityForce{} };
+  Points p(3, 3);
+  p << 0, 0, 0, 0, 0, 0, 0, -0.2, -0.4;
+  State start;
+  start.positions = p;
+  start.velocities = Points::Zero(3, 3);
+  return Simulator(scene, start, StepSettings{});
+}
+
+HolderSample at(std::int64_t stamp_ns, const Vec3& position, std::int64_t arrival_ns = -1)
+{
+  HolderSample sample;
+  sample.stamp_ns = stamp_ns;
+  sample.arrival_ns = arrival_ns < 0 ? stamp_ns : arrival_ns;
+  sample.position = position;
+  return sample;
+}
+
+// a pacer on the node's own clock (~publish_clock): stamp [ns] = sim time [s] x 1e9
+Pacer ownClock()
+{
+  return Pacer(Pacer::Source::PublishClock, 1.0, [] { return 0.0; });
+}
+}  // namespace
+
+TEST(HolderSession, SortsSamplesIntoTakenLateUnorderedFutureAndOutOfRange)
+{
+  Simulator simulator = heldChain();
+  HolderSession holders(HolderLimits{});
+  holders.setModel(simulator.model(), true);
+  const Pacer pacer = ownClock();
+  simulator.step(100);  // t = 0.1 s at the default dt of 1 ms
+  const std::uint64_t serial = holders.serial();
+  holders.post(serial, 0,
+               { at(110000000, Vec3(0.0001, 0, 0)),   // 0.11 s: taken
+                 at(105000000, Vec3(0.0001, 0, 0)),   // before the last knot: unordered
+                 at(120000000, Vec3(0.0002, 0, 0)),   // taken
+                 at(9000000000, Vec3(0.0003, 0, 0)),  // 9 s: over 5 s ahead of 0.1 s
+                 at(130000000, Vec3(2e6, 0, 0)) });   // outside limits::COORDINATE
+  holders.post(serial + 1, 0, { at(140000000, Vec3(0.0004, 0, 0)) });  // another model's
+  holders.post(serial, 0, { at(50000000, Vec3(0.0, 0, 0)) });          // before the last knot too
+  holders.follow(simulator, pacer, 1e-3);
+  const HolderStatus& status = holders.status()[0];
+  EXPECT_EQ(status.holder, "hand");
+  EXPECT_EQ(status.taken, 2u);
+  EXPECT_EQ(status.unordered, 2u);
+  EXPECT_EQ(status.future, 1u);
+  EXPECT_EQ(status.out_of_range, 1u);
+  EXPECT_EQ(status.jumps, 0u);
+  EXPECT_EQ(simulator.tracks()[0].last().position, Vec3(0.0002, 0, 0));
+  // late: its time already past, with no knot after now
+  holders.setModel(simulator.model(), true);
+  simulator.tracks()[0].restart(Vec3::Zero());
+  holders.post(holders.serial(), 0, { at(50000000, Vec3(0.0, 0, 0)) });
+  holders.follow(simulator, pacer, 1e-3);
+  EXPECT_EQ(holders.status()[0].late, 1u);
+}
+
+// A jump over ~anchor_max_jump, or faster than ~anchor_max_speed, is a teleport at its time,
+// counted once with its distance; the scene is carried rigidly (velocities and links kept).
+TEST(HolderSession, AJumpIsATeleportCountedOnceAndCarriesTheScene)
+{
+  Simulator simulator = heldChain();
+  HolderLimits limits;
+  limits.max_jump = 0.5;
+  limits.max_speed = 10.0;
+  HolderSession holders(limits);
+  holders.setModel(simulator.model(), true);
+  const Pacer pacer = ownClock();
+  // still at the origin, then 2 m along x at 0.05 s (one sample: no path between)
+  holders.post(holders.serial(), 0,
+               { at(10000000, Vec3::Zero()), at(20000000, Vec3::Zero()),
+                 at(50000000, Vec3(2.0, 0, 0)), at(60000000, Vec3(2.0, 0, 0)) });
+  holders.follow(simulator, pacer, 1e-3);
+  EXPECT_EQ(holders.status()[0].jumps, 1u);
+  EXPECT_DOUBLE_EQ(holders.status()[0].last_jump, 2.0);
+  EXPECT_EQ(holders.stepsToNextJump(simulator, 1000), 50u);
+  simulator.step(50);
+  const State before = simulator.state();
+  EXPECT_TRUE(holders.afterChunk(simulator));
+  const State after = simulator.state();
+  EXPECT_LE((Vec3(after.positions.col(0)) - Vec3(2.0, 0, 0)).norm(), 1e-12);
+  EXPECT_LE((after.positions - before.positions - Points(Vec3(2.0, 0, 0).replicate(1, 3))).norm(),
+            1e-12);
+  EXPECT_LE((after.velocities - before.velocities).norm(), 1e-12);
+  // 0.2 m in 5 ms is 40 m/s: over ~anchor_max_speed, a teleport too
+  holders.post(holders.serial(), 0, { at(65000000, Vec3(2.2, 0, 0)) });
+  holders.follow(simulator, pacer, 1e-3);
+  EXPECT_EQ(holders.status()[0].jumps, 2u);
+}
+
+// The latency asked is the slowest arrival of a sample two after the knot the steps leave, with
+// its margin; ~anchor_lag fixes it.
+TEST(HolderSession, LatencyCoversTheArrivalOfTheSampleTwoAhead)
+{
+  Simulator simulator = heldChain();
+  HolderSession holders(HolderLimits{});
+  EXPECT_EQ(holders.wantedLatency(), 0.0);  // no model, no holder
+  holders.setModel(simulator.model(), true);
+  EXPECT_EQ(holders.wantedLatency(),
+            HolderSession::INITIAL_LATENCY * HolderSession::LATENCY_FACTOR +
+                HolderSession::LATENCY_MARGIN);
+  const Pacer pacer = ownClock();
+  // 30 Hz, each arriving 5 ms after its stamp, one 20 ms late
+  std::vector<HolderSample> samples;
+  for (int k = 1; k <= 20; ++k)
+  {
+    const std::int64_t stamp = 1000000000 + k * 33333333;
+    samples.push_back(at(stamp, Vec3::Zero(), stamp + (k == 10 ? 20000000 : 5000000)));
+  }
+  holders.post(holders.serial(), 0, samples);
+  holders.follow(simulator, pacer, 1e-3);
+  // the slowest: two intervals and 20 ms
+  EXPECT_NEAR(holders.status()[0].needed_latency, 2 * 0.033333333 + 0.020, 1e-9);
+  EXPECT_NEAR(
+      holders.wantedLatency(),
+      (2 * 0.033333333 + 0.020) * HolderSession::LATENCY_FACTOR + HolderSession::LATENCY_MARGIN,
+      1e-9);
+  HolderLimits fixed;
+  fixed.lag = 0.25;
+  HolderSession lagged(fixed);
+  lagged.setModel(simulator.model(), true);
+  EXPECT_EQ(lagged.wantedLatency(), 0.25);
+}
+
+// A hold over its limit lets go: the constraints without it, the release noted with why.
+TEST(HolderSession, AHoldOverItsLimitLetsGo)
+{
+  Simulator simulator = heldChain();
+  HolderSession holders(HolderLimits{});
+  holders.setModel(simulator.model(), true);
+  Scene scene = simulator.model().scene();
+  holders.limitHolds(scene);
+  const auto* anchor = std::get_if<FrameAnchorConstraint>(&scene.constraints.back());
+  ASSERT_NE(anchor, nullptr);
+  EXPECT_NEAR(anchor->max_force, HolderSession::MAX_FORCE_WEIGHTS * 0.3 * 9.81, 1e-12);
+  StepStatistics over;
+  over.failed_check = StepCheck::HoldForce;
+  over.hold = 0;
+  over.hold_force = 1000.0;
+  const std::vector<Constraint> left = holders.letGo(simulator.model(), over, 1.5);
+  EXPECT_EQ(left.size(), 2u);  // the two links
+  ASSERT_EQ(holders.releases().size(), 1u);
+  EXPECT_EQ(holders.releases()[0].particle, 0);
+  EXPECT_EQ(holders.releases()[0].holder, "hand");
+  EXPECT_NE(holders.releases()[0].why.find("1000"), std::string::npos);
+}
