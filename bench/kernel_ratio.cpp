@@ -13,6 +13,9 @@
 //          instructions by N times that in STEPS)
 //        bench_kernel --kernel-time N SECONDS
 //          (the kernel's median wall time per step, for scripts/node_kernel_ratio.py)
+//        bench_kernel --engine-time N SECONDS [checked]
+//          (the engine's, Simulator::step on the same chain: at max_substeps 1, or with
+//          `checked` at the node's default step settings; for node_kernel_ratio.py --against)
 #include "bench_common.hpp"
 #include "minimum_kernel.hpp"
 
@@ -120,21 +123,30 @@ int profile(const std::string& which, int n, int steps)
   return 0;
 }
 
-// The kernel alone for `seconds` of wall time, from rest, in batches of about BATCH_CPU: the
-// median wall time per step [s] (scripts/node_kernel_ratio.py sets it beside the node's
-// ~state.step_time, which is wall time too).
-int kernelTime(int n, double seconds)
+// `which` (kernel, engine or checked) alone for `seconds` of wall time, from rest, in batches of
+// about BATCH_CPU: the median wall time per step [s] (scripts/node_kernel_ratio.py sets it beside
+// the node's ~state.step_time, which is wall time too).
+int wallTime(const std::string& which, int n, double seconds)
 {
   if (n < 2 || !(seconds > 0.0))
   {
-    std::cerr << "--kernel-time takes N >= 2 particles and SECONDS > 0, not " << n << " and "
-              << seconds << "\n";
+    std::cerr << "--" << which << "-time takes N >= 2 particles and SECONDS > 0, not " << n
+              << " and " << seconds << "\n";
     return 2;
   }
   bench::PeerChain chain;
   chain.n = n;
   Pair pair = makePair(chain);
-  const double estimate = timeBatch(1, [&] { pair.kernel->step(); });
+  const auto step = [&]
+  {
+    if (which == "kernel")
+      pair.kernel->step();
+    else if (which == "checked")
+      pair.checked->step();
+    else
+      pair.engine->step();
+  };
+  const double estimate = timeBatch(1, step);
   const int batch = std::max(1, static_cast<int>(BATCH_CPU / std::max(estimate, 1e-9)));
   std::vector<double> per_step;
   const auto start = std::chrono::steady_clock::now();
@@ -142,12 +154,12 @@ int kernelTime(int n, double seconds)
   {
     const auto batch_start = std::chrono::steady_clock::now();
     for (int k = 0; k < batch; ++k)
-      pair.kernel->step();
+      step();
     per_step.push_back(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - batch_start).count() /
         batch);
   }
-  std::printf("kernel n = %d: %.6e s/step (median of %zu batches of %d steps)\n", n,
+  std::printf("%s n = %d: %.6e s/step (median of %zu batches of %d steps)\n", which.c_str(), n,
               bench::median(per_step), per_step.size(), batch);
   return 0;
 }
@@ -166,7 +178,10 @@ int main(int argc, char** argv)
     else if (arg == "--quick")
       quick = true;
     else if (arg == "--kernel-time" && i + 2 < argc)
-      return kernelTime(std::atoi(argv[i + 1]), std::atof(argv[i + 2]));
+      return wallTime("kernel", std::atoi(argv[i + 1]), std::atof(argv[i + 2]));
+    else if (arg == "--engine-time" && i + 2 < argc)
+      return wallTime(i + 3 < argc && std::string(argv[i + 3]) == "checked" ? "checked" : "engine",
+                      std::atoi(argv[i + 1]), std::atof(argv[i + 2]));
     else if (arg == "--profile" && i + 3 < argc)
       return profile(argv[i + 1], std::atoi(argv[i + 2]), std::atoi(argv[i + 3]));
     else
@@ -174,7 +189,7 @@ int main(int argc, char** argv)
       std::cerr << "unknown argument " << arg
                 << "\nusage: bench_kernel [--quick] [--out DIR] | --profile "
                    "engine|generic|checked|kernel "
-                   "N STEPS | --kernel-time N SECONDS\n";
+                   "N STEPS | --kernel-time N SECONDS | --engine-time N SECONDS [checked]\n";
       return 2;
     }
   }

@@ -13,6 +13,11 @@ to back, which the runner takes chunk by chunk with its fault checks, pacing and
 step's cost through the node, hot as the kernel's; `rate` lets it run at --real-time-factor,
 where a small scene sleeps most of each millisecond between its batches and the wake-ups (cold
 caches, a slower clock) show in its step time.
+What the node is set against (--against): `kernel` (default) the minimum-work kernel; `engine`
+the core's own step (Simulator::step, `bench_kernel --engine-time`) on the same chain at the
+same settings, the node then run at max_substeps 1 and energy_budget 0 as the engine is: the
+ratio is the runner's own work (issue 47); `checked` the core's step at the node's default step
+settings (the stability estimate, sub-step retakes, the energy budget), the node at its defaults.
 Prints per n the medians and the median of the rounds' ratios (node / kernel).
 With --csv FILE also writes the table there and its stamp (command, commit, date) beside it as
 FILE with .stamp for .csv, which scripts/performance_page.py shows over it.
@@ -56,6 +61,10 @@ def parse_args():
     p.add_argument("--csv", default=None, help="also write the table here (and its stamp)")
     p.add_argument("--drive", choices=("step", "rate"), default="step",
                    help="step: paused, ~step back to back (default); rate: at --real-time-factor")
+    p.add_argument("--against", choices=("kernel", "engine", "checked"), default="kernel",
+                   help="kernel: the minimum-work kernel (default); engine: the core's step at "
+                        "the same settings (the node at max_substeps 1, energy_budget 0); "
+                        "checked: the core's step at the node's default settings")
     a = p.parse_args()
     if a.rounds < 1 or a.seconds <= 0 or any(n < 2 for n in a.sizes):
         p.error("--rounds and --seconds must be positive, --sizes at least 2")
@@ -91,16 +100,19 @@ class StepTimes:
             return values
 
 
-def kernel_step_time(kernel, n, seconds):
-    out = subprocess.run([kernel, "--kernel-time", str(n), f"{seconds:g}"], check=True,
-                         stdout=subprocess.PIPE, text=True).stdout
+def kernel_step_time(kernel, n, seconds, against):
+    command = [kernel, "--kernel-time", str(n), f"{seconds:g}"]
+    if against != "kernel":
+        command = [kernel, "--engine-time", str(n), f"{seconds:g}"] + \
+            (["checked"] if against == "checked" else [])
+    out = subprocess.run(command, check=True, stdout=subprocess.PIPE, text=True).stdout
     # "kernel n = 10: 7.037068e-07 s/step (...)"
     return float(out.split(":", 1)[1].split()[0])
 
 
 def measure_size(n, args, env, times, log_dir):
     import rospy
-    from constrained_particles.srv import Step
+    from constrained_particles.srv import Reset, Step
     from std_srvs.srv import Empty
 
     node = os.path.join(args.workspace, "devel", "lib", "constrained_particles", "simulator_node")
@@ -108,6 +120,8 @@ def measure_size(n, args, env, times, log_dir):
            "_chain/link_length:=0.1", "_chain/particle_mass:=0.1", f"_max_particles:={n}",
            f"_real_time_factor:={args.real_time_factor:g}", "_integrator:=rk4", "_stabilization:=projection",
            "_dt:=0.001", "_accuracy_window:=0"]
+    if args.against == "engine":  # the engine's settings: the integrator alone, no budget
+        cmd += ["_max_substeps:=1", "_energy_budget:=0"]
     log_path = os.path.join(log_dir, f"node_{n}.log")
     with open(log_path, "w") as log:
         proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT,
@@ -124,10 +138,17 @@ def measure_size(n, args, env, times, log_dir):
         pause = rospy.ServiceProxy(f"/{NODE_NAME}/pause", Empty)
         unpause = rospy.ServiceProxy(f"/{NODE_NAME}/unpause", Empty)
         step = rospy.ServiceProxy(f"/{NODE_NAME}/step", Step)
+        reset = rospy.ServiceProxy(f"/{NODE_NAME}/reset", Reset)
         time.sleep(args.warmup)
         rounds = []
         for _ in range(args.rounds):
             stepping, done = None, threading.Event()
+            if args.against != "kernel":
+                # each round from rest, as the engine's own timing runs: the same stretch of
+                # motion (a chain falling from rest needs more sub-steps as it speeds up, and at
+                # max_substeps 1 it outgrows rk4's stability after ~12 s)
+                pause()
+                reset("")
             if args.drive == "step":
                 pause()
 
@@ -152,7 +173,7 @@ def measure_size(n, args, env, times, log_dir):
                 stepping.join(timeout=0.5)
                 pause()
             try:
-                kernel = kernel_step_time(args.kernel, n, args.seconds)
+                kernel = kernel_step_time(args.kernel, n, args.seconds, args.against)
             except subprocess.CalledProcessError as e:
                 raise RuntimeError(f"{args.kernel} failed (exit {e.returncode})")
             unpause()
@@ -218,7 +239,8 @@ def main():
               f"size; machine: {machine()}; command: {command}")
         if args.csv and table and not failed:  # a size that failed: no table to stand for all
             write_csv(args.csv, table, command,
-                      f"{args.rounds} rounds of {args.seconds:g} s, node driven by {args.drive}")
+                      f"{args.rounds} rounds of {args.seconds:g} s, node driven by {args.drive}, "
+                      f"against the {args.against}")
         return 2 if failed else 0
     finally:
         shut_down(roscore, log_dir, failed, "node_kernel_ratio")

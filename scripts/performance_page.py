@@ -249,6 +249,17 @@ def node_kernel_block(bench):
                    f"{float(r['ratio_max']):.2f})"])
 
 
+def node_engine_block(bench):
+    """The node against the core's own step on the same chain at the node's settings, each
+    round from rest (docs/bench/node_engine.csv): the runner's own work (issue 47)."""
+    return table_block(
+        bench, "node_engine",
+        ["n", "node `step_time` [us]", "core step [us]", "node / core (median; range of rounds)"],
+        lambda r: [f"{int(r['n']):,}", us_of(r, "node_s_per_step"), us_of(r, "kernel_s_per_step"),
+                   f"{float(r['ratio_median']):.2f} ({float(r['ratio_min']):.2f} to "
+                   f"{float(r['ratio_max']):.2f})"])
+
+
 def node_rates_block(bench):
     """The node's throughput at 1,000 to 100,000 particles (docs/bench/node_rates.csv), for
     docs/node.md."""
@@ -479,6 +490,8 @@ def stability_block(bench):
 # the command that writes each block's files
 NOT_MEASURED = {"cores": "`bash scripts/bench.sh --cores BASE`",
                 "node_kernel": "`scripts/node_kernel_ratio.py --csv docs/bench/node_kernel.csv`",
+                "node_engine": "`scripts/node_kernel_ratio.py --against checked --sizes 1000 "
+                               "10000 100000 --warmup 0.5 --csv docs/bench/node_engine.csv`",
                 "instructions": "`bash scripts/kernel_instructions.sh > "
                                 "docs/bench/kernel_instructions.txt`",
                 "node_rates": "`bash scripts/node_rates.sh --check-particles-hz 10 --csv "
@@ -492,6 +505,7 @@ NOT_MEASURED = {"cores": "`bash scripts/bench.sh --cores BASE`",
                 "hard_cases": "`bash scripts/hard_cases.sh --csv docs/bench/hard_cases.csv`"}
 BLOCKS = {"stability": stability_block, "scenes": scenes_block, "trees": trees_block, "orders": orders_block, "headline": headline_block, "peers": peers_block,
           "cores": cores_block, "kernel": kernel_block, "node_kernel": node_kernel_block,
+          "node_engine": node_engine_block,
           "instructions": instructions_block, "node_rates": node_rates_block,
           "default_substeps": default_substeps_block, "energy_sweep": energy_sweep_block,
           "energy_sweep_stamp": energy_sweep_stamp_block, "compare_methods": compare_methods_block,

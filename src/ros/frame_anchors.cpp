@@ -39,7 +39,9 @@ FrameAnchors::FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::
   , spinner_(1, &queue_)
 {
   node_.setCallbackQueue(&queue_);
-  timer_ = node_.createWallTimer(ros::WallDuration(RETRY_PERIOD), &FrameAnchors::retry, this);
+  // started with the first holder: a node without one wakes for nothing
+  timer_ = node_.createWallTimer(ros::WallDuration(RETRY_PERIOD), &FrameAnchors::retry, this, false,
+                                 false);
   spinner_.start();
 }
 
@@ -361,7 +363,12 @@ void FrameAnchors::update(const Snapshot& snap)
       }
   }
   if (any)
+  {
     listen();  // a frame, or a pose in another frame, is resolved through tf
+    timer_.start();
+  }
+  else
+    timer_.stop();
 }
 
 HolderSample FrameAnchors::toSample(const Eigen::Isometry3d& pose, const Vec3& offset,

@@ -377,62 +377,165 @@ std::optional<std::string> HolderSession::checkAttach(const Model& model,
   return std::nullopt;
 }
 
-FrameAnchorConstraint HolderSession::anchorFor(const AttachRequest& request,
-                                               const Eigen::Isometry3d& pose,
-                                               const Vec3& particle_position,
-                                               const Scene& scene) const
+std::optional<RunnerReply> HolderSession::beginAttach(
+    const Model& model, const AttachRequest& request, const std::string& frame_prefix,
+    PoseLookup pose_at, std::chrono::steady_clock::time_point deadline)
 {
-  FrameAnchorConstraint anchor;
-  anchor.particle = static_cast<int>(request.particle);
-  anchor.frame = request.frame;
-  // keep_offset: where the particle is, in the frame's axes at the state's stamp
-  anchor.offset = request.keep_offset ? Vec3(pose.inverse() * particle_position) : request.offset;
-  anchor.max_force = holdLimit(scene);
-  return anchor;
+  std::string field;
+  if (const auto refusal = checkAttach(model, request, frame_prefix, field))
+    return refusedReply(*refusal, field);
+  if (pending_)
+    return refusedReply("particle = " + std::to_string(request.particle) +
+                            ": another ~attach (particle " +
+                            std::to_string(pending_->request.particle) +
+                            ") is waiting for its frame's pose; call again when it is answered",
+                        "particle");
+  pending_ = PendingAttach{ request, std::move(pose_at), deadline };
+  return std::nullopt;
 }
 
-void HolderSession::attached(int particle, std::int64_t since_ns)
+std::optional<RunnerReply> HolderSession::tryAttach(Simulator& simulator, std::int64_t stamp_ns,
+                                                    std::chrono::steady_clock::time_point now)
 {
+  if (!pending_)
+    return std::nullopt;
+  // the frame's pose at the stamp the state stands for is where the hold begins
+  const std::optional<Eigen::Isometry3d> pose =
+      stamp_ns >= 0 ? pending_->pose_at(stamp_ns) : std::nullopt;
+  if (!pose && now < pending_->deadline)
+    return std::nullopt;  // tf has not reached the stamp yet: no step until it has
+  const AttachRequest request = pending_->request;
+  pending_.reset();
+  if (!pose)
+    return refusedReply(
+        "frame = '" + request.frame + "': tf held no pose of it at the state's stamp (" +
+            (stamp_ns >= 0 ? formatValue(static_cast<double>(stamp_ns) * 1e-9) + " s"
+                           : std::string("no clock yet")) +
+            ") within " + formatValue(ATTACH_WAIT) + " s (is it still broadcast?); nothing changed",
+        "frame");
+  try
+  {
+    const Attached done = attach(simulator, request, *pose, stamp_ns);
+    const Vec3& offset = done.anchor.offset;
+    RunnerReply reply =
+        acceptedReply("attached particle " + std::to_string(request.particle) + " to frame '" +
+                      request.frame + "' at t = " + formatValue(simulator.state().time) +
+                      " s (stamp " + formatValue(static_cast<double>(stamp_ns) * 1e-9) +
+                      " s), offset (" + formatValue(offset.x()) + ", " + formatValue(offset.y()) +
+                      ", " + formatValue(offset.z()) + ") m: " +
+                      (request.keep_offset ? std::string("held where it is")
+                                           : "moved by " + formatValue(done.moved) +
+                                                 " m to the held point, particles by up to " +
+                                                 formatValue(done.displaced) + " m"));
+    reply.max_displacement = done.displaced;
+    reply.stamp_ns = stamp_ns;
+    return reply;
+  }
+  catch (const InvalidInput& e)
+  {
+    return refusedReply(e.what(), e.field());
+  }
+}
+
+ProjectionReport HolderSession::setConstraints(Simulator& simulator,
+                                               const std::vector<Constraint>& constraints)
+{
+  const ProjectionReport report = simulator.setConstraints(constraints);
+  setModel(simulator.model(), false);
+  return report;
+}
+
+HolderSession::Attached HolderSession::attach(Simulator& simulator, const AttachRequest& request,
+                                              const Eigen::Isometry3d& pose, std::int64_t stamp_ns)
+{
+  const int particle = static_cast<int>(request.particle);
+  const Vec3 where = simulator.state().positions.col(particle);
+  Attached done;
+  done.anchor.particle = particle;
+  done.anchor.frame = request.frame;
+  // keep_offset: where the particle is, in the frame's axes at the state's stamp
+  done.anchor.offset = request.keep_offset ? Vec3(pose.inverse() * where) : request.offset;
+  done.anchor.max_force = holdLimit(simulator.model().scene());
+  const std::vector<Constraint> old = simulator.model().scene().constraints;
+  std::vector<Constraint> constraints = old;
+  constraints.push_back(done.anchor);
+  try
+  {
+    done.displaced = setConstraints(simulator, constraints).max_displacement;
+  }
+  catch (const InvalidInput& e)
+  {
+    throw InvalidInput("particle", "particle: attaching refused: " + std::string(e.what()));
+  }
+  // an offset elsewhere: the particle is carried to the held point, the scene projected after it
+  const Vec3 held = request.keep_offset ? where : Vec3(pose * done.anchor.offset);
+  done.moved = (held - where).norm();
+  if (done.moved > 0.0)
+  {
+    const Model& model = simulator.model();
+    for (std::size_t k = 0; k < model.tracked().size(); ++k)
+      if (eliminatedParticle(model.scene().constraints[model.tracked()[k]]) == particle)
+        simulator.tracks()[k].restart(held);
+    try
+    {
+      done.displaced = std::max(done.moved, simulator.setState(simulator.state()).max_displacement);
+    }
+    catch (const InvalidInput& e)
+    {
+      setConstraints(simulator, old);  // nothing changed
+      throw InvalidInput("offset", "offset: the scene cannot be projected with particle " +
+                                       std::to_string(particle) + " at (" + formatValue(held.x()) +
+                                       ", " + formatValue(held.y()) + ", " + formatValue(held.z()) +
+                                       ") m: " + e.what() + "; nothing changed");
+    }
+  }
   attachments_.push_back(particle);
   for (HolderStatus& status : status_)
     if (status.particle == particle)
-      status.since_ns = since_ns;
+      status.since_ns = stamp_ns;
   releases_.erase(std::remove_if(releases_.begin(), releases_.end(),
                                  [particle](const Release& r) { return r.particle == particle; }),
                   releases_.end());
+  return done;
 }
 
-std::optional<std::vector<Constraint>> HolderSession::detachFrom(const Model& model, long particle,
-                                                                 std::string& attached_now) const
+std::optional<std::string> HolderSession::detach(Simulator& simulator, long particle)
 {
-  attached_now.clear();
-  for (int i : attachments_)
-    attached_now += (attached_now.empty() ? "" : ", ") + std::to_string(i);
   if (std::find(attachments_.begin(), attachments_.end(), particle) == attachments_.end())
-    return std::nullopt;
+  {
+    std::string attached;
+    for (int i : attachments_)
+      attached += (attached.empty() ? "" : ", ") + std::to_string(i);
+    return "particle = " + std::to_string(particle) +
+           " is not attached; attached now: " + (attached.empty() ? "none" : attached);
+  }
   std::vector<Constraint> constraints;
-  for (const Constraint& c : model.scene().constraints)
+  for (const Constraint& c : simulator.model().scene().constraints)
     // the attachment's record: no other can hold its particle (attach refuses a held one)
     if (!(std::holds_alternative<FrameAnchorConstraint>(c) && eliminatedParticle(c) == particle))
       constraints.push_back(c);
-  return constraints;
-}
-
-void HolderSession::detached(int particle)
-{
+  try
+  {
+    setConstraints(simulator, constraints);
+  }
+  catch (const InvalidInput& e)
+  {
+    return "particle: detaching refused: " + std::string(e.what());
+  }
   attachments_.erase(std::remove(attachments_.begin(), attachments_.end(), particle),
                      attachments_.end());
+  return std::nullopt;
 }
 
-std::vector<Constraint> HolderSession::letGo(const Model& model, const StepStatistics& failed,
-                                             double time)
+void HolderSession::letGo(Simulator& simulator, const StepStatistics& failed)
 {
+  const Model& model = simulator.model();
   const int record = model.tracked()[failed.hold];
   const Constraint& held = model.scene().constraints[record];
   Release release;
   release.particle = eliminatedParticle(held);
   release.holder = holderName(held);
-  release.time = time;
+  release.time = simulator.state().time;
   if (const auto* anchor = std::get_if<FrameAnchorConstraint>(&held))
     release.max_force = anchor->max_force;
   release.why = failed.hold_failure == StepCheck::None
@@ -442,13 +545,14 @@ std::vector<Constraint> HolderSession::letGo(const Model& model, const StepStati
                           stepCheckName(failed.hold_failure) +
                           " failed at every split): it carried most against its max_force " +
                           formatValue(release.max_force) + " N";
-  releases_.push_back(release);
-  detached(release.particle);
   std::vector<Constraint> constraints;
   for (std::size_t k = 0; k < model.scene().constraints.size(); ++k)
     if (static_cast<int>(k) != record)
       constraints.push_back(model.scene().constraints[k]);
-  return constraints;
+  setConstraints(simulator, constraints);
+  releases_.push_back(release);
+  attachments_.erase(std::remove(attachments_.begin(), attachments_.end(), release.particle),
+                     attachments_.end());
 }
 
 }  // namespace constrained_particles

@@ -197,6 +197,13 @@ std::int64_t Pacer::standsFor(double time) const
   return anchor_ros_ns_ + nanoseconds((time - anchor_sim_) / real_time_factor_);
 }
 
+std::int64_t Pacer::stampAt(double time, bool resting) const
+{
+  if (!resting || source_ == Source::PublishClock)
+    return standsFor(time);
+  return source_ == Source::FollowClock ? newestClock() : nanoseconds(ros_now_());
+}
+
 double Pacer::simTimeOf(std::int64_t stamp_ns) const
 {
   switch (source_)

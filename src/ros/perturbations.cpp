@@ -47,6 +47,7 @@ void Perturbations::clearAll()
   applied_.clear();
   drags_.clear();
   commands_.clear();
+  next_command_expiry_ = std::numeric_limits<double>::infinity();
   std::lock_guard<std::mutex> lock(queue_mutex_);
   queue_.clear();
   queued_ = false;
@@ -204,6 +205,53 @@ std::vector<Force> Perturbations::forces(const std::vector<double>& masses, doub
     forces.push_back(TargetSpringForce{ particle, target, m * w * w, 2.0 * m * w });
   }
   return forces;
+}
+
+Perturbations::Effect Perturbations::handTo(Simulator& simulator)
+{
+  try
+  {
+    simulator.setPerturbations(
+        forces(simulator.model().scene().masses, simulator.stepSettings().dt));
+  }
+  catch (const InvalidInput&)
+  {
+    // every record was checked on its way in: not reached; never leave forces half set
+    clearAll();
+    simulator.setPerturbations({});
+  }
+  return Effect::Forces;
+}
+
+Perturbations::Effect Perturbations::takeQueuedInto(Simulator& simulator,
+                                                    std::uint64_t scene_serial, double now)
+{
+  const Change change = takeQueued(scene_serial, simulator.model().numParticles());
+  if (change == Change::None)
+    return Effect::None;
+  expireCommands(now, next_command_expiry_);  // a command's new expiry, or none left
+  handTo(simulator);
+  // a new target or force moves only the spring or push: the next batch's snapshot shows it; a
+  // grab, a release or a new command changes what ~state reports at once
+  return change == Change::Acting ? Effect::Shown : Effect::Forces;
+}
+
+Perturbations::Effect Perturbations::expireCommandsInto(Simulator& simulator, double now)
+{
+  if (now < next_command_expiry_ || !expireCommands(now, next_command_expiry_))
+    return Effect::None;
+  handTo(simulator);
+  return Effect::Shown;
+}
+
+Perturbations::Effect Perturbations::expireAppliedInto(Simulator& simulator, std::uint64_t limit,
+                                                       std::uint64_t& next)
+{
+  next = limit;
+  if (!expire(simulator.state().steps, limit, next))
+    return Effect::None;
+  handTo(simulator);
+  return Effect::Shown;
 }
 
 }  // namespace constrained_particles

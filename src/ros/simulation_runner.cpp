@@ -3,6 +3,7 @@
 #include "constrained_particles/ros/simulation_runner.hpp"
 
 #include "constrained_particles/ros/fault_policy.hpp"
+#include "constrained_particles/ros/request_checks.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,7 +13,6 @@ namespace constrained_particles
 namespace
 {
 constexpr auto IDLE_WAIT = std::chrono::milliseconds(100);
-constexpr auto REPLY_POLL = std::chrono::milliseconds(50);
 constexpr auto ATTACH_POLL = std::chrono::milliseconds(5);  // a pending ~attach asks tf again
 
 double seconds(std::chrono::steady_clock::duration d)
@@ -25,23 +25,6 @@ std::chrono::steady_clock::duration wallDuration(double s)
 {
   return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
       std::chrono::duration<double>(s));
-}
-
-RunnerReply refused(const std::string& message, const std::string& field = "")
-{
-  RunnerReply reply;
-  reply.success = false;
-  reply.message = message;
-  reply.field = field;
-  return reply;
-}
-
-RunnerReply accepted(const std::string& message)
-{
-  RunnerReply reply;
-  reply.success = true;
-  reply.message = message;
-  return reply;
 }
 
 Pacer::Source sourceOf(const NodeParameters& parameters)
@@ -86,7 +69,7 @@ SimulationRunner::SimulationRunner(const NodeParameters& parameters, const Scene
 
 SimulationRunner::~SimulationRunner()
 {
-  requestStop();
+  queue_.stop();
   if (thread_.joinable())
     thread_.join();
 }
@@ -99,18 +82,9 @@ void SimulationRunner::start(bool paused)
   thread_ = std::thread(&SimulationRunner::loop, this);
 }
 
-void SimulationRunner::requestStop()
-{
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);  // not between the loop's check and its wait
-    stopping_ = true;
-  }
-  wake_.notify_all();
-}
-
 bool SimulationRunner::stop(std::chrono::milliseconds timeout)
 {
-  requestStop();
+  queue_.stop();
   if (!thread_.joinable())
     return true;
   std::unique_lock<std::mutex> lock(exit_mutex_);
@@ -136,56 +110,32 @@ std::shared_ptr<const Snapshot> SimulationRunner::snapshot(Reader reader,
   return snapshot_;
 }
 
-RunnerReply SimulationRunner::await(std::future<RunnerReply>& future)
-{
-  while (future.wait_for(REPLY_POLL) != std::future_status::ready)
-    if (stopping_ && future.wait_for(std::chrono::seconds(0)) != std::future_status::ready)
-      return refused("the node is shutting down");
-  return future.get();
-}
-
-RunnerReply SimulationRunner::submit(std::function<RunnerReply()> apply)
-{
-  auto request = std::make_shared<Request>();
-  request->apply = std::move(apply);
-  std::future<RunnerReply> future = request->reply.get_future();
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    if (stopping_)
-      return refused("the node is shutting down");
-    request->queued_at_batch = batches_;
-    queue_.push_back(request);
-  }
-  wake_.notify_all();
-  return await(future);
-}
-
 // ---- requests (their lambdas run on the physics thread) ----
 
 RunnerReply SimulationRunner::reset(const std::string& scenario)
 {
-  return submit(
+  return queue_.submit(
       [this, scenario]
       {
         apply(session_.forReset(scenario, parameters_.step));
-        return accepted("reset to scene '" + session_.scene()->name + "' (" +
-                        std::to_string(simulator_->model().numParticles()) + " particles, solve " +
-                        solveAlgorithmName(simulator_->model()) + "; " +
-                        parameters_.step.integrator + " + " +
-                        stabilizationName(parameters_.step.stabilization) +
-                        ", dt = " + formatValue(parameters_.step.dt) + " s)");
+        return acceptedReply("reset to scene '" + session_.scene()->name + "' (" +
+                             std::to_string(simulator_->model().numParticles()) +
+                             " particles, solve " + solveAlgorithmName(simulator_->model()) + "; " +
+                             parameters_.step.integrator + " + " +
+                             stabilizationName(parameters_.step.stabilization) +
+                             ", dt = " + formatValue(parameters_.step.dt) + " s)");
       });
 }
 
 RunnerReply SimulationRunner::changeScene(const std::function<SceneSession::Candidate()>& make,
                                           const std::string& what)
 {
-  return submit(
+  return queue_.submit(
       [this, make, what]
       {
         apply(make());
-        return accepted(what + "; scene '" + session_.scene()->name + "' reset (" +
-                        std::to_string(simulator_->model().numParticles()) + " particles)");
+        return acceptedReply(what + "; scene '" + session_.scene()->name + "' reset (" +
+                             std::to_string(simulator_->model().numParticles()) + " particles)");
       });
 }
 
@@ -209,32 +159,11 @@ RunnerReply SimulationRunner::setChain(const ChainChange& change)
 
 RunnerReply SimulationRunner::setState(const Points& positions, const Points& velocities)
 {
-  return submit(
+  return queue_.submit(
       [this, positions, velocities]
       {
-        const int n = simulator_->model().numParticles();
-        if (positions.cols() != n)
-          throw InvalidInput("positions", "has " + std::to_string(positions.cols()) +
-                                              " entries, must have one per particle (" +
-                                              std::to_string(n) + ")");
-        if (velocities.size() != 0 && velocities.cols() != n)
-          throw InvalidInput("velocities",
-                             "has " + std::to_string(velocities.cols()) +
-                                 " entries, must be empty (at rest) or one per particle (" +
-                                 std::to_string(n) + ")");
-        State state = simulator_->state();
-        state.positions = positions;
-        state.velocities = velocities.size() == 0 ? Points(Points::Zero(3, n)) : velocities;
-        // finite is not enough: a teleport to 1e300 m would overflow on the first step
-        for (int i = 0; i < n; ++i)
-        {
-          requireInRange("positions[" + std::to_string(i) + "]", Vec3(state.positions.col(i)),
-                         limits::COORDINATE);
-          requireInRange("velocities[" + std::to_string(i) + "]", Vec3(state.velocities.col(i)),
-                         limits::VELOCITY);
-        }
-        const ProjectionReport report = simulator_->setState(state);
-        abandonWindow();
+        const ProjectionReport report = simulator_->setState(checkedTeleport(
+            simulator_->state(), simulator_->model().numParticles(), positions, velocities));
         faulted_ = false;
         fault_reason_.clear();
         pacer_.jump();
@@ -243,10 +172,10 @@ RunnerReply SimulationRunner::setState(const Points& positions, const Points& ve
         afterChange();
         // last: its snapshot must show the teleport whole
         interruptStep("~set_state");
-        RunnerReply reply =
-            accepted("state set; projection moved particles by up to " +
-                     formatValue(report.max_displacement) + " m and changed velocities by up to " +
-                     formatValue(report.max_velocity_change) + " m/s");
+        RunnerReply reply = acceptedReply("state set; projection moved particles by up to " +
+                                          formatValue(report.max_displacement) +
+                                          " m and changed velocities by up to " +
+                                          formatValue(report.max_velocity_change) + " m/s");
         reply.max_displacement = report.max_displacement;
         return reply;
       });
@@ -254,18 +183,18 @@ RunnerReply SimulationRunner::setState(const Points& positions, const Points& ve
 
 RunnerReply SimulationRunner::pause()
 {
-  return submit(
+  return queue_.submit(
       [this]
       {
         interruptStep("~pause");
         paused_ = true;
-        return accepted("paused");
+        return acceptedReply("paused");
       });
 }
 
 RunnerReply SimulationRunner::unpause()
 {
-  return submit(
+  return queue_.submit(
       [this]
       {
         interruptStep("~unpause");
@@ -274,8 +203,8 @@ RunnerReply SimulationRunner::unpause()
         // the stamps stand for later times now: each holder goes on from its motion, towards
         // its next poses
         holders_.resync(*simulator_);
-        return accepted(faulted_ ? "unpaused, but stepping is stopped (" + fault_reason_ + ")"
-                                 : "running");
+        return acceptedReply(faulted_ ? "unpaused, but stepping is stopped (" + fault_reason_ + ")"
+                                      : "running");
       });
 }
 
@@ -284,39 +213,37 @@ RunnerReply SimulationRunner::step(std::uint64_t steps)
   // the promise outlives this call if the runner stops first
   auto promise = std::make_shared<std::promise<RunnerReply>>();
   std::future<RunnerReply> future = promise->get_future();
-  RunnerReply immediate = submit(
+  RunnerReply immediate = queue_.submit(
       [this, steps, promise]
       {
         if (pacer_.source() == Pacer::Source::FollowClock)
-          return refused(
+          return refusedReply(
               "the node follows /clock (~follow_clock): it steps as the clock moves, "
               "never ahead of it");
         if (!paused_)
-          return refused("the simulation is running: call ~pause before ~step");
+          return refusedReply("the simulation is running: call ~pause before ~step");
         if (faulted_)
-          return refused("stepping is stopped (" + fault_reason_ + ")");
+          return refusedReply("stepping is stopped (" + fault_reason_ + ")");
         if (step_request_)
-          return refused("a ~step of " + std::to_string(step_request_->wanted) +
-                         " steps is running (" + std::to_string(step_request_->taken) +
-                         " taken): wait for it, or ~pause to stop it");
-        if (!limits::STEPS_PER_CALL.contains(static_cast<double>(steps)))
-          throw InvalidInput("steps", "= " + std::to_string(steps) + ", must be in " +
-                                          limits::STEPS_PER_CALL.text());
+          return refusedReply("a ~step of " + std::to_string(step_request_->wanted) +
+                              " steps is running (" + std::to_string(step_request_->taken) +
+                              " taken): wait for it, or ~pause to stop it");
+        checkSteps(steps);
         step_request_.emplace();
         step_request_->wanted = steps;
         step_request_->sim_time = simulator_->state().time;
         step_request_->reply = promise;
-        return accepted("step under way");
+        return acceptedReply("step under way");
       });
   if (!immediate.success)
     return immediate;
-  return await(future);
+  return queue_.await(future);
 }
 
 RunnerReply SimulationRunner::reconfigure(
     const std::function<void(NodeParameters&, const SceneDescription&)>& edit)
 {
-  return submit(
+  return queue_.submit(
       [this, edit]
       {
         NodeParameters candidate = parameters_;
@@ -350,21 +277,21 @@ RunnerReply SimulationRunner::reconfigure(
         candidate.overrides.gravity.reset();
         candidate.overrides.damping.reset();
         // a window measures one method on one scene: any reconfigure ends it unmeasured
-        abandonWindow();
+        accuracy_.abandon();
         parameters_ = candidate;
         pacer_.setRealTimeFactor(parameters_.real_time_factor);
         step_time_estimate_ = 0;
         last_chunk_ = 1;
         reanchor(Pacer::Anchor::Keep);
         if (perturbations_.draggedCount() > 0)
-          updatePerturbations();  // a drag's spring is scaled to dt
-        return accepted("reconfigured");
+          noteForces(perturbations_.handTo(*simulator_));  // a drag's spring is scaled to dt
+        return acceptedReply("reconfigured");
       });
 }
 
 RunnerReply SimulationRunner::applyForce(long particle, const Vec3& force, double duration)
 {
-  return submit(
+  return queue_.submit(
       [this, particle, force, duration]
       {
         const State& now = simulator_->state();
@@ -372,9 +299,9 @@ RunnerReply SimulationRunner::applyForce(long particle, const Vec3& force, doubl
             particle, force, duration, simulator_->model().numParticles(), now.steps, now.time,
             simulator_->stepSettings().dt, session_.scene()->name);
         if (!outcome.accepted)
-          return refused(outcome.message);
-        updatePerturbations();
-        return accepted(outcome.message);
+          return refusedReply(outcome.message);
+        noteForces(perturbations_.handTo(*simulator_));
+        return acceptedReply(outcome.message);
       });
 }
 
@@ -390,191 +317,69 @@ RunnerReply SimulationRunner::attach(long particle, const std::string& frame, co
   // if the runner stops first
   auto promise = std::make_shared<std::promise<RunnerReply>>();
   std::future<RunnerReply> future = promise->get_future();
-  const RunnerReply immediate = submit(
+  const RunnerReply immediate = queue_.submit(
       [this, request, pose_at, promise]
       {
-        std::string field;
-        if (const auto refusal =
-                holders_.checkAttach(simulator_->model(), request, parameters_.frame_prefix, field))
-          return refused(*refusal, field);
-        if (pending_attach_)
-          return refused("particle = " + std::to_string(request.particle) +
-                             ": another ~attach (particle " +
-                             std::to_string(pending_attach_->request.particle) +
-                             ") is waiting for its frame's pose; call again when it is answered",
-                         "particle");
-        pending_attach_ = PendingAttach{ request, pose_at, promise,
-                                         Clock::now() + wallDuration(HolderSession::ATTACH_WAIT) };
+        if (auto refusal = holders_.beginAttach(
+                simulator_->model(), request, parameters_.frame_prefix, pose_at,
+                Clock::now() + wallDuration(HolderSession::ATTACH_WAIT)))
+          return *refusal;
+        attach_reply_ = promise;
         tryAttach();
-        return accepted("attach under way");
+        return acceptedReply("attach under way");
       });
   if (!immediate.success)
     return immediate;
-  return await(future);
+  return queue_.await(future);
 }
 
 bool SimulationRunner::tryAttach()
 {
-  if (!pending_attach_)
-    return true;
-  const double time = simulator_->state().time;
-  // the stamp the state stands for: the frame's pose there is where the hold begins
-  const std::int64_t stamp = stampNow();
-  const std::optional<Eigen::Isometry3d> pose =
-      stamp >= 0 ? pending_attach_->pose_at(stamp) : std::nullopt;
-  if (!pose && Clock::now() < pending_attach_->deadline)
-    return false;  // tf has not reached the stamp yet: no step until it has, or the deadline
-  RunnerReply reply;
-  if (!pose)
-    reply = refused("frame = '" + pending_attach_->request.frame +
-                        "': tf held no pose of it at the state's stamp (" +
-                        (stamp >= 0 ? formatValue(static_cast<double>(stamp) * 1e-9) + " s"
-                                    : std::string("no clock yet")) +
-                        ") within " + formatValue(HolderSession::ATTACH_WAIT) +
-                        " s (is it still broadcast?); nothing changed",
-                    "frame");
-  else
-  {
-    try
-    {
-      reply = attachAt(pending_attach_->request, *pose);
-    }
-    catch (const InvalidInput& e)
-    {
-      reply = refused(e.what(), e.field());
-    }
-  }
-  reply.sim_time = time;
-  const std::shared_ptr<std::promise<RunnerReply>> promise = pending_attach_->reply;
-  pending_attach_.reset();
+  std::optional<RunnerReply> reply = holders_.tryAttach(*simulator_, stampNow(), Clock::now());
+  if (!reply)
+    return false;
+  if (reply->success)
+    afterChange(true);
+  reply->sim_time = simulator_->state().time;
+  const std::shared_ptr<std::promise<RunnerReply>> promise = std::move(attach_reply_);
   makeSnapshot();  // answered after the snapshot, so a caller reading it sees the hold
-  promise->set_value(reply);
+  promise->set_value(*reply);
   return true;
-}
-
-RunnerReply SimulationRunner::attachAt(const HolderSession::AttachRequest& request,
-                                       const Eigen::Isometry3d& pose)
-{
-  const int particle = static_cast<int>(request.particle);
-  const State before = simulator_->state();
-  const Vec3 where = before.positions.col(particle);
-  const FrameAnchorConstraint anchor =
-      holders_.anchorFor(request, pose, where, simulator_->model().scene());
-  const std::vector<Constraint> old = simulator_->model().scene().constraints;
-  std::vector<Constraint> constraints = old;
-  constraints.push_back(anchor);
-  ProjectionReport report;
-  try
-  {
-    report = changeHolders(constraints);
-  }
-  catch (const InvalidInput& e)
-  {
-    throw InvalidInput("particle", "particle: attaching refused: " + std::string(e.what()));
-  }
-  // an offset elsewhere: the particle is carried to the held point, the scene projected after it
-  const Vec3 held = request.keep_offset ? where : Vec3(pose * anchor.offset);
-  const double moved = (held - where).norm();
-  if (moved > 0.0)
-  {
-    const Model& model = simulator_->model();
-    for (std::size_t k = 0; k < model.tracked().size(); ++k)
-      if (eliminatedParticle(model.scene().constraints[model.tracked()[k]]) == particle)
-        simulator_->tracks()[k].restart(held);
-    try
-    {
-      report = simulator_->setState(simulator_->state());
-    }
-    catch (const InvalidInput& e)
-    {
-      changeHolders(old);  // nothing changed
-      throw InvalidInput("offset", "offset: the scene cannot be projected with particle " +
-                                       std::to_string(particle) + " at (" + formatValue(held.x()) +
-                                       ", " + formatValue(held.y()) + ", " + formatValue(held.z()) +
-                                       ") m: " + e.what() + "; nothing changed");
-    }
-    afterChange();
-  }
-  const std::int64_t stamp = stampNow();
-  holders_.attached(particle, stamp);
-  RunnerReply reply = accepted(
-      "attached particle " + std::to_string(particle) + " to frame '" + request.frame +
-      "' at t = " + formatValue(before.time) + " s (stamp " +
-      formatValue(static_cast<double>(stamp) * 1e-9) + " s), offset (" +
-      formatValue(anchor.offset.x()) + ", " + formatValue(anchor.offset.y()) + ", " +
-      formatValue(anchor.offset.z()) + ") m: " +
-      (request.keep_offset
-           ? std::string("held where it is")
-           : "moved by " + formatValue(moved) + " m to the held point, particles by up to " +
-                 formatValue(std::max(moved, report.max_displacement)) + " m"));
-  reply.max_displacement = std::max(moved, report.max_displacement);
-  reply.stamp_ns = stamp;
-  return reply;
 }
 
 RunnerReply SimulationRunner::detach(long particle)
 {
-  return submit(
+  return queue_.submit(
       [this, particle]
       {
-        std::string attached;
-        const auto constraints = holders_.detachFrom(simulator_->model(), particle, attached);
-        if (!constraints)
-          return refused(
-              "particle = " + std::to_string(particle) +
-                  " is not attached; attached now: " + (attached.empty() ? "none" : attached),
-              "particle");
-        try
-        {
-          changeHolders(*constraints);
-        }
-        catch (const InvalidInput& e)
-        {
-          return refused("particle: detaching refused: " + std::string(e.what()), "particle");
-        }
-        holders_.detached(static_cast<int>(particle));
-        return accepted("detached particle " + std::to_string(particle));
+        if (const auto refusal = holders_.detach(*simulator_, particle))
+          return refusedReply(*refusal, "particle");
+        afterChange(true);
+        return acceptedReply("detached particle " + std::to_string(particle));
       });
-}
-
-ProjectionReport SimulationRunner::changeHolders(const std::vector<Constraint>& constraints)
-{
-  const ProjectionReport report = simulator_->setConstraints(constraints);
-  abandonWindow();
-  holders_.setModel(simulator_->model(), false);
-  afterChange(true);
-  return report;
 }
 
 RunnerReply SimulationRunner::clearForces()
 {
-  return submit(
+  return queue_.submit(
       [this]
       {
         const std::size_t count = perturbations_.clearApplied();
-        updatePerturbations();
-        return accepted("cleared " + std::to_string(count) + " applied forces");
+        noteForces(perturbations_.handTo(*simulator_));
+        return acceptedReply("cleared " + std::to_string(count) + " applied forces");
       });
-}
-
-void SimulationRunner::wakeLoop()
-{
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-  }
-  wake_.notify_all();
 }
 
 void SimulationRunner::drag(std::uint64_t scene_serial, int particle, const Vec3& target)
 {
   perturbations_.queueDrag(scene_serial, particle, target);
-  wakeLoop();
+  queue_.wake();
 }
 
 void SimulationRunner::release(std::uint64_t scene_serial, int particle)
 {
   perturbations_.queueRelease(scene_serial, particle);
-  wakeLoop();
+  queue_.wake();
 }
 
 void SimulationRunner::setCommandClock(std::function<double()> now)
@@ -585,13 +390,13 @@ void SimulationRunner::setCommandClock(std::function<double()> now)
 void SimulationRunner::commandWrench(std::uint64_t scene_serial, int particle, const Vec3& force)
 {
   perturbations_.queueCommand(scene_serial, particle, force, command_clock_(), wrench_timeout_);
-  wakeLoop();
+  queue_.wake();
 }
 
 void SimulationRunner::followClock(std::int64_t clock_ns)
 {
   pacer_.takeClock(clock_ns);  // before the loop's lock: never between its check and its wait
-  wakeLoop();
+  queue_.wake();
 }
 
 void SimulationRunner::postHolderSamples(std::uint64_t tracks_serial, int track,
@@ -600,123 +405,50 @@ void SimulationRunner::postHolderSamples(std::uint64_t tracks_serial, int track,
   holders_.post(tracks_serial, track, std::move(samples));
 }
 
-void SimulationRunner::applyInbox()
+void SimulationRunner::noteForces(Perturbations::Effect effect)
 {
-  const Perturbations::Change change =
-      perturbations_.takeQueued(session_.serial(), simulator_->model().numParticles());
-  if (change == Perturbations::Change::None)
+  if (effect == Perturbations::Effect::None)
     return;
-  // a command's new expiry, or none left
-  perturbations_.expireCommands(command_clock_(), next_command_expiry_);
-  updatePerturbations();
-  // a new target or force moves only the spring or push: the next batch's snapshot shows it; a
-  // grab, a release or a new command changes what ~state reports at once
-  if (change == Perturbations::Change::Acting)
+  accuracy_.abandon();  // the shadow reference does not feel them
+  if (effect == Perturbations::Effect::Shown)
     snapshot_due_ = true;
-}
-
-void SimulationRunner::expireCommands()
-{
-  if (!std::isfinite(next_command_expiry_))
-    return;  // none acts: no clock read on the chunks' path
-  const double now = command_clock_();
-  if (now < next_command_expiry_)
-    return;
-  if (perturbations_.expireCommands(now, next_command_expiry_))
-  {
-    updatePerturbations();
-    snapshot_due_ = true;
-  }
-}
-
-void SimulationRunner::updatePerturbations()
-{
-  try
-  {
-    simulator_->setPerturbations(
-        perturbations_.forces(simulator_->model().scene().masses, simulator_->stepSettings().dt));
-  }
-  catch (const InvalidInput&)
-  {
-    // every record was checked on its way in: not reached; never leave forces half set
-    perturbations_.clearAll();
-    simulator_->setPerturbations({});
-  }
-  // the shadow reference does not feel them: the window would measure the push, not the method
-  abandonWindow();
-}
-
-std::uint64_t SimulationRunner::expireForces(std::uint64_t limit)
-{
-  std::uint64_t next = limit;
-  if (perturbations_.expire(simulator_->state().steps, limit, next))
-  {
-    updatePerturbations();
-    snapshot_due_ = true;
-  }
-  return next;
 }
 
 // ---- the physics thread ----
 
 void SimulationRunner::loop()
 {
-  while (!stopping_)
+  while (!queue_.stopping())
   {
     bool applied = applyRequests();
-    if (pending_attach_ && tryAttach())
+    if (holders_.attaching() && tryAttach())
       applied = true;
-    applyInbox();
-    expireCommands();
-    const bool stepped = !stopping_ && runBatch();
+    noteForces(perturbations_.takeQueuedInto(*simulator_, session_.serial(), command_clock_()));
+    // a silent commander's push ends while idle too (no clock read while none acts)
+    if (std::isfinite(perturbations_.nextCommandExpiry()))
+      noteForces(perturbations_.expireCommandsInto(*simulator_, command_clock_()));
+    const bool stepped = !queue_.stopping() && runBatch();
     updateAccuracy();
     const Clock::time_point now = Clock::now();
-    const double time = simulator_->state().time, dt = simulator_->stepSettings().dt;
-    const bool running = !paused_ && !faulted_ && !pending_attach_;
-    if (pacer_.updateRate(now, time, dt, faulted_ || paused_))
+    if (pacer_.updateRate(now, simulator_->state().time, simulator_->stepSettings().dt,
+                          faulted_ || paused_))
       snapshot_due_ = true;
-    const double publish_period = 1.0 / parameters_.publish_rate;
     if (snapshot_due_ || applied ||
-        (unpublished_ && seconds(now - last_snapshot_wall_) >= publish_period))
+        (unpublished_ && seconds(now - last_snapshot_wall_) >= 1.0 / parameters_.publish_rate))
       makeSnapshot();
     if (step_request_ && step_request_->taken == step_request_->wanted)
       finishStep(true, "stepped " + std::to_string(step_request_->taken) + " steps");
-    if (stepped || stopping_)
-      continue;
-    // idle: until a request, the next due step, or a while (to refresh the rate window)
-    Clock::time_point wake = std::min(now + IDLE_WAIT, pacer_.nextDue(now, time, dt, running));
-    if (pending_attach_)
-      wake = std::min(wake, now + ATTACH_POLL);
-    // steps a snapshot has not shown (the last ones before a clock stopped): at the next period
-    if (unpublished_)
-      wake = std::min(wake, last_snapshot_wall_ + wallDuration(publish_period));
-    // a command's timeout ends it while idle too (the command clock taken to run as the wall)
-    if (std::isfinite(next_command_expiry_))
-      wake = std::min(
-          wake, now + wallDuration(std::clamp(next_command_expiry_ - command_clock_(), 0.0, 1.0)));
-    // a clock that came within the batch period of the last batch: taken when the period ends
-    const bool follows = pacer_.source() == Pacer::Source::FollowClock;
-    const bool clock_pending = follows && pacer_.clockMoved() && running;
-    std::unique_lock<std::mutex> lock(queue_mutex_);
-    wake_.wait_until(lock, wake,
-                     [this, clock_pending, running, follows]
-                     {
-                       return stopping_ || !queue_.empty() || perturbations_.hasQueued() ||
-                              (follows && !clock_pending && pacer_.clockMoved() && running);
-                     });
+    if (!stepped && !queue_.stopping())
+      idle(now);
   }
   // refuse what is still queued, a waiting attach, and a running ~step with what it took
-  std::deque<std::shared_ptr<Request>> left;
+  std::uint64_t batches = 0;
+  for (const auto& request : queue_.take(batches))
+    request->reply.set_value(refusedReply("the node is shutting down"));
+  if (holders_.attaching())
   {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    left.swap(queue_);
-  }
-  for (const auto& request : left)
-    request->reply.set_value(refused("the node is shutting down"));
-  if (pending_attach_)
-  {
-    pending_attach_->reply->set_value(refused("the node is shutting down"));
-    pending_attach_.reset();
+    holders_.cancelAttach();
+    attach_reply_->set_value(refusedReply("the node is shutting down"));
   }
   if (step_request_)
     finishStep(false, "the node is shutting down after " + std::to_string(step_request_->taken) +
@@ -726,15 +458,35 @@ void SimulationRunner::loop()
   exited_cv_.notify_all();
 }
 
+void SimulationRunner::idle(Clock::time_point now)
+{
+  // until a request, the next due step, or a while (to refresh the rate window)
+  const double time = simulator_->state().time, dt = simulator_->stepSettings().dt;
+  const bool running = !paused_ && !faulted_ && !holders_.attaching();
+  Clock::time_point wake = std::min(now + IDLE_WAIT, pacer_.nextDue(now, time, dt, running));
+  if (holders_.attaching())
+    wake = std::min(wake, now + ATTACH_POLL);
+  // steps a snapshot has not shown (the last ones before a clock stopped): at the next period
+  if (unpublished_)
+    wake = std::min(wake, last_snapshot_wall_ + wallDuration(1.0 / parameters_.publish_rate));
+  // a command's timeout ends it while idle too (the command clock taken to run as the wall)
+  if (const double expiry = perturbations_.nextCommandExpiry(); std::isfinite(expiry))
+    wake = std::min(wake, now + wallDuration(std::clamp(expiry - command_clock_(), 0.0, 1.0)));
+  // a clock that came within the batch period of the last batch: taken when the period ends
+  const bool follows = pacer_.source() == Pacer::Source::FollowClock;
+  const bool clock_pending = follows && pacer_.clockMoved() && running;
+  queue_.wait(wake,
+              [this, clock_pending, running, follows]
+              {
+                return perturbations_.hasQueued() ||
+                       (follows && !clock_pending && pacer_.clockMoved() && running);
+              });
+}
+
 bool SimulationRunner::applyRequests()
 {
-  std::deque<std::shared_ptr<Request>> requests;
   std::uint64_t batches = 0;
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    requests.swap(queue_);
-    batches = batches_;
-  }
+  const std::deque<std::shared_ptr<RunnerQueue::Request>> requests = queue_.take(batches);
   if (requests.empty())
     return false;
   std::vector<RunnerReply> replies;
@@ -746,7 +498,7 @@ bool SimulationRunner::applyRequests()
     }
     catch (const InvalidInput& e)
     {
-      replies.push_back(refused(e.what(), e.field()));
+      replies.push_back(refusedReply(e.what(), e.field()));
     }
     replies.back().sim_time = simulator_->state().time;
     replies.back().batches_waited = batches - request->queued_at_batch;
@@ -789,9 +541,8 @@ bool SimulationRunner::runBatch()
     holders_.discard();  // a scene at rest follows no holder: its poses meanwhile are stale
     return false;
   }
-  if (pending_attach_)
+  if (holders_.attaching())
     return false;  // the state waits at the attach's stamp until the frame's pose is there
-  const double dt = simulator_->stepSettings().dt;
   const Clock::time_point start = Clock::now();
   const std::uint64_t wanted = stepsDue(start);
   if (wanted == 0)
@@ -802,28 +553,39 @@ bool SimulationRunner::runBatch()
   StepStatistics batch;
   while (taken < wanted && !faulted_)
   {
-    // chunks of about CHECK_WALL_TIME, each checked: a fault loses only the chunk it happened in
-    const double left = std::min(CHECK_WALL_TIME, BATCH_WALL_TIME - seconds(Clock::now() - start));
-    const double fit = step_time_estimate_ > 0 ? left / step_time_estimate_ : 1.0;
-    // grown at most twofold per chunk: a step much slower than the estimate (a new integrator,
-    // dopri5 meeting a hard stretch) cannot make one chunk run for seconds
-    const auto chunk =
-        static_cast<int>(std::clamp<double>(std::floor(fit), 1.0,
-                                            std::min({ static_cast<double>(wanted - taken), 1e6,
-                                                       2.0 * static_cast<double>(last_chunk_) })));
-    last_chunk_ = chunk;
     const std::uint64_t kept = simulator_->state().steps;
-    const bool go_on = runChunk(chunk, batch);
+    const bool go_on = runChunk(chunkSize(wanted - taken, start), batch);
     // the steps that stand (a fault put the chunk's back)
     taken += simulator_->state().steps > kept ? simulator_->state().steps - kept : 0;
     if (!go_on)
       break;  // faulted, or a live accuracy sample ended the batch
-    if (seconds(Clock::now() - start) >= BATCH_WALL_TIME || stopping_)
+    if (seconds(Clock::now() - start) >= BATCH_WALL_TIME || queue_.stopping())
     {
-      out_of_time = !stopping_;
+      out_of_time = !queue_.stopping();
       break;
     }
   }
+  endBatch(start, wanted, taken, out_of_time, batch);
+  return true;
+}
+
+int SimulationRunner::chunkSize(std::uint64_t left, Clock::time_point batch_start)
+{
+  // chunks of about CHECK_WALL_TIME, each checked: a fault loses only the chunk it happened in
+  const double wall =
+      std::min(CHECK_WALL_TIME, BATCH_WALL_TIME - seconds(Clock::now() - batch_start));
+  const double fit = step_time_estimate_ > 0 ? wall / step_time_estimate_ : 1.0;
+  // grown at most twofold per chunk: a step much slower than the estimate (a new integrator,
+  // dopri5 meeting a hard stretch) cannot make one chunk run for seconds
+  last_chunk_ = static_cast<int>(std::clamp<double>(
+      std::floor(fit), 1.0,
+      std::min({ static_cast<double>(left), 1e6, 2.0 * static_cast<double>(last_chunk_) })));
+  return last_chunk_;
+}
+
+void SimulationRunner::endBatch(Clock::time_point start, std::uint64_t wanted, std::uint64_t taken,
+                                bool out_of_time, const StepStatistics& batch)
+{
   // the last step's forces, once per batch (after a fault, fault() took them at the good state)
   if (!faulted_)
   {
@@ -837,10 +599,7 @@ bool SimulationRunner::runBatch()
   }
   step_time_ =
       seconds(Clock::now() - start) / static_cast<double>(std::max<std::uint64_t>(taken, 1));
-  {
-    std::lock_guard<std::mutex> lock(queue_mutex_);
-    ++batches_;
-  }
+  queue_.countBatch();
   pending_.merge(batch);
   if (step_request_)
   {
@@ -855,10 +614,10 @@ bool SimulationRunner::runBatch()
   {
     // behind wall time: slow sim time down instead of building a backlog, and count the loss;
     // on wall time the stamps then stand for later times: the holders move with them
+    const double dt = simulator_->stepSettings().dt;
     if (pacer_.dropped(static_cast<double>(wanted - taken) * dt, simulator_->state().time))
       holders_.resync(*simulator_);
   }
-  return true;
 }
 
 bool SimulationRunner::runChunk(int steps, StepStatistics& batch)
@@ -866,17 +625,17 @@ bool SimulationRunner::runChunk(int steps, StepStatistics& batch)
   // a live accuracy sample ends a chunk exactly on its step
   int steps_now = accuracy_.stepsToNextSample(simulator_->state().steps, steps);
   // an applied force's last step ends a chunk too: it is dropped exactly after it
-  steps_now = static_cast<int>(expireForces(static_cast<std::uint64_t>(std::max(steps_now, 1))));
+  std::uint64_t until_expiry = 0;
+  noteForces(perturbations_.expireAppliedInto(
+      *simulator_, static_cast<std::uint64_t>(std::max(steps_now, 1)), until_expiry));
+  steps_now = static_cast<int>(until_expiry);
   // holders' poses posted since the last chunk, known before the steps that reach them; a
   // holder's teleport ends the chunk on its step
   if (!simulator_->tracks().empty())
   {
     holders_.follow(*simulator_, pacer_, simulator_->stepSettings().dt);
     if (holders_.stepsToNextJump(*simulator_, 1) == 0 && holders_.afterChunk(*simulator_))
-    {
-      abandonWindow();
       afterChange();
-    }
     steps_now = static_cast<int>(
         std::max<std::uint64_t>(holders_.stepsToNextJump(*simulator_, steps_now), 1));
   }
@@ -894,7 +653,15 @@ bool SimulationRunner::runChunk(int steps, StepStatistics& batch)
     statistics.failed_check = StepCheck::None;
     batch.merge(statistics);
     unpublished_ = true;
-    letGo(over);
+    try
+    {
+      holders_.letGo(*simulator_, over);
+      afterChange(true);
+    }
+    catch (const InvalidInput& e)  // not reached: fewer holds can always be met where more were
+    {
+      fault("a hold over its limit could not let go: " + std::string(e.what()), last_good_);
+    }
     last_good_ = simulator_->state();
     return !faulted_;
   }
@@ -908,15 +675,14 @@ bool SimulationRunner::runChunk(int steps, StepStatistics& batch)
   }
   batch.merge(statistics);
   unpublished_ = true;
-  expireForces(0);
+  std::uint64_t next = 0;
+  noteForces(perturbations_.expireAppliedInto(*simulator_, 0, next));
   // a command takes effect, and a silent commander's push ends, within a chunk
-  applyInbox();
-  expireCommands();
+  noteForces(perturbations_.takeQueuedInto(*simulator_, session_.serial(), command_clock_()));
+  if (std::isfinite(perturbations_.nextCommandExpiry()))
+    noteForces(perturbations_.expireCommandsInto(*simulator_, command_clock_()));
   if (!simulator_->tracks().empty() && holders_.afterChunk(*simulator_))
-  {
-    abandonWindow();  // a teleport: the shadow cannot know it
-    afterChange();
-  }
+    afterChange();  // a teleport: the shadow cannot know it
   last_good_ = simulator_->state();
   if (accuracy_.record(simulator_->state()))
   {
@@ -929,24 +695,9 @@ bool SimulationRunner::runChunk(int steps, StepStatistics& batch)
   return true;
 }
 
-void SimulationRunner::letGo(const StepStatistics& chunk)
-{
-  const std::vector<Constraint> constraints =
-      holders_.letGo(simulator_->model(), chunk, simulator_->state().time);
-  try
-  {
-    changeHolders(constraints);
-  }
-  catch (const InvalidInput& e)
-  {
-    // not reached: fewer holds can always be met where more were
-    fault("a hold over its limit could not let go: " + std::string(e.what()), simulator_->state());
-  }
-}
-
 void SimulationRunner::fault(const std::string& reason, const State& good)
 {
-  abandonWindow();
+  accuracy_.abandon();
   faulted_ = true;
   fault_reason_ = faultMessage(reason, perturbations_.appliedCount(), perturbations_.draggedCount(),
                                perturbations_.commandedCount(), good.time);
@@ -966,7 +717,7 @@ void SimulationRunner::interruptStep(const std::string& by)
 
 void SimulationRunner::finishStep(bool success, const std::string& message)
 {
-  RunnerReply reply = success ? accepted(message) : refused(message);
+  RunnerReply reply = success ? acceptedReply(message) : refusedReply(message);
   reply.sim_time = step_request_->sim_time;  // not a new scene's, when a reset stopped it
   reply.steps_taken = step_request_->taken;
   const std::shared_ptr<std::promise<RunnerReply>> promise = step_request_->reply;
@@ -994,7 +745,7 @@ void SimulationRunner::apply(const SceneSession::Candidate& candidate)
     simulator_->setStepSettings(saved);
     throw;
   }
-  abandonWindow();
+  accuracy_.abandon();
   // the new Data holds no perturbations: pushes and drags end with the scene they acted on
   perturbations_.clearAll();
   session_.adopt(candidate.description, candidate.built.initial_state);
@@ -1013,28 +764,12 @@ void SimulationRunner::apply(const SceneSession::Candidate& candidate)
 
 void SimulationRunner::afterChange(bool model_changed)
 {
+  accuracy_.abandon();  // the state changed under the window
   if (model_changed)
     model_copy_ = std::make_shared<const Model>(simulator_->model());
   simulator_->constraintForces(forces_, multipliers_);
   last_good_ = simulator_->state();
   snapshot_due_ = true;
-}
-
-std::int64_t SimulationRunner::stampNow() const
-{
-  const double time = simulator_->state().time;
-  if (!(paused_ || faulted_))
-    return pacer_.standsFor(time);
-  switch (pacer_.source())
-  {
-    case Pacer::Source::FollowClock:
-      return pacer_.newestClock();
-    case Pacer::Source::Wall:
-      return std::llround(command_clock_() * 1e9);
-    case Pacer::Source::PublishClock:
-      break;
-  }
-  return pacer_.standsFor(time);
 }
 
 void SimulationRunner::reanchor(Pacer::Anchor anchor)
@@ -1095,11 +830,6 @@ void SimulationRunner::makeSnapshot()
   pending_ = StepStatistics{};
   last_snapshot_wall_ = Clock::now();
   snapshot_due_ = false;
-}
-
-void SimulationRunner::abandonWindow()
-{
-  accuracy_.abandon();
 }
 
 void SimulationRunner::updateAccuracy()

@@ -1,28 +1,20 @@
 #include "constrained_particles/ros/simulator_node.hpp"
+
+#include "constrained_particles/SimState.h"
+#include "constrained_particles/core/integrators.hpp"
 #include "constrained_particles/ros/clock_owner.hpp"
+#include "constrained_particles/ros/conversions.hpp"
+#include "constrained_particles/ros/health.hpp"
 #include "constrained_particles/ros/reconfigure_mapping.hpp"
 #include "constrained_particles/ros/state_message.hpp"
 
-#include "constrained_particles/Accuracy.h"
-#include "constrained_particles/SceneView.h"
-#include "constrained_particles/SimState.h"
-#include "constrained_particles/core/integrators.hpp"
-#include "constrained_particles/ros/conversions.hpp"
-
 #include <diagnostic_msgs/DiagnosticArray.h>
-#include <sensor_msgs/PointCloud2.h>
-#include <sensor_msgs/point_cloud2_iterator.h>
-#include <tf2_eigen/tf2_eigen.h>
-
-#include <thread>
-#include <rosgraph_msgs/Clock.h>
-#include <geometry_msgs/TransformStamped.h>
 #include <ros/names.h>
 #include <ros/package.h>
+#include <rosgraph_msgs/Clock.h>
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 namespace constrained_particles
 {
@@ -49,6 +41,12 @@ bool answer(Response& response, const RunnerReply& reply)
 }
 
 }  // namespace
+
+template <typename Request, typename Response>
+void SimulatorNode::serve(const char* name, bool (SimulatorNode::*callback)(Request&, Response&))
+{
+  services_.push_back(nh_.advertiseService(name, callback, this));
+}
 
 SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   : nh_(private_nh)
@@ -100,50 +98,25 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
         { runner_->followClock(static_cast<std::int64_t>(clock->clock.toNSec())); },
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   }
-  // our own /tf publisher (tf2_ros::TransformBroadcaster is a thin wrapper of one) so the message
-  // is built only with subscribers and reuses its frame names; queue as tf2_ros's broadcaster
-  tf_publisher_ = publish_nh_.advertise<tf2_msgs::TFMessage>(
-      "/tf", 100,
-      ros::SubscriberStatusCallback(
-          [this](const ros::SingleSubscriberPublisher& subscriber)
-          {
-            // under sim time nothing is re-sent while time stands still: a listener joining
-            // then gets the last frames once, to itself only, and only if nothing was broadcast
-            // lately (a broadcast since its link came up would repeat a stamp)
-            std::lock_guard<std::mutex> lock(publish_mutex_);
-            if (sim_time_stamps_ && last_stamp_ &&
-                std::chrono::steady_clock::now() - last_tf_broadcast_ >
-                    std::chrono::milliseconds(500))
-              subscriber.publish(tf_message_);
-          }));
+  tf_publisher_ = std::make_unique<TfPublisher>(publish_nh_, parameters_.fixed_frame,
+                                                parameters_.frame_prefix, sim_time_stamps_);
   // latched under sim time: while it stands still nothing new is sent
   state_publisher_ = nh_.advertise<SimState>("state", 10, sim_time_stamps_);
-  force_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("constraint_forces", 10);
-  scene_marker_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("scene", 1, true);
-  particles_publisher_ = nh_.advertise<sensor_msgs::PointCloud2>("particles", 2);
-  // latched and sent once per scene whoever listens: a late subscriber gets the current scene's
-  surface_publisher_ = nh_.advertise<visualization_msgs::MarkerArray>("surface", 1, true);
-  view_publisher_ = nh_.advertise<SceneView>("view", 1, true);
-  accuracy_publisher_ = nh_.advertise<Accuracy>("accuracy", 10, true);
+  scene_publisher_ = std::make_unique<ScenePublisher>(nh_, parameters_);
   diagnostics_publisher_ =
       ros::NodeHandle().advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 1);
-
-  services_.push_back(nh_.advertiseService("reset", &SimulatorNode::resetCallback, this));
-  services_.push_back(
-      nh_.advertiseService("list_scenes", &SimulatorNode::listScenesCallback, this));
-  services_.push_back(
-      nh_.advertiseService("set_surface", &SimulatorNode::setSurfaceCallback, this));
-  services_.push_back(nh_.advertiseService("set_chain", &SimulatorNode::setChainCallback, this));
-  services_.push_back(nh_.advertiseService("set_state", &SimulatorNode::setStateCallback, this));
-  services_.push_back(nh_.advertiseService("pause", &SimulatorNode::pauseCallback, this));
-  services_.push_back(nh_.advertiseService("unpause", &SimulatorNode::unpauseCallback, this));
-  services_.push_back(nh_.advertiseService("step", &SimulatorNode::stepCallback, this));
-  services_.push_back(
-      nh_.advertiseService("apply_force", &SimulatorNode::applyForceCallback, this));
-  services_.push_back(
-      nh_.advertiseService("clear_forces", &SimulatorNode::clearForcesCallback, this));
-  services_.push_back(nh_.advertiseService("attach", &SimulatorNode::attachCallback, this));
-  services_.push_back(nh_.advertiseService("detach", &SimulatorNode::detachCallback, this));
+  serve("reset", &SimulatorNode::resetCallback);
+  serve("list_scenes", &SimulatorNode::listScenesCallback);
+  serve("set_surface", &SimulatorNode::setSurfaceCallback);
+  serve("set_chain", &SimulatorNode::setChainCallback);
+  serve("set_state", &SimulatorNode::setStateCallback);
+  serve("pause", &SimulatorNode::pauseCallback);
+  serve("unpause", &SimulatorNode::unpauseCallback);
+  serve("step", &SimulatorNode::stepCallback);
+  serve("apply_force", &SimulatorNode::applyForceCallback);
+  serve("clear_forces", &SimulatorNode::clearForcesCallback);
+  serve("attach", &SimulatorNode::attachCallback);
+  serve("detach", &SimulatorNode::detachCallback);
   grab_markers_ = std::make_unique<GrabMarkers>(nh_, *runner_, parameters_.fixed_frame);
   wrench_commands_ = std::make_unique<WrenchCommands>(nh_, *runner_, parameters_.frame_prefix);
   anchor_wrenches_ = std::make_unique<AnchorWrenches>(nh_, parameters_.frame_prefix);
@@ -329,245 +302,17 @@ void SimulatorNode::publish()
                        static_cast<int>(snap->constraint_forces.cols()));
     return;
   }
-  publishSceneOnce(*snap, header.stamp);
-  prepareFrames(*snap);
-  const int frames = static_cast<int>(tf_message_.transforms.size());
-  if (frames > 0 && (tf_publisher_.getNumSubscribers() > 0 || sim_time_stamps_))
-  {
-    for (int i = 0; i < frames; ++i)
-    {
-      geometry_msgs::TransformStamped& t = tf_message_.transforms[i];
-      t.header.stamp = header.stamp;
-      t.transform.translation.x = snap->state.positions(0, i);
-      t.transform.translation.y = snap->state.positions(1, i);
-      t.transform.translation.z = snap->state.positions(2, i);
-    }
-    tf_publisher_.publish(tf_message_);
-    last_tf_broadcast_ = std::chrono::steady_clock::now();
-  }
-  if (particles_publisher_.getNumSubscribers() > 0)
-    publishParticles(*snap, header);
+  scene_publisher_->publishSceneOnce(*snap, header.stamp);
+  tf_publisher_->publish(*snap, header.stamp);
   anchor_wrenches_->publish(*snap, header);
-
   if (state_publisher_.getNumSubscribers() > 0 || sim_time_stamps_)
   {
     SimState msg;
     msg.header = header;
-    msg.scenario = snap->scene->name;
-    msg.positions = toPointMsgs(snap->state.positions);
-    msg.velocities = toVectorMsgs(snap->state.velocities);
-    msg.constraint_forces = toVectorMsgs(snap->constraint_forces);
-    msg.multipliers.assign(snap->multipliers.data(),
-                           snap->multipliers.data() + snap->multipliers.size());
-    msg.steps = snap->state.steps;
-    fillSnapshotFields(*snap, msg);
-    fillStatistics(statistics, msg);
-    msg.energy_fallback = !snap->energy_fallback.empty();
-    msg.forward_path = forwardPathName(snap->forward_path.path);
-    msg.forward_path_reason = snap->forward_path.reason;
-    msg.behind = snap->behind;
-    msg.status = snap->faulted  ? SimState::STATUS_FAULT
-                 : snap->paused ? SimState::STATUS_PAUSED
-                                : SimState::STATUS_RUNNING;
-    msg.status_message = statusText(*snap);
-    if (snap->accuracy)
-    {
-      msg.accuracy_window_end = snap->accuracy->window_start + snap->accuracy->window;
-      msg.accuracy_position_error = snap->accuracy->position_error;
-      msg.accuracy_error_growth_rate = snap->accuracy->error_growth_rate;
-    }
-    msg.accuracy_skipped_windows = static_cast<std::uint32_t>(snap->skipped_windows);
-    msg.applied_forces = snap->applied_forces;
-    msg.dragged_particles = snap->dragged_particles;
-    msg.commanded_particles = snap->commanded_particles;
-    msg.anchor_lag = snap->latency;
-    for (std::size_t k = 0; k < snap->model->tracked().size(); ++k)
-      if (const auto* anchor = std::get_if<FrameAnchorConstraint>(
-              &snap->model->scene().constraints[snap->model->tracked()[k]]))
-      {
-        msg.held_particles.push_back(anchor->particle);
-        msg.holders.push_back(anchor->frame.empty() ? anchor->topic : anchor->frame);
-        const bool counted = k < snap->holders.size();
-        msg.holder_overruns.push_back(
-            counted ? static_cast<std::uint32_t>(snap->holders[k].overruns) : 0u);
-        msg.holder_teleports.push_back(counted ? static_cast<std::uint32_t>(snap->holders[k].jumps)
-                                               : 0u);
-      }
-    for (const Release& release : snap->releases)
-    {
-      msg.released_particles.push_back(release.particle);
-      msg.released_holders.push_back(release.holder);
-      msg.released_times.push_back(release.time);
-      msg.released_max_forces.push_back(release.max_force);
-    }
-    const auto& contacts =
-        std::get<std::vector<KindRecord<SurfaceContact>>>(snap->model->kindTables());
-    for (std::size_t k = 0; k < contacts.size() && k < snap->contacts.size(); ++k)
-      if (const ContactState& contact = snap->contacts[k]; contact.mode != ContactMode::Separated &&
-                                                           std::isfinite(contact.normal_force) &&
-                                                           contact.friction_force.allFinite())
-      {
-        msg.contact_particles.push_back(contacts[k].record.particle);
-        msg.contact_modes.push_back(contact.mode == ContactMode::Sticking
-                                        ? SimState::CONTACT_STICKING
-                                        : SimState::CONTACT_SLIDING);
-        msg.contact_normal_forces.push_back(contact.normal_force);
-        geometry_msgs::Vector3 friction;
-        tf2::toMsg(contact.friction_force, friction);
-        msg.contact_friction_forces.push_back(friction);
-      }
+    fillState(*snap, statistics, msg);
     state_publisher_.publish(msg);
   }
-  if (force_marker_publisher_.getNumSubscribers() > 0)
-  {
-    // rviz keeps only the newest array (queue 1, so arrows never lag): a count's drop is
-    // deleted in every array for a second, not once
-    const auto now = std::chrono::steady_clock::now();
-    if (n < published_arrows_)
-    {
-      stale_arrows_ = std::max(stale_arrows_, published_arrows_);
-      stale_arrows_until_ = now + std::chrono::seconds(1);
-    }
-    if (now > stale_arrows_until_)
-      stale_arrows_ = 0;
-    const double scale = arrowScale(parameters_.force_scale, snap->constraint_forces,
-                                    snap->region.radius(), arrowForceFloor(*snap->model));
-    visualization_msgs::MarkerArray arrows =
-        constraintForceMarkers(header, snap->state.positions, snap->constraint_forces, scale,
-                               std::max(published_arrows_, stale_arrows_));
-    // the contacts' normal and friction forces beside the totals (they are in them)
-    const visualization_msgs::MarkerArray contact_arrows =
-        contactForceMarkers(header, *snap->model, snap->state.positions, snap->contacts, scale,
-                            published_contact_arrows_);
-    // two arrows a surface contact (slack links, the rest of numContacts(), have none)
-    published_contact_arrows_ = static_cast<int>(
-        2 * std::get<std::vector<KindRecord<SurfaceContact>>>(snap->model->kindTables()).size());
-    arrows.markers.insert(arrows.markers.end(), contact_arrows.markers.begin(),
-                          contact_arrows.markers.end());
-    force_marker_publisher_.publish(arrows);
-    published_arrows_ = n;
-  }
-  if (scene_marker_publisher_.getNumSubscribers() > 0)
-  {
-    scene_marker_publisher_.publish(sceneMarkers(header, *snap->model, snap->state.positions));
-    // ghosts only where the shadow's sample is at this snapshot's time: the distance is the error
-    if (snap->reference_positions && snap->reference_positions->cols() == n &&
-        snap->reference_positions->allFinite())
-      scene_marker_publisher_.publish(
-          referenceMarkers(header, *snap->model, snap->state.positions, *snap->reference_positions,
-                           std::max(0.2, 3.0 / snap->parameters.publish_rate)));
-  }
-  publishAccuracy(*snap, header);
-}
-
-void SimulatorNode::publishSceneOnce(const Snapshot& snap, const ros::Time& stamp)
-{
-  if (published_scene_serial_ >= snap.scene_serial)
-    return;
-  published_scene_serial_ = snap.scene_serial;
-  std_msgs::Header header;
-  header.stamp = stamp;
-  header.frame_id = parameters_.fixed_frame;
-  const RegionSpec& region = snap.region;
-  surface_publisher_.publish(
-      surfaceMarkers(header, *snap.model, region.low, region.high, parameters_.mesh_cells));
-  SceneView view;
-  view.header = header;
-  view.scenario = snap.scene->name;
-  view.low = tf2::toMsg(Eigen::Vector3d(region.low));
-  view.high = tf2::toMsg(Eigen::Vector3d(region.high));
-  view.center = tf2::toMsg(Eigen::Vector3d(region.center()));
-  view.radius = region.radius();
-  view.particle_size = particleSize(*snap.model);
-  view_publisher_.publish(view);
-}
-
-void SimulatorNode::prepareFrames(const Snapshot& snap)
-{
-  const int n = static_cast<int>(snap.state.positions.cols());
-  const int frames = tfFrameCount(n, snap.parameters.tf_frames);
-  if (frames_scene_serial_ == snap.scene_serial &&
-      tf_message_.transforms.size() == static_cast<std::size_t>(frames))
-    return;
-  // frame names once per scene and count, not per publish
-  tf_message_.transforms.resize(frames);
-  for (int i = 0; i < frames; ++i)
-  {
-    geometry_msgs::TransformStamped& t = tf_message_.transforms[i];
-    t.header.frame_id = parameters_.fixed_frame;
-    t.child_frame_id = parameters_.frame_prefix + std::to_string(i);
-    t.transform.rotation.w = 1.0;
-  }
-  frames_scene_serial_ = snap.scene_serial;
-  if (snap.parameters.tf_frames < 0 && frames < n && warned_scene_serial_ != snap.scene_serial)
-  {
-    warned_scene_serial_ = snap.scene_serial;
-    ROS_WARN(
-        "simulator: scene '%s' has %d particles; /tf carries the first %d (~tf_frames -1 "
-        "caps at %d); ~particles carries them all; set ~tf_frames to N for the first N",
-        snap.scene->name.c_str(), n, frames, limits::DEFAULT_TF_FRAMES);
-  }
-}
-
-void SimulatorNode::publishParticles(const Snapshot& snap, const std_msgs::Header& header)
-{
-  const int n = static_cast<int>(snap.state.positions.cols());
-  sensor_msgs::PointCloud2 cloud;
-  cloud.header = header;
-  // sensor_msgs' modifier and iterators lay out and fill the fields (the well-kept way to)
-  sensor_msgs::PointCloud2Modifier modifier(cloud);
-  modifier.setPointCloud2Fields(
-      4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z", 1,
-      sensor_msgs::PointField::FLOAT32, "force", 1, sensor_msgs::PointField::FLOAT32);
-  modifier.resize(static_cast<std::size_t>(n));
-  cloud.height = 1;
-  cloud.width = static_cast<std::uint32_t>(n);
-  cloud.is_dense = true;
-  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z"),
-      force(cloud, "force");
-  for (int i = 0; i < n; ++i, ++x, ++y, ++z, ++force)
-  {
-    *x = static_cast<float>(snap.state.positions(0, i));
-    *y = static_cast<float>(snap.state.positions(1, i));
-    *z = static_cast<float>(snap.state.positions(2, i));
-    *force = static_cast<float>(snap.constraint_forces.col(i).norm());
-  }
-  particles_publisher_.publish(cloud);
-}
-
-void SimulatorNode::publishAccuracy(const Snapshot& snap, const std_msgs::Header& header)
-{
-  const std::shared_ptr<const AccuracyReport>& a = snap.accuracy;
-  if (!a || a->serial == published_accuracy_serial_)
-    return;
-  published_accuracy_serial_ = a->serial;
-  Accuracy msg;
-  msg.header = header;
-  if (parameters_.publish_clock)
-    msg.header.stamp = ros::Time(a->stamp);
-  msg.scenario = snap.scene->name;
-  msg.window_start = a->window_start;
-  msg.window = a->window;
-  msg.integrator = a->integrator;
-  msg.stabilization = stabilizationName(a->stabilization);
-  msg.dt = a->dt;
-  msg.sample_times = a->sample_times;
-  msg.position_errors = a->position_errors;
-  msg.position_error = a->position_error;
-  msg.error_growth_rate = a->error_growth_rate;
-  msg.live_cpu_time_per_sim_second = a->live_cpu_per_sim_second;
-  msg.reference_cpu_time_per_sim_second = a->reference_cpu_per_sim_second;
-  msg.windows = static_cast<std::uint32_t>(a->windows);
-  msg.skipped_windows = static_cast<std::uint32_t>(a->skipped);
-  msg.abandoned_windows = static_cast<std::uint32_t>(a->abandoned);
-  // nothing non-finite leaves the node
-  bool finite = std::isfinite(msg.position_error) && std::isfinite(msg.error_growth_rate);
-  for (const double e : msg.position_errors)
-    finite = finite && std::isfinite(e);
-  if (finite)
-    accuracy_publisher_.publish(msg);
-  else
-    ROS_WARN_THROTTLE(5.0, "simulator: a non-finite accuracy window was not published");
+  scene_publisher_->publish(*snap, header);
 }
 
 void SimulatorNode::pushReconfigure()
@@ -583,7 +328,7 @@ void SimulatorNode::publishNewScene()
   const std::shared_ptr<const Snapshot> snap = runner_->snapshot();
   const ros::Time stamp = stampOf(*snap, ros::Time::now());
   if (parameters_.publish_clock || !stamp.isZero())  // else publish() sends it once time moves
-    publishSceneOnce(*snap, stamp);
+    scene_publisher_->publishSceneOnce(*snap, stamp);
 }
 
 bool SimulatorNode::resetCallback(Reset::Request& request, Reset::Response& response)
@@ -758,65 +503,30 @@ void SimulatorNode::diagnosticsCallback(const ros::WallTimerEvent&)
     kv.value = value;
     status.values.push_back(kv);
   };
-  const bool singular = statistics.solve.singular_count > 0;
-  const bool unconverged = !statistics.projection.converged;
-  // a friction solve that stopped short (stalled, or at its limit) took its last iterate: say so
-  const long friction_stops = statistics.unconverged_friction;
-  const bool waiting_for_clock = waiting_for_clock_;
-  const bool fallback = !snap->energy_fallback.empty();
-  const std::uint64_t drops = wrench_commands_->newDrops(*snap);  // since the last second
-  std::string holder_warning;  // a holder not followed: which, and why
-  const bool holders_missing = frame_anchors_->report(*snap, add, holder_warning);
-  status.level = snap->faulted ? diagnostic_msgs::DiagnosticStatus::ERROR
-                 : (snap->behind || singular || unconverged || waiting_for_clock || fallback ||
-                    drops > 0 || holders_missing || friction_stops > 0)
-                     ? diagnostic_msgs::DiagnosticStatus::WARN
-                     : diagnostic_msgs::DiagnosticStatus::OK;
-  std::string message = statusText(*snap);
-  if (message.empty())
-    message = waiting_for_clock && parameters_.follow_clock ? "waiting for /clock" : "running";
-  if (!snap->faulted)
-  {
-    if (singular)
-      message += "; " + std::to_string(statistics.solve.singular_count) +
-                 " singular solves (regularised) in the last second";
-    if (unconverged)
-      message += "; a projection did not converge within its iteration limit";
-    if (friction_stops > 0)
-      message += "; " + std::to_string(friction_stops) +
-                 " friction solves stopped short of a fixed point (stalled, or at their limit) in "
-                 "the last second, their last iterate taken";
-    if (fallback)
-      message += "; " + snap->energy_fallback;
-    if (drops > 0)
-    {
-      const std::string why = wrench_commands_->lastDropReason();
-      message += "; " + std::to_string(drops) + " ~wrench_command messages dropped in the last " +
-                 "second" + (why.empty() ? " (made for a scene since replaced)" : "; last: " + why);
-    }
-  }
-  if (waiting_for_clock)
-    message += std::string("; ") + waitMessage();
-  if (holders_missing)
-    message += "; " + holder_warning + " (the particle is held where it is)";
-  status.message = message;
+  // the health from one list of conditions; the adapters say what they saw
+  HealthInputs inputs{ *snap, statistics };
+  inputs.waiting_for_clock = waiting_for_clock_;
+  inputs.wait_message = waitMessage();
+  inputs.follow_clock = parameters_.follow_clock;
+  inputs.wrench_drops = wrench_commands_->newDrops(*snap);  // since the last second
+  inputs.wrench_drop_reason = wrench_commands_->lastDropReason();
+  inputs.holders_warn = frame_anchors_->report(*snap, add, inputs.holder_warning);
+  const Health health = assess(inputs);
+  status.level = health.level;
+  status.message = health.message;
   if (snap->faulted && snap->fault_reason != logged_fault_)
     ROS_ERROR("simulator: %s", snap->fault_reason.c_str());
   logged_fault_ = snap->faulted ? snap->fault_reason : "";
+  const bool fallback = !snap->energy_fallback.empty();
   if (fallback && !logged_fallback_)
     ROS_WARN("simulator: %s", snap->energy_fallback.c_str());
   logged_fallback_ = fallback;
+  // the figures: the snapshot's tables, the settings in force, the steps' statistics
   const NodeParameters& p = snap->parameters;
-  add("scenario", snap->scene->name);
   add("solve", solveAlgorithmName(*snap->model));
-  add("forward path",
-      std::string(forwardPathName(snap->forward_path.path)) + ": " + snap->forward_path.reason);
-  add("particles", std::to_string(snap->model->numParticles()));
-  add("steps", std::to_string(snap->state.steps));
-  addSnapshotFields(*snap, add);
+  addSnapshotKeys(*snap, add);
   add("fault limit: max_constraint_error [m]", formatValue(p.max_constraint_error));
   add("real_time_factor wanted", formatValue(p.real_time_factor));
-  add("latency behind the clock [s] (holders' samples arrive first)", formatValue(snap->latency));
   add("integrator", p.step.integrator);
   add("stabilization", stabilizationName(p.step.stabilization));
   add("max_substeps", std::to_string(p.step.max_substeps));

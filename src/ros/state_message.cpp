@@ -1,5 +1,10 @@
 #include "constrained_particles/ros/state_message.hpp"
 
+#include "constrained_particles/ros/conversions.hpp"
+#include "constrained_particles/ros/health.hpp"
+
+#include <tf2_eigen/tf2_eigen.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -49,7 +54,117 @@ const RealField<Snapshot> SNAPSHOT_FIELDS[] = {
   { &SimState::step_time, "step_time [s]", [](const Snapshot& s) { return s.step_time; } },
   { &SimState::real_time_factor, "real_time_factor achieved",
     [](const Snapshot& s) { return s.real_time_factor; } },
+  { &SimState::anchor_lag, "latency behind the clock [s] (holders' poses arrive first)",
+    [](const Snapshot& s) { return s.latency; } },
+  { &SimState::accuracy_window_end, "accuracy window end [s]",
+    [](const Snapshot& s)
+    { return s.accuracy ? s.accuracy->window_start + s.accuracy->window : 0.0; } },
+  { &SimState::accuracy_position_error, "accuracy position error [m]",
+    [](const Snapshot& s) { return s.accuracy ? s.accuracy->position_error : 0.0; } },
+  { &SimState::accuracy_error_growth_rate, "accuracy error growth rate [m/s]",
+    [](const Snapshot& s) { return s.accuracy ? s.accuracy->error_growth_rate : 0.0; } },
 };
+
+// The snapshot's counts, flags and words (what acts from outside, how it runs), each a SimState
+// field and a /diagnostics key.
+struct SnapshotCount
+{
+  std::uint32_t SimState::*member;
+  const char* key;
+  std::uint64_t (*value)(const Snapshot&);
+};
+const SnapshotCount SNAPSHOT_COUNTS[] = {
+  { &SimState::applied_forces, "applied forces acting",
+    [](const Snapshot& s) -> std::uint64_t { return s.applied_forces; } },
+  { &SimState::dragged_particles, "dragged particles",
+    [](const Snapshot& s) -> std::uint64_t { return s.dragged_particles; } },
+  { &SimState::commanded_particles, "particles pushed by ~wrench_command",
+    [](const Snapshot& s) -> std::uint64_t { return s.commanded_particles; } },
+  { &SimState::accuracy_skipped_windows, "accuracy windows skipped",
+    [](const Snapshot& s) -> std::uint64_t { return s.skipped_windows; } },
+};
+struct SnapshotFlag
+{
+  std::uint8_t SimState::*member;
+  const char* key;
+  bool (*value)(const Snapshot&);
+};
+const SnapshotFlag SNAPSHOT_FLAGS[] = {
+  { &SimState::energy_fallback, "energy budget's fallback on",
+    [](const Snapshot& s) { return !s.energy_fallback.empty(); } },
+  { &SimState::behind, "behind the wanted real-time factor",
+    [](const Snapshot& s) { return s.behind; } },
+};
+// (a key of null: the field is in another row's value on /diagnostics)
+struct SnapshotText
+{
+  std::string SimState::*member;
+  const char* key;
+  std::string (*value)(const Snapshot&);
+  std::string (*diagnostic)(const Snapshot&);  // its /diagnostics value, if not `value`'s
+};
+const SnapshotText SNAPSHOT_TEXTS[] = {
+  { &SimState::scenario, "scenario", [](const Snapshot& s) { return s.scene->name; }, nullptr },
+  { &SimState::forward_path, "forward path",
+    [](const Snapshot& s) { return std::string(forwardPathName(s.forward_path.path)); },
+    [](const Snapshot& s)
+    { return std::string(forwardPathName(s.forward_path.path)) + ": " + s.forward_path.reason; } },
+  { &SimState::forward_path_reason, nullptr,
+    [](const Snapshot& s) { return s.forward_path.reason; }, nullptr },
+};
+
+// ~state's arrays of holders, holds let go and contacts: rows of the table too, each filling its
+// arrays together (one entry per held particle, per hold let go, per touching contact)
+void fillHolders(const Snapshot& snap, SimState& msg)
+{
+  const Model& model = *snap.model;
+  for (std::size_t k = 0; k < model.tracked().size(); ++k)
+    if (const auto* anchor =
+            std::get_if<FrameAnchorConstraint>(&model.scene().constraints[model.tracked()[k]]))
+    {
+      msg.held_particles.push_back(anchor->particle);
+      msg.holders.push_back(anchor->frame.empty() ? anchor->topic : anchor->frame);
+      const bool counted = k < snap.holders.size();
+      msg.holder_overruns.push_back(counted ? static_cast<std::uint32_t>(snap.holders[k].overruns)
+                                            : 0u);
+      msg.holder_teleports.push_back(counted ? static_cast<std::uint32_t>(snap.holders[k].jumps)
+                                             : 0u);
+    }
+}
+
+void fillReleases(const Snapshot& snap, SimState& msg)
+{
+  for (const Release& release : snap.releases)
+  {
+    msg.released_particles.push_back(release.particle);
+    msg.released_holders.push_back(release.holder);
+    msg.released_times.push_back(release.time);
+    msg.released_max_forces.push_back(release.max_force);
+  }
+}
+
+void fillContacts(const Snapshot& snap, SimState& msg)
+{
+  const auto& contacts =
+      std::get<std::vector<KindRecord<SurfaceContact>>>(snap.model->kindTables());
+  for (std::size_t k = 0; k < contacts.size() && k < snap.contacts.size(); ++k)
+    if (const ContactState& contact = snap.contacts[k]; contact.mode != ContactMode::Separated &&
+                                                        std::isfinite(contact.normal_force) &&
+                                                        contact.friction_force.allFinite())
+    {
+      msg.contact_particles.push_back(contacts[k].record.particle);
+      msg.contact_modes.push_back(contact.mode == ContactMode::Sticking
+                                      ? SimState::CONTACT_STICKING
+                                      : SimState::CONTACT_SLIDING);
+      msg.contact_normal_forces.push_back(contact.normal_force);
+      geometry_msgs::Vector3 friction;
+      tf2::toMsg(contact.friction_force, friction);  // tf2_eigen converts it
+      msg.contact_friction_forces.push_back(friction);
+    }
+}
+
+void (*const ARRAY_ROWS[])(const Snapshot&, SimState&) = { fillHolders, fillReleases,
+                                                           fillContacts };
 
 const CountField COUNT_FIELDS[] = {
   { &SimState::interval_steps, "steps in the last second",
@@ -115,6 +230,46 @@ void addSnapshotFields(const Snapshot& snap, const AddKeyValue& add)
     add(field.key, formatValue(field.value(snap)));
 }
 
+void fillState(const Snapshot& snap, const StepStatistics& statistics, SimState& msg)
+{
+  // the state itself, by hand: its arrays are the particles'
+  msg.positions = toPointMsgs(snap.state.positions);
+  msg.velocities = toVectorMsgs(snap.state.velocities);
+  msg.constraint_forces = toVectorMsgs(snap.constraint_forces);
+  msg.multipliers.assign(snap.multipliers.data(),
+                         snap.multipliers.data() + snap.multipliers.size());
+  msg.steps = snap.state.steps;
+  msg.status = snap.faulted  ? SimState::STATUS_FAULT
+               : snap.paused ? SimState::STATUS_PAUSED
+                             : SimState::STATUS_RUNNING;
+  msg.status_message = statusText(snap);
+  // everything else from the tables
+  fillSnapshotFields(snap, msg);
+  for (const SnapshotCount& field : SNAPSHOT_COUNTS)
+    msg.*field.member = toCount(static_cast<long>(field.value(snap)));
+  for (const SnapshotFlag& field : SNAPSHOT_FLAGS)
+    msg.*field.member = field.value(snap);
+  for (const SnapshotText& field : SNAPSHOT_TEXTS)
+    msg.*field.member = field.value(snap);
+  for (const auto row : ARRAY_ROWS)
+    row(snap, msg);
+  fillStatistics(statistics, msg);
+}
+
+void addSnapshotKeys(const Snapshot& snap, const AddKeyValue& add)
+{
+  for (const SnapshotText& field : SNAPSHOT_TEXTS)
+    if (field.key)
+      add(field.key, field.diagnostic ? field.diagnostic(snap) : field.value(snap));
+  add("particles", std::to_string(snap.model->numParticles()));
+  add("steps", std::to_string(snap.state.steps));
+  addSnapshotFields(snap, add);
+  for (const SnapshotCount& field : SNAPSHOT_COUNTS)
+    add(field.key, std::to_string(field.value(snap)));
+  for (const SnapshotFlag& field : SNAPSHOT_FLAGS)
+    add(field.key, field.value(snap) ? "yes" : "no");
+}
+
 void fillStatistics(const StepStatistics& statistics, SimState& msg)
 {
   for (const CountField& field : COUNT_FIELDS)
@@ -157,19 +312,6 @@ void addStatistics(const StepStatistics& statistics, const AddKeyValue& add)
                                   std::to_string(count);
                      });
   add("effect evaluations", effects.empty() ? "-" : effects);
-}
-
-std::string statusText(const Snapshot& snap)
-{
-  if (snap.faulted)
-    return snap.fault_reason;
-  if (snap.stepping)
-    return "paused, running a ~step";
-  if (snap.paused)
-    return "paused";
-  if (snap.behind)
-    return "behind: cannot keep up with the real-time factor; sim time slowed";
-  return "";
 }
 
 }  // namespace constrained_particles

@@ -115,26 +115,28 @@ class NodeRunnerTest(WallClockWaits, unittest.TestCase):
         client.update_configuration({"integrator": "dopri5", "adaptive_tolerance": 1e-14,
                                      "dt": 1.0})
         self.unpause()
+        # the publishing thread's own timer: /diagnostics once a second (a state that took
+        # seconds to step is not sent again under a new stamp, so /tf and ~state wait for it)
         stamps = []
-        tf = rospy.Subscriber("/tf", rospy.AnyMsg, lambda _m: stamps.append(time.monotonic()),
-                              queue_size=100)
+        diagnostics = rospy.Subscriber("/diagnostics", rospy.AnyMsg,
+                                       lambda _m: stamps.append(time.monotonic()), queue_size=100)
         # more callers than the node has service threads, all waiting for the step under way
         callers = [threading.Thread(target=self.pause) for _ in range(8)]
         try:
-            self.wait_until(lambda: len(stamps) > 10, "/tf before the calls")
+            self.wait_until(lambda: len(stamps) > 1, "/diagnostics before the calls")
             start = time.monotonic()
             for caller in callers:
                 caller.start()
-            time.sleep(3.0)  # the window observed
+            time.sleep(4.0)  # the window observed
             window = [t for t in stamps if t >= start]
             gaps = [b - a for a, b in zip(window, window[1:])]
-            self.assertGreater(len(window), 10)
-            # 30 Hz asked: a gap of half a second means publishing waited for the runner
-            self.assertLess(max(gaps), 0.5)
+            self.assertGreaterEqual(len(window), 3)
+            # 1 Hz asked: a gap of two seconds means publishing waited for the runner
+            self.assertLess(max(gaps), 2.0)
         finally:
             for caller in callers:
                 caller.join(timeout=120.0)
-            tf.unregister()
+            diagnostics.unregister()
             client.update_configuration({"integrator": "rk4", "adaptive_tolerance": 1e-8,
                                          "dt": 0.001})
         self.assertFalse(any(caller.is_alive() for caller in callers))

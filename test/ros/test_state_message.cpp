@@ -2,6 +2,9 @@
 // field and its /diagnostics key with the same value, each key once, and the status reads the
 // same everywhere.
 #include "constrained_particles/ros/state_message.hpp"
+#include "constrained_particles/ros/health.hpp"
+
+#include <diagnostic_msgs/DiagnosticStatus.h>
 
 #include <gtest/gtest.h>
 
@@ -62,7 +65,7 @@ TEST(StateMessage, TheSnapshotsFiguresReachBothFieldAndKey)
   EXPECT_EQ(entries.at("total_energy [J]"), formatValue(3.0));
   EXPECT_EQ(entries.at("energy residual [J]"), formatValue(snap.ledger.residual()));
   EXPECT_EQ(entries.at("real_time_factor achieved"), formatValue(0.75));
-  EXPECT_EQ(entries.size(), 13u);
+  EXPECT_EQ(entries.size(), 17u);
 }
 
 TEST(StateMessage, EveryStatisticReachesItsFieldAndKey)
@@ -139,6 +142,34 @@ TEST(StateMessage, OneStatusWordingForEveryReader)
   snap.faulted = true;
   snap.fault_reason = "the state became non-finite";
   EXPECT_EQ(statusText(snap), "the state became non-finite");
+}
+
+// /diagnostics' level and message come from the same list: the worst condition's level, every
+// condition's words, "running" first when the status says nothing; a fault hides the figures of
+// the steps it undid.
+TEST(StateMessage, HealthIsTheWorstConditionWithEveryConditionsWords)
+{
+  Snapshot snap;
+  StepStatistics statistics;
+  Health health = assess(HealthInputs{ snap, statistics });
+  EXPECT_EQ(health.level, diagnostic_msgs::DiagnosticStatus::OK);
+  EXPECT_EQ(health.message, "running");
+  statistics.solve.singular_count = 3;
+  HealthInputs inputs{ snap, statistics };
+  inputs.holders_warn = true;
+  inputs.holder_warning = "frame_anchor 0 (frame hand) not followed";
+  health = assess(inputs);
+  EXPECT_EQ(health.level, diagnostic_msgs::DiagnosticStatus::WARN);
+  EXPECT_EQ(health.message,
+            "running; 3 singular solves (regularised) in the last second; frame_anchor 0 (frame "
+            "hand) not followed (the particle is held where it is)");
+  snap.faulted = true;
+  snap.fault_reason = "a fault";
+  health = assess(inputs);
+  EXPECT_EQ(health.level, diagnostic_msgs::DiagnosticStatus::ERROR);
+  EXPECT_EQ(health.message,
+            "a fault; frame_anchor 0 (frame hand) not followed (the particle is "
+            "held where it is)");
 }
 
 }  // namespace

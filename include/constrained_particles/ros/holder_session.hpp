@@ -6,9 +6,11 @@
 
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/ros/pacer.hpp"
+#include "constrained_particles/ros/runner_queue.hpp"
 
 #include <Eigen/Geometry>
 
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -155,20 +157,52 @@ public:
   /// refusal naming the field, or nullopt.
   std::optional<std::string> checkAttach(const Model& model, const AttachRequest& request,
                                          const std::string& frame_prefix, std::string& field) const;
-  /// The anchor an attach adds, its holder at `pose` (the frame's pose in the fixed frame at the
-  /// state's stamp): held at the particle where it is (keep_offset) or at pose * offset.
-  FrameAnchorConstraint anchorFor(const AttachRequest& request, const Eigen::Isometry3d& pose,
-                                  const Vec3& particle_position, const Scene& scene) const;
-  /// Notes an attachment made (its particle), sampled from `since_ns`.
-  void attached(int particle, std::int64_t since_ns);
-  /// The constraints without the attachment of `particle`, or nullopt if it is not attached
-  /// (`attached_now` lists those that are).
-  std::optional<std::vector<Constraint>> detachFrom(const Model& model, long particle,
-                                                    std::string& attached_now) const;
-  void detached(int particle);
-  /// A hold over its limit (StepStatistics::hold, hold_force, hold_failure): the constraints
-  /// without it, and the release noted.
-  std::vector<Constraint> letGo(const Model& model, const StepStatistics& failed, double time);
+  /// The pose [m] of a tf frame in the fixed frame at a stamp [ns], if tf holds it (looked up
+  /// without waiting; nullopt: not yet, or never).
+  using PoseLookup = std::function<std::optional<Eigen::Isometry3d>(std::int64_t stamp_ns)>;
+  /// An ~attach to take effect as soon as `pose_at` gives its frame's pose at the state's stamp
+  /// (the caller takes no step meanwhile), by `deadline` at the latest. The refusal naming the
+  /// field (checkAttach's, or another attach waiting), or nullopt.
+  std::optional<RunnerReply> beginAttach(const Model& model, const AttachRequest& request,
+                                         const std::string& frame_prefix, PoseLookup pose_at,
+                                         std::chrono::steady_clock::time_point deadline);
+  /// An ~attach waits for its frame's pose.
+  bool attaching() const
+  {
+    return pending_.has_value();
+  }
+  /// The waiting ~attach at the state now (stamp `stamp_ns`, -1: no clock yet): its reply once
+  /// its frame's pose there is known (attach()), or refused naming `frame` after its deadline;
+  /// nullopt while it still waits.
+  std::optional<RunnerReply> tryAttach(Simulator& simulator, std::int64_t stamp_ns,
+                                       std::chrono::steady_clock::time_point now);
+  /// Forgets the waiting ~attach (the node shuts down).
+  void cancelAttach()
+  {
+    pending_.reset();
+  }
+
+  /// What an attach did.
+  struct Attached
+  {
+    FrameAnchorConstraint anchor;  ///< the record added (its offset, its max_force)
+    double moved = 0.0;            ///< the particle's move to the held point [m]
+    double displaced = 0.0;        ///< the largest move of a particle the projection made [m]
+  };
+  /// Adds the hold `request` asks for to `simulator` at the state now, its frame at `pose` (in
+  /// the fixed frame at the state's stamp `stamp_ns`, from which the holder is then sampled):
+  /// the particle held where it is (keep_offset) or carried to pose * offset, the scene
+  /// projected after it; the model set anew (a new serial).
+  /// @throws InvalidInput naming `particle` or `offset`, with nothing changed
+  Attached attach(Simulator& simulator, const AttachRequest& request, const Eigen::Isometry3d& pose,
+                  std::int64_t stamp_ns);
+  /// Lets go of the attachment of `particle` on `simulator` (it goes on with its velocity); the
+  /// refusal naming `particle` (not attached: `attached_now` lists those that are), or nullopt.
+  std::optional<std::string> detach(Simulator& simulator, long particle);
+  /// A hold over its limit (StepStatistics::hold, hold_force, hold_failure) lets go of its
+  /// particle on `simulator`, the release noted (Release).
+  /// @throws InvalidInput if the scene refuses the constraints without it (not reached)
+  void letGo(Simulator& simulator, const StepStatistics& failed);
 
   /// Each holder's counts, in track order.
   const std::vector<HolderStatus>& status() const
@@ -181,6 +215,9 @@ public:
   }
 
 private:
+  /// `simulator`'s constraints replaced (state kept), the model set anew.
+  /// @throws InvalidInput if the scene refuses them; nothing changed
+  ProjectionReport setConstraints(Simulator& simulator, const std::vector<Constraint>& constraints);
   struct Arrival
   {
     std::int64_t stamp_ns, arrival_ns;
@@ -217,6 +254,13 @@ private:
   std::vector<Holder> holders_;       // per track
   std::vector<int> attachments_;      // particles ~attach holds (scene order)
   std::vector<Release> releases_;     // since the scene started
+  struct PendingAttach
+  {
+    AttachRequest request;
+    PoseLookup pose_at;
+    std::chrono::steady_clock::time_point deadline;
+  };
+  std::optional<PendingAttach> pending_;  // an ~attach waiting for its frame's pose
 };
 
 }  // namespace constrained_particles

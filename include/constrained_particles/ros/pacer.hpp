@@ -146,6 +146,10 @@ public:
   /// The stamp [ns] of the ROS time the state at sim time `time` [s] stands for (-1: no clock
   /// yet; wall pacing before start: -1). Paused or faulted scenes stand for the clock now.
   std::int64_t standsFor(double time) const;
+  /// The stamp [ns] of a state at `time` that may be `resting` (paused or faulted: it stands
+  /// for the clock now, the newest /clock or on wall time the ROS time now; the node's own clock
+  /// as ever).
+  std::int64_t stampAt(double time, bool resting) const;
   /// The sim time [s] that stands for ROS time `stamp_ns` (NaN: no clock yet): standsFor's
   /// inverse.
   double simTimeOf(std::int64_t stamp_ns) const;

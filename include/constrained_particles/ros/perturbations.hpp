@@ -5,10 +5,12 @@
 #pragma once
 
 #include "constrained_particles/core/forces.hpp"
+#include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/core/types.hpp"
 
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <string>
@@ -100,6 +102,32 @@ public:
   /// The external forces and target springs acting now, for particles of `masses` [kg] at the
   /// step `dt` [s].
   std::vector<Force> forces(const std::vector<double>& masses, double dt) const;
+  /// What a hand-over below changed for the runner: nothing; the forces the simulator has (a
+  /// live accuracy window then ends: its shadow does not feel them); or also what ~state shows
+  /// (a grab, a release, a command begun or ended, an applied force ended: a snapshot is due).
+  enum class Effect
+  {
+    None,
+    Forces,
+    Shown,
+  };
+  /// Hands the forces acting now to `simulator` (Simulator::setPerturbations, drag springs at
+  /// its dt); never throws: a record it refuses (not reached: each was checked on its way in)
+  /// ends them all. Effect::Forces.
+  Effect handTo(Simulator& simulator);
+  /// takeQueued for `simulator`'s scene `scene_serial`, the commands' expiry at command time
+  /// `now` [s], handed over.
+  Effect takeQueuedInto(Simulator& simulator, std::uint64_t scene_serial, double now);
+  /// expireCommands at command time `now` [s], handed over if any ended.
+  Effect expireCommandsInto(Simulator& simulator, double now);
+  /// expire at `simulator`'s step count, handed over if any ended; `next`: the steps until the
+  /// next one ends (at most `limit`).
+  Effect expireAppliedInto(Simulator& simulator, std::uint64_t limit, std::uint64_t& next);
+  /// The earliest timeout of an acting command [s, command clock]; infinity while none acts.
+  double nextCommandExpiry() const
+  {
+    return next_command_expiry_;
+  }
   std::size_t appliedCount() const
   {
     return applied_.size();
@@ -148,6 +176,7 @@ private:
   std::map<int, Vec3> drags_;        // particle -> target [m]
   std::map<int, Command> commands_;  // particle -> its commanded force
   std::uint64_t stale_commands_ = 0;
+  double next_command_expiry_ = std::numeric_limits<double>::infinity();  // [s, command clock]
   std::mutex queue_mutex_;  // guards queue_ (any thread posts, the runner's thread takes)
   std::vector<Update> queue_;
   std::atomic<bool> queued_{ false };

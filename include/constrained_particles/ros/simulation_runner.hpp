@@ -14,6 +14,7 @@
 #include "constrained_particles/ros/pacer.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 #include "constrained_particles/ros/perturbations.hpp"
+#include "constrained_particles/ros/runner_queue.hpp"
 #include "constrained_particles/ros/scene_session.hpp"
 #include "constrained_particles/ros/shadow_reference.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
@@ -37,21 +38,6 @@
 
 namespace constrained_particles
 {
-/// How a request ended.
-struct RunnerReply
-{
-  bool success = false;
-  std::string message;            ///< what was done, or why not (naming the field)
-  std::string field;              ///< the refused field, when one was named
-  double sim_time = 0;            ///< sim time once applied [s]
-  std::uint64_t steps_taken = 0;  ///< ~step: steps taken (fewer if interrupted or faulted)
-  double max_displacement = 0;    ///< teleport, attach: largest move of a particle [m]
-  std::int64_t stamp_ns = -1;     ///< attach: the stamp of the state the hold began at [ns]
-  /// Batches of steps that ended between queueing and applying the request: at most 1, the one
-  /// under way (a request waits for no more than one batch).
-  std::uint64_t batches_waited = 0;
-};
-
 /// Everything publishing needs, taken after a batch or a request; never changed afterwards.
 struct Snapshot
 {
@@ -143,7 +129,7 @@ public:
   };
   /// The pose [m] of a tf frame in the fixed frame at a stamp [ns], if tf holds it (the node
   /// looks it up without waiting; nullopt: not yet, or never).
-  using PoseLookup = std::function<std::optional<Eigen::Isometry3d>(std::int64_t stamp_ns)>;
+  using PoseLookup = HolderSession::PoseLookup;
 
   /// Compiles `scene` with `parameters` (its `solver` section, then the step settings the user
   /// gave: parameters.step_given). Does not step until start().
@@ -246,12 +232,6 @@ public:
 
 private:
   using Clock = std::chrono::steady_clock;
-  struct Request
-  {
-    std::function<RunnerReply()> apply;
-    std::promise<RunnerReply> reply;
-    std::uint64_t queued_at_batch = 0;
-  };
   struct StepRequest
   {
     std::uint64_t wanted = 0;
@@ -259,48 +239,30 @@ private:
     double sim_time = 0;  // after the steps taken [s]
     std::shared_ptr<std::promise<RunnerReply>> reply;
   };
-  /// An ~attach waiting for tf to hold its frame's pose at the state's stamp (no step meanwhile).
-  struct PendingAttach
-  {
-    HolderSession::AttachRequest request;
-    PoseLookup pose_at;
-    std::shared_ptr<std::promise<RunnerReply>> reply;
-    Clock::time_point deadline;
-  };
-
-  RunnerReply submit(std::function<RunnerReply()> apply);
   /// Applies the candidate `make` returns (SceneSession) and answers "`what`; scene ... reset".
   RunnerReply changeScene(const std::function<SceneSession::Candidate()>& make,
                           const std::string& what);
-  /// Hands the applied forces and drags to the simulator (Simulator::setPerturbations) and ends
-  /// the open accuracy window (the shadow does not feel them). Never throws.
-  void updatePerturbations();
-  /// Drops applied forces whose steps are done; returns the steps until the next one ends (at
-  /// most `limit`), so a chunk ends exactly there.
-  std::uint64_t expireForces(std::uint64_t limit);
-  /// Takes the drag and wrench-command updates posted since the last batch.
-  void applyInbox();
-  /// Ends the wrench commands whose timeout passed by the command clock's now.
-  void expireCommands();
-  /// Wakes the loop after a post from another thread (taken under its lock: never between its
-  /// check of what is posted and its wait).
-  void wakeLoop();
-  /// Sets stopping_ and wakes the loop (stop() and the destructor).
-  void requestStop();
-  /// Waits for a reply, giving up (refused) when the runner stops.
-  RunnerReply await(std::future<RunnerReply>& future);
+  /// What a change of the perturbations means here: the accuracy window ends (the shadow does
+  /// not feel them), and a snapshot is due where ~state shows it.
+  void noteForces(Perturbations::Effect effect);
   void loop();
   /// Applies the queued requests; true if there were any.
   bool applyRequests();
+  /// The wait of an idle loop: until a request, the next due step, a clock, a command's timeout.
+  void idle(Clock::time_point now);
   /// The steps due now: a ~step's rest, or the Pacer's (a new /clock epoch rests the holders).
   std::uint64_t stepsDue(Clock::time_point start);
   /// One batch of due steps, bounded by BATCH_WALL_TIME; false if none were due.
   bool runBatch();
+  /// The steps of the next chunk: about CHECK_WALL_TIME of them, at most `left`.
+  int chunkSize(std::uint64_t left, Clock::time_point batch_start);
   /// One chunk of at most `steps` steps, its holders followed before and after; false if it
-  /// faulted (the good state put back).
+  /// faulted (the good state put back) or a live accuracy sample ends the batch.
   bool runChunk(int steps, StepStatistics& batch);
-  /// A hold over its limit let go (StepCheck::HoldForce in `chunk`): the scene goes on without it.
-  void letGo(const StepStatistics& chunk);
+  /// After a batch: its last step's forces, its time per step, its statistics; a ~step's count;
+  /// on wall time the steps it could not take dropped.
+  void endBatch(Clock::time_point start, std::uint64_t wanted, std::uint64_t taken,
+                bool out_of_time, const StepStatistics& batch);
   /// Stops stepping, puts back `good` and records why.
   void fault(const std::string& reason, const State& good);
   /// Ends a running ~step early (nothing if none runs).
@@ -309,13 +271,8 @@ private:
   /// Runs `candidate` (SceneSession) from its start, its settings current.
   /// @throws InvalidInput if the simulator refuses it; nothing changes
   void apply(const SceneSession::Candidate& candidate);
-  /// Replaces the running scene's constraints (an attachment made or ended, a hold let go),
-  /// state kept; the holders' model set anew. @throws InvalidInput if the scene refuses them
-  ProjectionReport changeHolders(const std::vector<Constraint>& constraints);
   /// Tries the pending ~attach once: applied, refused, or still waiting (false).
   bool tryAttach();
-  /// The ~attach at the state now with the frame's pose `pose` there.
-  RunnerReply attachAt(const HolderSession::AttachRequest& request, const Eigen::Isometry3d& pose);
   /// The latency the holders ask, handed to the pacer.
   void updateLatency(Clock::time_point now);
   /// Restarts pacing from the current state.
@@ -323,14 +280,14 @@ private:
   void makeSnapshot();
   /// Live accuracy (AccuracyMonitor::update) after a batch; a finished report makes a snapshot.
   void updateAccuracy();
-  /// Ends the open accuracy window unmeasured (the state or settings changed under it).
-  void abandonWindow();
   /// The forces and multipliers (and, `model_changed`, the model copy) after a change of state
-  /// or model between steps; a snapshot due.
+  /// or model between steps; the accuracy window ends; a snapshot due.
   void afterChange(bool model_changed = false);
-  /// The stamp [ns] the state stands for now: Pacer::standsFor, or the clock now while paused or
-  /// faulted (the newest /clock, the ROS time on wall time).
-  std::int64_t stampNow() const;
+  /// The stamp [ns] the state stands for now (Pacer::stampAt).
+  std::int64_t stampNow() const
+  {
+    return pacer_.stampAt(simulator_->state().time, paused_ || faulted_);
+  }
 
   // owned by the physics thread once started (the constructor and stop() before it)
   NodeParameters parameters_;
@@ -339,30 +296,25 @@ private:
   std::function<double()> command_clock_;  // ~wrench_timeout's clock [s]
   Pacer pacer_;                            // when steps are due, what a state stands for
   HolderSession holders_;                  // holders' samples, attachments, holds let go
-  std::optional<PendingAttach> pending_attach_;
-  bool unpublished_ = false;  // steps taken since the last snapshot
+  Perturbations perturbations_;            // pushes, drags and wrench commands (perturbations.hpp)
+  AccuracyMonitor accuracy_;               // live accuracy windows (accuracy_monitor.hpp)
+  RunnerQueue queue_;                      // requests from other threads; this thread's wake-ups
   std::unique_ptr<Simulator> simulator_;
   std::shared_ptr<const Model> model_copy_;
-  std::uint64_t snapshot_serial_ = 0;  // 0: none yet, for readers
+  std::shared_ptr<std::promise<RunnerReply>> attach_reply_;  // the waiting ~attach's
+  std::optional<StepRequest> step_request_;
   bool paused_ = false, faulted_ = false;
   std::string fault_reason_;
-  std::optional<StepRequest> step_request_;
   State last_good_;
   Points forces_;  // the constraint forces and multipliers of the snapshot to come
   Eigen::VectorXd multipliers_;
   double step_time_ = 0, step_time_estimate_ = 0;  // [s] per step: last batch, last chunk
   int last_chunk_ = 1;                             // steps in the last chunk
-  Clock::time_point last_snapshot_wall_;
-  Perturbations perturbations_;  // pushes, drags and wrench commands (perturbations.hpp)
-  double next_command_expiry_ = std::numeric_limits<double>::infinity();  // command clock [s]
-  AccuracyMonitor accuracy_;  // live accuracy windows (accuracy_monitor.hpp)
+  bool unpublished_ = false;                       // steps taken since the last snapshot
   bool snapshot_due_ = true;
+  Clock::time_point last_snapshot_wall_;
+  std::uint64_t snapshot_serial_ = 0;  // 0: none yet, for readers
 
-  mutable std::mutex queue_mutex_;  // guards the queue and the wake-up
-  std::condition_variable wake_;
-  std::deque<std::shared_ptr<Request>> queue_;
-  std::uint64_t batches_ = 0;  // batches run, for RunnerReply::batches_waited
-  std::atomic<bool> stopping_{ false };
   std::mutex exit_mutex_;
   std::condition_variable exited_cv_;
   bool exited_ = false;

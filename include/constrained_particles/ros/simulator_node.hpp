@@ -12,7 +12,9 @@
 #include "constrained_particles/ros/markers.hpp"
 #include "constrained_particles/ros/parameters.hpp"
 #include "constrained_particles/ros/reconfigure_server.hpp"
+#include "constrained_particles/ros/scene_publisher.hpp"
 #include "constrained_particles/ros/simulation_runner.hpp"
+#include "constrained_particles/ros/tf_publisher.hpp"
 #include "constrained_particles/ros/wrench_commands.hpp"
 
 #include <constrained_particles/ApplyForce.h>
@@ -86,22 +88,14 @@ private:
   /// ~publish_clock, for CLOCK_CHECK_PERIOD after advertising: gives way (refusal(), shutdown)
   /// to another live /clock publisher whose name sorts first.
   void checkClockCallback(const ros::WallTimerEvent& event);
-  /// Publishes the snapshot's accuracy report on ~accuracy once (latched).
-  void publishAccuracy(const Snapshot& snap, const std_msgs::Header& header);
-  /// Once per scene, whoever listens (latched, so a late subscriber gets the current scene's):
-  /// ~surface (the mesh over the region) and ~view (the region), stamped `stamp`. Caller holds
-  /// publish_mutex_.
-  void publishSceneOnce(const Snapshot& snap, const ros::Time& stamp);
-  /// publishSceneOnce for the latest snapshot, from a service that changed the scene (left to
-  /// publish() while no stamp may go out: see stampFor).
+  /// ScenePublisher::publishSceneOnce for the latest snapshot, from a service that changed the
+  /// scene (left to publish() while no stamp may go out: see stampFor).
   void publishNewScene();
-  /// /tf's message for the snapshot's scene: names made once per scene and frame count, with a
-  /// one-line warning when ~tf_frames = -1 caps the frames.
-  void prepareFrames(const Snapshot& snap);
-  /// ~particles: x, y, z [m] and |constraint force| [N] per particle (sensor_msgs/PointCloud2).
-  void publishParticles(const Snapshot& snap, const std_msgs::Header& header);
   /// Shows the settings, gravity and damping in force in dynamic_reconfigure.
   void pushReconfigure();
+  /// Advertises service `name` (~name) answered by `callback`.
+  template <typename Request, typename Response>
+  void serve(const char* name, bool (SimulatorNode::*callback)(Request&, Response&));
 
   bool resetCallback(Reset::Request& request, Reset::Response& response);
   bool listScenesCallback(ListScenes::Request& request, ListScenes::Response& response);
@@ -121,7 +115,8 @@ private:
   bool reconfigureCallback(const SimulatorConfig& shown, const SimulatorConfig& requested,
                            SimulatorConfig& in_force);
   void statusCallback(const ros::WallTimerEvent& event);
-  /// Publishes the node's health and the core's reports since the last call on /diagnostics.
+  /// Publishes the node's health (health.hpp) and the core's reports since the last call on
+  /// /diagnostics.
   void diagnosticsCallback(const ros::WallTimerEvent& event);
 
   ros::NodeHandle nh_;
@@ -132,11 +127,14 @@ private:
   ros::NodeHandle publish_nh_;
   ros::AsyncSpinner publish_spinner_;
   std::unique_ptr<SimulationRunner> runner_;
-  std::unique_ptr<CompareMethodsServer> compare_methods_;  // reads runner_: goes first
-  std::unique_ptr<GrabMarkers> grab_markers_;              // likewise
-  std::unique_ptr<WrenchCommands> wrench_commands_;        // likewise
-  std::unique_ptr<AnchorWrenches> anchor_wrenches_;        // publish() only
-  std::unique_ptr<FrameAnchors> frame_anchors_;            // reads runner_: goes first
+  // the topic families, one class each (they read runner_'s snapshots: they go first)
+  std::unique_ptr<CompareMethodsServer> compare_methods_;
+  std::unique_ptr<GrabMarkers> grab_markers_;
+  std::unique_ptr<WrenchCommands> wrench_commands_;
+  std::unique_ptr<AnchorWrenches> anchor_wrenches_;  // publish() only
+  std::unique_ptr<FrameAnchors> frame_anchors_;
+  std::unique_ptr<TfPublisher> tf_publisher_;
+  std::unique_ptr<ScenePublisher> scene_publisher_;
 
   std::mutex publish_mutex_;  // publish() only: timer callbacks may overlap on the spinner
   std::optional<ros::Time> last_stamp_;  // the stamp of the last /tf and ~state sent
@@ -147,19 +145,9 @@ private:
   bool sim_time_stamps_ = false;
   // /use_sim_time and no /clock yet: nothing stamped goes out (WARN in /diagnostics)
   std::atomic<bool> waiting_for_clock_{ false };
-  std::chrono::steady_clock::time_point last_tf_broadcast_;  // wall time of the last /tf
-  std::uint64_t frames_scene_serial_ = 0, published_scene_serial_ = 0, warned_scene_serial_ = 0;
-  tf2_msgs::TFMessage tf_message_;  // frame names filled once per scene and frame count
-  int published_arrows_ = 0;
-  int published_contact_arrows_ = 0;  // contact_forces ids sent last: more are deleted
-  int stale_arrows_ = 0;              // arrow ids up to this are deleted until stale_arrows_until_
-  std::chrono::steady_clock::time_point stale_arrows_until_;
-  std::uint64_t published_accuracy_serial_ = 0;
   std::string logged_fault_;      // diagnostics timer: the fault last logged
   bool logged_fallback_ = false;  // diagnostics timer: the energy fallback's warning logged
-  ros::Publisher clock_publisher_, tf_publisher_, state_publisher_, force_marker_publisher_,
-      scene_marker_publisher_, diagnostics_publisher_, accuracy_publisher_, particles_publisher_,
-      surface_publisher_, view_publisher_;
+  ros::Publisher clock_publisher_, state_publisher_, diagnostics_publisher_;
   std::vector<ros::ServiceServer> services_;
   ros::WallTimer publish_timer_, status_timer_, diagnostics_timer_;
   // ~publish_clock: /clock's publishers checked again for a while after advertising

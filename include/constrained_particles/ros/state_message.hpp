@@ -21,15 +21,16 @@ using AddKeyValue = std::function<void(const std::string& key, const std::string
 void fillSnapshotFields(const Snapshot& snap, SimState& msg);
 /// The same figures as /diagnostics entries, with their units in the keys.
 void addSnapshotFields(const Snapshot& snap, const AddKeyValue& add);
+/// The whole ~state of `snap` (`statistics`: the steps' since the last message): the particles'
+/// arrays, steps and status by hand, every other field from the tables (figures, counts, flags,
+/// words, and the rows of holders, holds let go and contacts). The header is the caller's.
+void fillState(const Snapshot& snap, const StepStatistics& statistics, SimState& msg);
+/// Every scalar of the tables as /diagnostics entries (words, counts, flags and figures).
+void addSnapshotKeys(const Snapshot& snap, const AddKeyValue& add);
 /// The step statistics since the last ~state message into their SimState fields (counts,
 /// solve and projection figures, retakes by check, effect evaluations).
 void fillStatistics(const StepStatistics& statistics, SimState& msg);
 /// The same statistics as /diagnostics entries.
 void addStatistics(const StepStatistics& statistics, const AddKeyValue& add);
-
-/// The node's status in words, one wording for ~state.status_message, /diagnostics and the
-/// status log line: the fault's reason, "paused, running a ~step", "paused", "behind: ...",
-/// or empty while running as asked.
-std::string statusText(const Snapshot& snap);
 
 }  // namespace constrained_particles
