@@ -240,9 +240,9 @@ def kernel_block(bench):
                         "c/k"], cells)
 
 
-def node_kernel_block(bench):
+def node_kernel_block(bench, stem="node_kernel"):
     return table_block(
-        bench, "node_kernel",
+        bench, stem,
         ["n", "node `step_time` [us]", "kernel [us]", "node / kernel (median; range of rounds)"],
         lambda r: [f"{int(r['n']):,}", us_of(r, "node_s_per_step"), us_of(r, "kernel_s_per_step"),
                    f"{float(r['ratio_median']):.2f} ({float(r['ratio_min']):.2f} to "
@@ -490,6 +490,8 @@ def stability_block(bench):
 # the command that writes each block's files
 NOT_MEASURED = {"cores": "`bash scripts/bench.sh --cores BASE`",
                 "node_kernel": "`scripts/node_kernel_ratio.py --csv docs/bench/node_kernel.csv`",
+                "node_paced": "`scripts/node_kernel_ratio.py --drive rate --sizes 10 --csv "
+                              "docs/bench/node_paced.csv`",
                 "node_engine": "`scripts/node_kernel_ratio.py --against checked --sizes 1000 "
                                "10000 100000 --warmup 0.5 --csv docs/bench/node_engine.csv`",
                 "instructions": "`bash scripts/kernel_instructions.sh > "
@@ -506,6 +508,7 @@ NOT_MEASURED = {"cores": "`bash scripts/bench.sh --cores BASE`",
 BLOCKS = {"stability": stability_block, "scenes": scenes_block, "trees": trees_block, "orders": orders_block, "headline": headline_block, "peers": peers_block,
           "cores": cores_block, "kernel": kernel_block, "node_kernel": node_kernel_block,
           "node_engine": node_engine_block,
+          "node_paced": lambda bench: node_kernel_block(bench, "node_paced"),
           "instructions": instructions_block, "node_rates": node_rates_block,
           "default_substeps": default_substeps_block, "energy_sweep": energy_sweep_block,
           "energy_sweep_stamp": energy_sweep_stamp_block, "compare_methods": compare_methods_block,
