@@ -430,7 +430,11 @@ void Simulator::readSceneKind()
 
 void Simulator::checkHolds(StepOutcome& outcome, StepStatistics& total)
 {
-  if (hold_limits_.empty() || outcome.failed == StepCheck::HoldForce)
+  // only the constraints' own failures can be the holds' doing: a projection that cannot meet
+  // them, or a solve gone singular; a diverging method or state is not a hold's to answer for
+  const bool impossible =
+      outcome.failed == StepCheck::Projection || outcome.failed == StepCheck::SingularSolve;
+  if (hold_limits_.empty() || (outcome.failed != StepCheck::None && !impossible))
     return;
   const Model& model = *model_;
   // the hold most loaded against its limit: now (a passed step), or at the last accepted step
@@ -829,7 +833,9 @@ void Simulator::setForces(const std::vector<Force>& forces)
   data_.reset();                 // the old data refers to the old model: it goes first
   model_ = std::move(model);
   data_ = std::move(data);
+  const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
   readSceneKind();
+  hold_loads_ = loads;
   openLedger();  // new forces: a new potential and new powers
 }
 
@@ -890,7 +896,9 @@ void Simulator::setPerturbations(const std::vector<Force>& perturbations)
   // the forces the next step starts from are no longer those of the last step
   data_->control.multipliers_current = false;
   data_->control.end_energies_current = false;
+  const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
   readSceneKind();
+  hold_loads_ = loads;
   // the next step's work is booked from the new forces' power at its start, and the account is
   // measured against what they could move too (a drag on a chain at rest: |f| times its extent)
   EnergyLedger& ledger = data_->ledger;

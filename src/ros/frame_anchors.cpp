@@ -6,6 +6,7 @@
 #include <tf2/exceptions.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -22,19 +23,15 @@ std::string stripped(const std::string& frame)
 {
   return !frame.empty() && frame.front() == '/' ? frame.substr(1) : frame;
 }
-
-std::string holderName(const std::string& frame, const std::string& topic)
-{
-  return frame.empty() ? topic : frame;
-}
 }  // namespace
 
 FrameAnchors::FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame,
-                           std::string frame_prefix)
+                           std::string frame_prefix, std::function<std::int64_t()> clock_ns)
   : node_(std::move(node))
   , runner_(runner)
   , fixed_frame_(std::move(fixed_frame))
   , frame_prefix_(std::move(frame_prefix))
+  , clock_ns_(std::move(clock_ns))
   , buffer_(ros::Duration(10.0))
   , spinner_(1, &queue_)
 {
@@ -83,7 +80,8 @@ void FrameAnchors::tfCallback(const ros::MessageEvent<tf2_msgs::TFMessage const>
     restartSampling();
   }
   last_update_ = now;
-  const std::int64_t arrival = static_cast<std::int64_t>(now.toNSec());
+  // arrival on the node's stamp clock: what a holder's latency is measured against
+  const std::int64_t arrival = clock_ns_();
   const tf2_msgs::TFMessage& message = *event.getConstMessage();
   const std::string authority = event.getPublisherName();
   std::vector<std::pair<std::string, std::int64_t>> broadcasts;
@@ -205,9 +203,10 @@ void FrameAnchors::sampleWaiting(Holder& holder, std::int64_t now_ns)
       continue;
     }
     it = holder.s.waiting.erase(it);
-    // tf2_eigen does the message-to-Eigen conversion of the frame's pose
-    const HolderSample sample =
-        toSample(tf2::transformToEigen(at.transform), holder.offset, stamp, arrival);
+    // tf2_eigen does the message-to-Eigen conversion of the frame's pose; it could be used from
+    // now, when tf could resolve it (its parents' broadcasts may have come later than it)
+    const HolderSample sample = toSample(tf2::transformToEigen(at.transform), holder.offset, stamp,
+                                         std::max(arrival, now_ns));
     if (!sample.position.allFinite() || !sample.orientation.coeffs().allFinite())
     {
       ++holder.s.non_finite;
@@ -250,10 +249,15 @@ void FrameAnchors::lookFor(Holder& holder, std::int64_t now_ns)
     holder.s.still = false;
     return;
   }
-  // a chain all on /tf_static: its one pose, now, is its whole path
-  if (holder.s.still || now_ns <= 0)
-    return;  // posted; or under /use_sim_time before the first /clock: no time to put it at
+  // a chain all on /tf_static: its one pose, now, is its whole path; posted again each second,
+  // so a holder kept across an attach, a detach or a clock gone back has one in its new track
+  if (now_ns <= 0)
+    return;  // under /use_sim_time before the first /clock: no time to put it at
+  if (holder.s.still && holder.s.still_posted_ns >= 0 && now_ns >= holder.s.still_posted_ns &&
+      now_ns - holder.s.still_posted_ns < GIVE_UP_NS)
+    return;
   holder.s.still = true;
+  holder.s.still_posted_ns = now_ns;
   HolderSample sample =
       toSample(tf2::transformToEigen(newest.transform), holder.offset, now_ns, now_ns);
   sample.still = true;
@@ -264,7 +268,7 @@ void FrameAnchors::lookFor(Holder& holder, std::int64_t now_ns)
 void FrameAnchors::retry(const ros::WallTimerEvent&)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  const auto now_ns = static_cast<std::int64_t>(ros::Time::now().toNSec());
+  const std::int64_t now_ns = clock_ns_();
   for (Holder& holder : holders_)
   {
     if (!holder.frame.empty() && holder.refused.empty())
@@ -291,6 +295,7 @@ void FrameAnchors::restartSampling()
     holder.s.posted_ns = -1;
     holder.since_ns = -1;
     holder.s.still = false;
+    holder.s.still_posted_ns = -1;
     holder.pending.clear();
   }
 }
@@ -317,6 +322,7 @@ void FrameAnchors::update(const Snapshot& snap)
       holder.particle = anchor->particle;
       holder.frame = anchor->frame;
       holder.topic = anchor->topic;
+      holder.name = holderOf(*anchor);
       holder.offset = anchor->offset;
       if (k < snap.holders.size())
         holder.since_ns = snap.holders[k].since_ns;
@@ -389,9 +395,10 @@ void FrameAnchors::poseCallback(int track, const geometry_msgs::PoseStamped::Con
     if (holder.track == track && !holder.topic.empty())
     {
       geometry_msgs::PoseStamped pose = *msg;
-      if (pose.header.stamp.isZero())
-        pose.header.stamp = ros::Time::now();  // no stamp: it stands for its arrival
-      holder.s.newest_arrival_ns = static_cast<std::int64_t>(ros::Time::now().toNSec());
+      const std::int64_t arrival = clock_ns_();
+      if (pose.header.stamp.isZero())  // no stamp: it stands for its arrival
+        pose.header.stamp.fromNSec(static_cast<std::uint64_t>(std::max<std::int64_t>(arrival, 0)));
+      holder.s.newest_arrival_ns = arrival;
       if (takePose(holder, pose, false))
         continue;
       if (holder.pending.size() < 100)
@@ -473,8 +480,9 @@ SimulationRunner::PoseLookup FrameAnchors::poseLookup(const std::string& frame)
   {
     try
     {
-      ros::Time time;
-      time.fromNSec(static_cast<std::uint64_t>(stamp_ns));
+      ros::Time time;  // time 0: tf's newest
+      if (stamp_ns >= 0)
+        time.fromNSec(static_cast<std::uint64_t>(stamp_ns));
       return tf2::transformToEigen(buffer_.lookupTransform(fixed_frame_, frame, time));
     }
     catch (const std::exception&)  // not at that stamp (yet), or never
@@ -490,7 +498,7 @@ bool FrameAnchors::report(const Snapshot& snap,
 {
   std::lock_guard<std::mutex> lock(mutex_);
   bool warn = false;
-  const auto now_ns = static_cast<std::int64_t>(ros::Time::now().toNSec());
+  const std::int64_t now_ns = clock_ns_();
   auto say = [&warning, &warn](const std::string& what)
   {
     warning += (warning.empty() ? "" : "; ") + what;
@@ -506,9 +514,9 @@ bool FrameAnchors::report(const Snapshot& snap,
     const HolderStatus* s = counted ? &snap.holders[holder.track] : nullptr;
     std::string value;
     if (!holder.refused.empty())
-      value = "not followed: " + holder.refused;
+      value = "not followed: " + holder.refused + "; the particle is held where it is";
     else if (!holder.missing.empty())
-      value = "not followed: " + holder.missing;
+      value = "not followed: " + holder.missing + "; the particle is held where it is";
     else if (holder.s.newest_arrival_ns < 0 && !holder.s.still)
       value = "waiting for its first pose: the particle rests where it is";
     else if (const double silent = static_cast<double>(now_ns - holder.s.newest_arrival_ns) * 1e-9;
@@ -566,8 +574,7 @@ bool FrameAnchors::report(const Snapshot& snap,
             "simulator: frame_anchor on particle %d: its holder '%s' jumped %s m between two "
             "samples (over ~anchor_max_jump or ~anchor_max_speed): a teleport, the scene "
             "carried along with it",
-            holder.particle, holderName(holder.frame, holder.topic).c_str(),
-            formatValue(s->last_jump).c_str());
+            holder.particle, holder.name.c_str(), formatValue(s->last_jump).c_str());
       holder.s.logged_jumps = s->jumps;
     }
     value += ", non-finite " + std::to_string(holder.s.non_finite) + ", untransformable " +

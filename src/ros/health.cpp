@@ -69,8 +69,7 @@ const Condition CONDITIONS[] = {
   { DiagnosticStatus::WARN, false, false, [](const HealthInputs& h) { return h.waiting_for_clock; },
     [](const HealthInputs& h) { return std::string(h.wait_message); } },
   { DiagnosticStatus::WARN, false, false, [](const HealthInputs& h) { return h.holders_warn; },
-    [](const HealthInputs& h)
-    { return h.holder_warning + " (the particle is held where it is)"; } },
+    [](const HealthInputs& h) { return h.holder_warning; } },  // each says what the particle does
 };
 
 std::string join(const HealthInputs& inputs, bool status_only, std::uint8_t* level)

@@ -13,9 +13,8 @@ namespace
 {
 std::string holderName(const Constraint& constraint)
 {
-  if (const auto* anchor = std::get_if<FrameAnchorConstraint>(&constraint))
-    return anchor->frame.empty() ? anchor->topic : anchor->frame;
-  return "";
+  const auto* anchor = std::get_if<FrameAnchorConstraint>(&constraint);
+  return anchor ? holderOf(*anchor) : std::string();
 }
 
 // The weight of the whole scene [N], with g at least standard gravity (a scene without gravity
@@ -33,23 +32,67 @@ double sceneWeight(const Scene& scene)
 }
 }  // namespace
 
+bool HolderSession::toNewest(Post& post) const
+{
+  if (post.serial == posted_serial_)
+    return true;
+  const auto old = keys_.find(post.serial);
+  if (old == keys_.end() || post.track < 0 || post.track >= static_cast<int>(old->second.size()))
+    return false;
+  const TrackKey& key = old->second[post.track];
+  // held through every model since: a holder let go and attached again in between is another
+  int track = post.track;
+  for (std::uint64_t serial = post.serial + 1; serial <= posted_serial_; ++serial)
+  {
+    const auto keys = keys_.find(serial);
+    if (keys == keys_.end())
+      return false;
+    const auto kept = std::find(keys->second.begin(), keys->second.end(), key);
+    if (kept == keys->second.end())
+      return false;
+    track = static_cast<int>(kept - keys->second.begin());
+  }
+  post.serial = posted_serial_;
+  post.track = track;
+  return true;
+}
+
 void HolderSession::post(std::uint64_t serial, int track, std::vector<HolderSample> samples)
 {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (serial != posted_serial_ || samples.empty())
+  Post post{ serial, track, std::move(samples) };
+  if (post.samples.empty() || !toNewest(post))
     return;
   // bounded: a physics thread that stopped taking them (paused) holds at most this many posts
   if (inbox_.size() >= 10000)
     inbox_.erase(inbox_.begin());
-  inbox_.push_back(Post{ serial, track, std::move(samples) });
+  inbox_.push_back(std::move(post));
 }
 
 void HolderSession::setModel(const Model& model, bool scene_changed)
 {
   {
+    std::vector<TrackKey> keys;
+    for (int k : model.tracked())
+    {
+      const Constraint& constraint = model.scene().constraints[k];
+      const auto* anchor = std::get_if<FrameAnchorConstraint>(&constraint);
+      keys.push_back(TrackKey{ eliminatedParticle(constraint), holderName(constraint),
+                               anchor ? anchor->offset : Vec3::Zero() });
+    }
     std::lock_guard<std::mutex> lock(mutex_);
     posted_serial_ = ++serial_;
-    inbox_.clear();
+    if (scene_changed)
+      keys_.clear();  // another scene's samples stood for another run
+    keys_[posted_serial_] = std::move(keys);
+    while (keys_.size() > 4)  // posts older than a few changes are stale anyway
+      keys_.erase(keys_.begin());
+    // what waits goes to the same holders' new tracks (an attach or let-go of another)
+    std::vector<Post> kept;
+    for (Post& post : inbox_)
+      if (toNewest(post))
+        kept.push_back(std::move(post));
+    inbox_.swap(kept);
   }
   if (scene_changed)
   {
@@ -182,6 +225,11 @@ void HolderSession::take(int k, const HolderSample& sample, AnchorTrack& track, 
     ++status.out_of_range;
     return;
   }
+  if (sample.arrival_ns - sample.stamp_ns > std::llround(FUTURE_LIMIT * 1e9))
+  {
+    ++status.late;  // stamped over FUTURE_LIMIT before it could be used: not of this clock
+    return;
+  }
   measure(k, sample);  // a sample of the holder's clock, late or not: what latency it needs
   // a teleport: farther than ~anchor_max_jump, or faster than ~anchor_max_speed, from the last
   // sample (or, the first since the track started, from where the point is now)
@@ -192,11 +240,12 @@ void HolderSession::take(int k, const HolderSample& sample, AnchorTrack& track, 
   const double distance = (sample.position - from).norm();
   const bool jump = holder.replace || distance > limits_.max_jump ||
                     (interval > 0.0 && distance > limits_.max_speed * interval);
+  const double ahead = std::max(lead, MIN_SPACING);
   AnchorSample knot;
-  knot.time = time;
+  // a still holder's pose holds at any time: never too late for the steps (a long dt)
+  knot.time = sample.still ? std::max(time, now + ahead) : time;
   knot.position = sample.position;
   knot.orientation = sample.orientation;
-  const double ahead = std::max(lead, MIN_SPACING);
   const AnchorTrack::Append appended = jump ? track.appendJump(knot, now, ahead, MIN_SPACING)
                                             : track.append(knot, now, ahead, MIN_SPACING);
   if (appended == AnchorTrack::Append::Unordered)
@@ -218,6 +267,8 @@ void HolderSession::take(int k, const HolderSample& sample, AnchorTrack& track, 
     ++status.late;
   if (appended == AnchorTrack::Append::Taken)
     ++status.taken;
+  if (sample.still && appended == AnchorTrack::Append::Taken)
+    track.settle();  // a still holder: at rest at its pose, not past it
   holder.has_previous = true;
   holder.previous = sample.position;
   holder.previous_ns = sample.stamp_ns;
@@ -395,13 +446,16 @@ std::optional<RunnerReply> HolderSession::beginAttach(
 }
 
 std::optional<RunnerReply> HolderSession::tryAttach(Simulator& simulator, std::int64_t stamp_ns,
+                                                    bool resting,
                                                     std::chrono::steady_clock::time_point now)
 {
   if (!pending_)
     return std::nullopt;
-  // the frame's pose at the stamp the state stands for is where the hold begins
-  const std::optional<Eigen::Isometry3d> pose =
-      stamp_ns >= 0 ? pending_->pose_at(stamp_ns) : std::nullopt;
+  // the frame's pose at the stamp the state stands for is where the hold begins (a resting
+  // scene stands for the clock now, which no broadcast reaches: the newest pose tf holds)
+  const std::optional<Eigen::Isometry3d> pose = resting         ? pending_->pose_at(-1)
+                                                : stamp_ns >= 0 ? pending_->pose_at(stamp_ns)
+                                                                : std::nullopt;
   if (!pose && now < pending_->deadline)
     return std::nullopt;  // tf has not reached the stamp yet: no step until it has
   const AttachRequest request = pending_->request;

@@ -11,16 +11,6 @@ namespace constrained_particles
 {
 namespace
 {
-double seconds(Pacer::Clock::duration d)
-{
-  return std::chrono::duration<double>(d).count();
-}
-
-Pacer::Clock::duration wallDuration(double s)
-{
-  return std::chrono::duration_cast<Pacer::Clock::duration>(std::chrono::duration<double>(s));
-}
-
 std::int64_t nanoseconds(double s)
 {
   return std::llround(s * 1e9);
@@ -57,10 +47,38 @@ double Pacer::target(Clock::time_point now) const
   return anchor_sim_ + real_time_factor_ * (since - latency_);
 }
 
-std::uint64_t Pacer::due(Clock::time_point now, double time, std::uint64_t steps, double dt,
-                         bool& new_epoch)
+Pacer::Epoch Pacer::noticeEpoch(double time, std::uint64_t steps)
 {
-  new_epoch = false;
+  if (source_ == Source::Wall)
+  {
+    // under a foreign /clock ROS time starts at 0: the anchor is its first time, not 0
+    if (ros_anchored_ || nanoseconds(ros_now_()) <= 0)
+      return Epoch::Same;
+    reanchor(time, steps, dt_);
+    return Epoch::First;
+  }
+  if (source_ != Source::FollowClock)
+    return Epoch::Same;
+  const std::int64_t clock = clock_now_ns_;
+  if (clock < 0)
+    return Epoch::Same;  // no /clock yet: nothing to follow
+  const bool first = anchor_clock_ns_ < 0;
+  // one that went back by more than a step (a bag played again): a new epoch from it
+  if (!first && clock >= epoch_clock_ns_ - dt_ns_)
+  {
+    epoch_clock_ns_ = std::max(epoch_clock_ns_, clock);
+    return Epoch::Same;
+  }
+  if (!first)
+    ++epoch_;
+  anchor_clock_ns_ = epoch_clock_ns_ = clock;
+  anchor_sim_ = time;
+  anchor_steps_ = steps;
+  return first ? Epoch::First : Epoch::Back;
+}
+
+std::uint64_t Pacer::due(Clock::time_point now, double time, std::uint64_t steps)
+{
   if (seconds(now - last_batch_start_) < BATCH_PERIOD)
     return 0;  // a clock that moved stays flagged: the loop wakes when the period ends
   double due = 0.0;
@@ -68,28 +86,17 @@ std::uint64_t Pacer::due(Clock::time_point now, double time, std::uint64_t steps
   {
     clock_moved_ = false;  // taken: a clock arriving from here on wakes the loop again
     const std::int64_t clock = clock_now_ns_;
-    if (clock < 0)
+    if (clock < 0 || anchor_clock_ns_ < 0)
       return 0;  // no /clock yet: nothing to follow
-    // the first clock, or one that went back (a bag played again): a new epoch from it
-    if (anchor_clock_ns_ < 0 || clock < epoch_clock_ns_ - nanoseconds(dt))
-    {
-      if (anchor_clock_ns_ >= 0)
-        ++epoch_;
-      anchor_clock_ns_ = clock;
-      anchor_sim_ = time;
-      anchor_steps_ = steps;
-      epoch_clock_ns_ = clock;
-      new_epoch = true;
-    }
-    epoch_clock_ns_ = std::max(epoch_clock_ns_, clock);
-    // whole steps since the anchor, from integer nanoseconds: exact for clocks near the epoch
-    // and for increments of exactly dt (the 1e-9 absorbs the quotient's rounding)
-    const double since = std::floor(
-        static_cast<double>(clock - nanoseconds(latency_) - anchor_clock_ns_) * 1e-9 / dt + 1e-9);
-    due = since - static_cast<double>(steps - anchor_steps_);
+    // whole steps since the anchor, in integer nanoseconds: exact for clocks near the epoch and
+    // for any increment; the latency held back
+    const std::int64_t since = clock - nanoseconds(latency_) - anchor_clock_ns_;
+    due = since < 0
+              ? 0.0
+              : static_cast<double>(since / dt_ns_) - static_cast<double>(steps - anchor_steps_);
   }
   else
-    due = std::floor((target(now) - time) / dt + 1e-9);
+    due = std::floor((target(now) - time) / dt_ + 1e-9);
   if (!(due >= 1.0))
     return 0;
   last_batch_start_ = now;
@@ -120,25 +127,34 @@ Pacer::Clock::time_point Pacer::nextDue(Clock::time_point now, double time, doub
 bool Pacer::dropped(double sim_seconds, double time)
 {
   window_dropped_ += sim_seconds;
-  // pacing restarts from the state: the time it could not take is not owed
-  anchor_wall_ = Clock::now();
-  anchor_sim_ = time;
+  // pacing restarts from the state, which stands for now less the latency (no stall for it
+  // again): the time it could not take is not owed
+  const Clock::time_point now = Clock::now();
   if (source_ != Source::Wall)
-    return false;  // ~publish_clock stamps are the sim time's own
+  {
+    // ~publish_clock's stamps are the sim time's own: only the target moves
+    anchor_wall_ = now;
+    anchor_sim_ = time + latency_;
+    return false;
+  }
+  anchor_wall_ = now - wallDuration(latency_);
+  anchor_sim_ = time;
   anchor_ros_ns_ = nanoseconds(ros_now_()) - nanoseconds(latency_);
   return true;
 }
 
-void Pacer::reanchor(double time, std::uint64_t steps, Anchor anchor)
+void Pacer::reanchor(double time, std::uint64_t steps, double dt, Anchor anchor)
 {
   const Clock::time_point now = Clock::now();
   const std::int64_t ros_now = nanoseconds(ros_now_());
   if (anchor == Anchor::Keep)
   {
-    // the state goes on standing for the time it stood for: stamps and samples keep their
-    // places, and the backlog behind the clock is kept
-    const std::int64_t stamp = standsFor(time);
-    if (source_ == Source::Wall)
+    // the state goes on standing for the time it stood for (at the step before the change):
+    // stamps and samples keep their places, and the backlog behind the clock is kept
+    const std::int64_t stamp = standsFor(time, steps);
+    if (source_ == Source::Wall && ros_now <= 0)
+      anchor_wall_ = now;  // no ROS time yet (a foreign /clock): anchored at its first
+    else if (source_ == Source::Wall)
     {
       anchor_ros_ns_ = stamp;
       anchor_wall_ = now - wallDuration(static_cast<double>(ros_now - stamp) * 1e-9);
@@ -163,12 +179,20 @@ void Pacer::reanchor(double time, std::uint64_t steps, Anchor anchor)
   }
   anchor_sim_ = time;
   anchor_steps_ = steps;
+  if (source_ == Source::Wall)
+  {
+    ros_anchored_ = ros_now > 0;
+    if (!ros_anchored_)
+      anchor_ros_ns_ = 0;
+  }
+  dt_ = dt;
+  dt_ns_ = std::max<std::int64_t>(1, nanoseconds(dt));
 }
 
-void Pacer::restart(double time_before)
+void Pacer::restart(double time_before, double dt)
 {
   base_ += time_before + TIME_JUMP;
-  reanchor(0.0, 0);
+  reanchor(0.0, 0, dt);
   window_valid_ = false;
 }
 
@@ -183,12 +207,14 @@ void Pacer::setLatency(double wanted, Clock::time_point now)
   latency_set_ = now;
 }
 
-std::int64_t Pacer::standsFor(double time) const
+std::int64_t Pacer::standsFor(double time, std::uint64_t steps) const
 {
   switch (source_)
   {
     case Source::FollowClock:
-      return anchor_clock_ns_ < 0 ? -1 : anchor_clock_ns_ + nanoseconds(time - anchor_sim_);
+      return anchor_clock_ns_ < 0
+                 ? -1
+                 : anchor_clock_ns_ + static_cast<std::int64_t>(steps - anchor_steps_) * dt_ns_;
     case Source::PublishClock:
       return nanoseconds(base_ + time);
     case Source::Wall:
@@ -197,10 +223,10 @@ std::int64_t Pacer::standsFor(double time) const
   return anchor_ros_ns_ + nanoseconds((time - anchor_sim_) / real_time_factor_);
 }
 
-std::int64_t Pacer::stampAt(double time, bool resting) const
+std::int64_t Pacer::stampAt(double time, std::uint64_t steps, bool resting) const
 {
   if (!resting || source_ == Source::PublishClock)
-    return standsFor(time);
+    return standsFor(time, steps);
   return source_ == Source::FollowClock ? newestClock() : nanoseconds(ros_now_());
 }
 
@@ -209,9 +235,10 @@ double Pacer::simTimeOf(std::int64_t stamp_ns) const
   switch (source_)
   {
     case Source::FollowClock:
-      return anchor_clock_ns_ < 0
-                 ? std::numeric_limits<double>::quiet_NaN()
-                 : anchor_sim_ + static_cast<double>(stamp_ns - anchor_clock_ns_) * 1e-9;
+      // in steps of dt_ns_, each dt of sim time: standsFor's inverse when dt is not whole ns
+      return anchor_clock_ns_ < 0 ? std::numeric_limits<double>::quiet_NaN()
+                                  : anchor_sim_ + static_cast<double>(stamp_ns - anchor_clock_ns_) *
+                                                      (dt_ / static_cast<double>(dt_ns_));
     case Source::PublishClock:
       return static_cast<double>(stamp_ns) * 1e-9 - base_;
     case Source::Wall:
@@ -220,8 +247,10 @@ double Pacer::simTimeOf(std::int64_t stamp_ns) const
   return anchor_sim_ + real_time_factor_ * static_cast<double>(stamp_ns - anchor_ros_ns_) * 1e-9;
 }
 
-bool Pacer::updateRate(Clock::time_point now, double time, double dt, bool idle)
+bool Pacer::updateRate(Clock::time_point now, double time, std::uint64_t steps, bool idle,
+                       bool paused)
 {
+  const double dt = dt_;
   const double wall = seconds(now - window_wall_);
   if (wall < RATE_WINDOW)
     return false;
@@ -229,15 +258,16 @@ bool Pacer::updateRate(Clock::time_point now, double time, double dt, bool idle)
     achieved_ = idle ? 0.0 : std::max(0.0, time - window_sim_) / wall;
   double lag = 0.0;
   const std::int64_t clock = clock_now_ns_;
-  if (!idle && source_ == Source::FollowClock)
+  if (!idle && !paused && source_ == Source::FollowClock)
   {
     // following /clock nothing is dropped: behind is the backlog past the latency, against the
     // clock's advance in the window
     if (anchor_clock_ns_ >= 0 && window_clock_ns_ >= 0 && clock > window_clock_ns_)
-      lag = std::max(0.0, static_cast<double>(clock - standsFor(time)) * 1e-9 - latency_ - dt) /
+      lag = std::max(0.0,
+                     static_cast<double>(clock - standsFor(time, steps)) * 1e-9 - latency_ - dt) /
             (static_cast<double>(clock - window_clock_ns_) * 1e-9);
   }
-  else if (!idle)
+  else if (!idle && !paused)
   {
     // the share of the wanted sim time that was not taken: dropped to keep up, or never reached
     const double wanted = real_time_factor_ * wall;

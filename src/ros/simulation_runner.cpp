@@ -15,18 +15,6 @@ namespace
 constexpr auto IDLE_WAIT = std::chrono::milliseconds(100);
 constexpr auto ATTACH_POLL = std::chrono::milliseconds(5);  // a pending ~attach asks tf again
 
-double seconds(std::chrono::steady_clock::duration d)
-{
-  return std::chrono::duration<double>(d).count();
-}
-
-// seconds() the other way: a wait of `s` seconds on the steady clock
-std::chrono::steady_clock::duration wallDuration(double s)
-{
-  return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(s));
-}
-
 Pacer::Source sourceOf(const NodeParameters& parameters)
 {
   return parameters.follow_clock    ? Pacer::Source::FollowClock
@@ -335,7 +323,10 @@ RunnerReply SimulationRunner::attach(long particle, const std::string& frame, co
 
 bool SimulationRunner::tryAttach()
 {
-  std::optional<RunnerReply> reply = holders_.tryAttach(*simulator_, stampNow(), Clock::now());
+  std::optional<RunnerReply> reply =
+      holders_.tryAttach(*simulator_, stampNow(),
+                         (paused_ || faulted_) && pacer_.source() != Pacer::Source::PublishClock,
+                         Clock::now());  // at rest the node's own clock still stands for the state
   if (!reply)
     return false;
   if (reply->success)
@@ -421,6 +412,7 @@ void SimulationRunner::loop()
   while (!queue_.stopping())
   {
     bool applied = applyRequests();
+    noticeEpoch();
     if (holders_.attaching() && tryAttach())
       applied = true;
     noteForces(perturbations_.takeQueuedInto(*simulator_, session_.serial(), command_clock_()));
@@ -430,8 +422,8 @@ void SimulationRunner::loop()
     const bool stepped = !queue_.stopping() && runBatch();
     updateAccuracy();
     const Clock::time_point now = Clock::now();
-    if (pacer_.updateRate(now, simulator_->state().time, simulator_->stepSettings().dt,
-                          faulted_ || paused_))
+    if (pacer_.updateRate(now, simulator_->state().time, simulator_->state().steps,
+                          faulted_ || (paused_ && !step_request_), paused_))
       snapshot_due_ = true;
     if (snapshot_due_ || applied ||
         (unpublished_ && seconds(now - last_snapshot_wall_) >= 1.0 / parameters_.publish_rate))
@@ -520,18 +512,20 @@ std::uint64_t SimulationRunner::stepsDue(Clock::time_point start)
   if (step_request_)
     return step_request_->wanted - step_request_->taken;
   updateLatency(start);
-  bool new_epoch = false;
-  const State& state = simulator_->state();
-  const std::uint64_t due =
-      pacer_.due(start, state.time, state.steps, simulator_->stepSettings().dt, new_epoch);
-  if (new_epoch)
-  {
-    // the first clock, or one that went back: the holders' samples stood for the old epoch,
-    // and the state at the clock is published at once
-    holders_.rest(*simulator_, true);
-    afterChange();
-  }
-  return due;
+  return pacer_.due(start, simulator_->state().time, simulator_->state().steps);
+}
+
+void SimulationRunner::noticeEpoch()
+{
+  const Pacer::Epoch epoch =
+      pacer_.noticeEpoch(simulator_->state().time, simulator_->state().steps);
+  if (epoch == Pacer::Epoch::Same)
+    return;
+  // the first clock, or one that went back: the state at the clock is published at once; after
+  // a jump back the holders' samples stood for the old epoch, and each one's first pose in the
+  // new one carries the scene to it
+  holders_.rest(*simulator_, epoch == Pacer::Epoch::Back);
+  afterChange();
 }
 
 bool SimulationRunner::runBatch()
@@ -746,11 +740,19 @@ void SimulationRunner::apply(const SceneSession::Candidate& candidate)
     throw;
   }
   accuracy_.abandon();
+  // an ~attach waiting for its frame asked for a particle of the scene that was
+  if (holders_.attaching())
+  {
+    holders_.cancelAttach();
+    attach_reply_->set_value(
+        refusedReply("particle: a reset or scene change came first; nothing attached", "particle"));
+    attach_reply_.reset();
+  }
   // the new Data holds no perturbations: pushes and drags end with the scene they acted on
   perturbations_.clearAll();
   session_.adopt(candidate.description, candidate.built.initial_state);
   // the clock runs on across the reset: stamps never go back (see Snapshot::stamp)
-  pacer_.restart(time_before);
+  pacer_.restart(time_before, candidate.settings.dt);
   parameters_.step = candidate.settings;
   faulted_ = false;
   fault_reason_.clear();
@@ -775,7 +777,7 @@ void SimulationRunner::afterChange(bool model_changed)
 void SimulationRunner::reanchor(Pacer::Anchor anchor)
 {
   const State& state = simulator_->state();
-  pacer_.reanchor(state.time, state.steps, anchor);
+  pacer_.reanchor(state.time, state.steps, simulator_->stepSettings().dt, anchor);
 }
 
 void SimulationRunner::makeSnapshot()

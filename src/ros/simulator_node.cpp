@@ -122,8 +122,14 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   anchor_wrenches_ = std::make_unique<AnchorWrenches>(nh_, parameters_.frame_prefix);
   anchor_wrenches_->update(*first);
   // holders' topics are named like any topic the node reads: relative to its namespace
+  // a sample's arrival on the clock its stamp is on: the /clock we publish, or ROS time
+  auto clock_ns = [this]() -> std::int64_t
+  {
+    return parameters_.publish_clock ? clock_sent_ns_.load()
+                                     : static_cast<std::int64_t>(ros::Time::now().toNSec());
+  };
   frame_anchors_ = std::make_unique<FrameAnchors>(
-      ros::NodeHandle(), *runner_, parameters_.fixed_frame, parameters_.frame_prefix);
+      ros::NodeHandle(), *runner_, parameters_.fixed_frame, parameters_.frame_prefix, clock_ns);
   frame_anchors_->update(*first);
   compare_methods_ = std::make_unique<CompareMethodsServer>(
       nh_, *runner_,
@@ -202,9 +208,9 @@ bool SimulatorNode::shutdown(std::chrono::milliseconds timeout)
 
 ros::Time SimulatorNode::stampOf(const Snapshot& snap, const ros::Time& now) const
 {
-  if (parameters_.publish_clock)
-    return ros::Time(snap.stamp);
   ros::Time stamp;
+  if (parameters_.publish_clock)  // in integer ns, as the holders' samples are placed on it
+    return stamp.fromNSec(static_cast<std::uint64_t>(std::max<std::int64_t>(snap.stamp_ns, 0)));
   if (parameters_.follow_clock)  // the clock time the state stands for (0 before the first)
     return snap.stamp_ns > 0 ? stamp.fromNSec(static_cast<std::uint64_t>(snap.stamp_ns)) : stamp;
   // a foreign /clock the steps do not follow: the time it shows; at rest: the time now
@@ -292,6 +298,8 @@ void SimulatorNode::publish()
     rosgraph_msgs::Clock clock;
     clock.clock = std::max(last_clock_, header.stamp + ros::Duration(snap->latency));
     last_clock_ = clock.clock;
+    // before it goes out: a holder's sample stamped with it never arrives before it
+    clock_sent_ns_ = static_cast<std::int64_t>(clock.clock.toNSec());
     clock_publisher_.publish(clock);
   }
   const int n = static_cast<int>(snap->state.positions.cols());

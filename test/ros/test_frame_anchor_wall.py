@@ -10,8 +10,9 @@ import unittest
 import rospy
 import rostest
 import tf2_ros
+from dynamic_reconfigure.client import Client
 from constrained_particles.msg import SimState
-from constrained_particles.srv import Attach
+from constrained_particles.srv import ApplyForce, Attach, Detach, Reset
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TransformStamped, Vector3
 from tf2_msgs.msg import TFMessage
@@ -72,6 +73,57 @@ class FrameAnchorWallTest(WallClockWaits, unittest.TestCase):
 
     def holder_status(self, since):
         return diagnostic_value(self.diagnostics, since, "frame_anchor 0")
+
+    def test_holders_said_truly_when_static_and_when_faulted(self):
+        # a frame on /tf_static holds the tip: following, still, never "stopped"
+        static = tf2_ros.StaticTransformBroadcaster()
+        shelf = TransformStamped()
+        shelf.header.stamp = rospy.Time.now()
+        shelf.header.frame_id = "world"
+        shelf.child_frame_id = "shelf"
+        shelf.transform.translation.x, shelf.transform.translation.z = 0.3, 0.6
+        shelf.transform.rotation.w = 1.0
+        static.sendTransform(shelf)
+        attach = rospy.ServiceProxy(f"{NODE}/attach", Attach)
+        detach = rospy.ServiceProxy(f"{NODE}/detach", Detach)
+        reset = rospy.ServiceProxy(f"{NODE}/reset", Reset)
+        reply = self.wait_until(lambda: (lambda r: r if r.success else None)(
+            attach(7, "shelf", Vector3(), True)), "the tip attached to the static frame", poll=0.5)
+        self.assertEqual(reply.moved, 0.0)
+        start = time.monotonic()
+        time.sleep(2.5)  # longer than the 1 s a moving holder may stay silent
+        value = self.wait_until(lambda: diagnostic_value(self.diagnostics, start + 1.5,
+                                                         "frame_anchor 7"), "the shelf's status")
+        self.assertTrue(value.startswith("following (a static frame"), value)
+        self.assertNotIn("arrived", value)
+        self.assertTrue(detach(7).success)
+        # while the scene is faulted a broadcasting holder is still said to broadcast
+        reconfigure = Client(NODE, timeout=60.0)
+        settings = reconfigure.get_configuration(timeout=60.0)
+        broadcaster = Broadcaster(lambda t: (0.0, 0.0, 1.5))
+        try:
+            self.wait_until(lambda: (self.holder_status(time.monotonic() - 1.5) or "").startswith(
+                "following"), "the node following frame 'hand'", poll=0.1)
+            # explicit Euler without stabilisation or sub-steps at dt = 0.05 s: the push drives
+            # the constraint error past ~max_constraint_error, a fault (as in blow_up.test)
+            reconfigure.update_configuration({"integrator": "explicit_euler",
+                                              "stabilization": "none", "max_substeps": 1,
+                                              "energy_budget": 0.0, "dt": 0.05})
+            push = rospy.ServiceProxy(f"{NODE}/apply_force", ApplyForce)
+            self.assertTrue(push(3, Vector3(10.0, 0.0, 0.0), 0.0).success)
+            self.wait_until(lambda: self.states.latest().status == SimState.STATUS_FAULT,
+                            "the fault the push makes")
+            faulted = time.monotonic()
+            time.sleep(2.5)  # longer than the 1 s after which a silent holder is "stopped?"
+            value = self.wait_until(lambda: self.holder_status(faulted + 1.5),
+                                    "the hand's status while faulted")
+            self.assertIn("stepping is stopped", value)
+            self.assertNotIn("arrived", value)  # its broadcasts still arrive
+        finally:
+            broadcaster.stop()
+            reconfigure.update_configuration({key: settings[key] for key in (
+                "integrator", "stabilization", "max_substeps", "energy_budget", "dt")})
+            self.assertTrue(reset("").success)
 
     def test_attach_refusals(self):
         attach = rospy.ServiceProxy(f"{NODE}/attach", Attach)

@@ -168,3 +168,120 @@ TEST(HolderSession, AHoldOverItsLimitLetsGo)
   EXPECT_EQ(holders.releases()[0].holder, "hand");
   EXPECT_NE(holders.releases()[0].why.find("1000"), std::string::npos);
 }
+
+// Samples posted for a model an attach, detach or let-go replaced go to the same holder's track in
+// the new one (found by particle and holder); those of a holder it dropped are dropped.
+TEST(HolderSession, PostsFollowTheirHolderAcrossAModelChange)
+{
+  Scene scene = heldChain().model().scene();
+  FrameAnchorConstraint other;
+  other.particle = 2;
+  other.frame = "other";
+  scene.constraints.push_back(other);
+  Simulator simulator(scene, heldChain().state(), StepSettings{});
+  HolderSession holders(HolderLimits{});
+  holders.setModel(simulator.model(), true);
+  ASSERT_EQ(holders.status().size(), 2u);
+  ASSERT_EQ(holders.status()[1].holder, "other");
+  const std::uint64_t before = holders.serial();
+  const Vec3 low(0, 0, -0.4);  // where particle 2 hangs
+  // one waiting in the inbox when the model changes, one posted after it for the old model
+  holders.post(before, 1, { at(10000000, low), at(20000000, low) });
+  holders.post(before, 0, { at(10000000, Vec3::Zero()) });  // "hand": about to be let go
+  StepStatistics over;
+  over.failed_check = StepCheck::HoldForce;
+  over.hold = 0;
+  over.hold_force = 1000.0;
+  holders.letGo(simulator, over);
+  ASSERT_EQ(holders.status().size(), 1u);
+  EXPECT_EQ(holders.status()[0].holder, "other");
+  EXPECT_NE(holders.serial(), before);
+  holders.post(before, 1, { at(30000000, low) });
+  holders.post(before, 0, { at(40000000, Vec3::Zero()) });  // its holder is gone: dropped
+  const Pacer pacer = ownClock();
+  holders.follow(simulator, pacer, 1e-3);
+  EXPECT_EQ(holders.status()[0].taken, 3u);
+  EXPECT_EQ(simulator.tracks()[0].last().position, low);
+  // "hand" held again (an ~attach): samples made for its first hold, before it was let go, are
+  // not the new hold's
+  HolderSession::AttachRequest again;
+  again.particle = 0;
+  again.frame = "hand";
+  again.keep_offset = true;
+  holders.attach(simulator, again, Eigen::Isometry3d::Identity(), 40000000);
+  ASSERT_EQ(holders.status().size(), 2u);
+  const int hand = holders.status()[0].holder == "hand" ? 0 : 1;
+  holders.post(before, 0, { at(60000000, Vec3(0.001, 0, 0)) });
+  holders.follow(simulator, pacer, 1e-3);
+  EXPECT_EQ(holders.status()[hand].taken, 0u);
+  // a new scene: the old scene's samples are another run's
+  holders.setModel(simulator.model(), true);
+  holders.post(before, 1, { at(70000000, low) });
+  holders.follow(simulator, pacer, 1e-3);
+  for (const HolderStatus& status : holders.status())
+    EXPECT_EQ(status.taken, 0u) << status.holder;
+}
+
+// A still holder's sample (a chain on /tf_static) leaves the point at rest there: it does not
+// coast on at the velocity the track had before it.
+TEST(HolderSession, AStillSampleLeavesThePointAtRest)
+{
+  for (const bool still : { false, true })
+  {
+    Simulator simulator = heldChain();
+    HolderSession holders(HolderLimits{});
+    holders.setModel(simulator.model(), true);
+    HolderSample last = at(30000000, Vec3(0.02, 0, 0));
+    last.still = still;
+    holders.post(holders.serial(), 0,
+                 { at(10000000, Vec3::Zero()), at(20000000, Vec3(0.01, 0, 0)), last });
+    holders.follow(simulator, ownClock(), 1e-3);
+    const ImposedMotion later = simulator.tracks()[0].motion(0.2);
+    if (still)
+    {
+      EXPECT_EQ(later.velocity, Vec3::Zero());
+      EXPECT_EQ(later.position, Vec3(0.02, 0, 0));
+    }
+    else
+      EXPECT_GT(later.velocity.norm(), 0.1);  // a moving holder's newest sample: it coasts on
+  }
+}
+
+// A sample that arrived over FUTURE_LIMIT after its stamp is of another clock: counted late, and
+// it does not measure the latency (which would otherwise ask for seconds of it).
+TEST(HolderSession, ASampleSecondsLateIsCountedAndNotMeasured)
+{
+  Simulator simulator = heldChain();
+  HolderSession holders(HolderLimits{});
+  holders.setModel(simulator.model(), true);
+  const double initial = holders.wantedLatency();
+  std::vector<HolderSample> samples;
+  for (int k = 1; k <= 10; ++k)
+  {
+    const std::int64_t stamp = k * 33333333;
+    samples.push_back(at(stamp, Vec3::Zero(), stamp + 6000000000));  // 6 s after its stamp
+  }
+  holders.post(holders.serial(), 0, samples);
+  holders.follow(simulator, ownClock(), 1e-3);
+  EXPECT_EQ(holders.status()[0].late, 10u);
+  EXPECT_EQ(holders.status()[0].taken, 0u);
+  EXPECT_EQ(holders.wantedLatency(), initial);
+}
+
+// A still holder's pose holds at any time: one stamped before the steps' time (a long dt, a
+// stamp a step behind) is taken ahead of them, not dropped as late.
+TEST(HolderSession, AStillSampleIsNeverLate)
+{
+  Simulator simulator = heldChain();
+  HolderSession holders(HolderLimits{});
+  holders.setModel(simulator.model(), true);
+  simulator.step(100);                                  // t = 0.1 s
+  HolderSample shelf = at(50000000, Vec3(0.01, 0, 0));  // stamped at 0.05 s
+  shelf.still = true;
+  holders.post(holders.serial(), 0, { shelf });
+  holders.follow(simulator, ownClock(), 0.05);  // steps of 50 ms ahead
+  EXPECT_EQ(holders.status()[0].late, 0u);
+  EXPECT_EQ(holders.status()[0].taken, 1u);
+  EXPECT_EQ(simulator.tracks()[0].last().position, Vec3(0.01, 0, 0));
+  EXPECT_GE(simulator.tracks()[0].last().time, 0.15);
+}

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <future>
@@ -353,6 +354,62 @@ TEST(SimulationRunner, BehindWhenTheWantedRateIsNotReachedAtATinyStep)
   runner.start(false);
   EXPECT_TRUE(waitFor([&] { return runner.snapshot()->behind; }));
   EXPECT_LT(runner.snapshot()->real_time_factor, 0.5 * limits::REAL_TIME_FACTOR.high);
+}
+
+// Following /clock, a clock that went back (a bag played again) is a new epoch even while paused:
+// the scene stands for the new clock at once, not after the next unpause.
+TEST(SimulationRunner, APausedRunnerNoticesTheClockGoingBack)
+{
+  constexpr std::int64_t C0 = 1733000000000000000;
+  NodeParameters p = parametersFor("chain");
+  p.follow_clock = true;
+  SimulationRunner runner(p, scene("chain"));
+  runner.start();
+  std::int64_t clock = C0;
+  ASSERT_TRUE(waitFor(  // a clock moving on by 1 ms each poll: the scene follows it
+      [&]
+      {
+        runner.followClock(clock += 1000000);
+        return runner.snapshot()->state.steps > 0;
+      }));
+  ASSERT_TRUE(runner.pause().success);
+  EXPECT_EQ(runner.snapshot()->epoch, 0u);
+  runner.followClock(C0 - 10000000000);  // ten seconds back
+  EXPECT_TRUE(waitFor([&] { return runner.snapshot()->epoch == 1u; }));
+  EXPECT_TRUE(runner.snapshot()->paused);
+}
+
+// An ~attach waiting for its frame's pose is refused by a reset that comes first, naming it:
+// the particle it asked for belonged to the scene that was.
+TEST(SimulationRunner, AWaitingAttachIsRefusedByAReset)
+{
+  SimulationRunner runner(parametersFor("chain"), scene("chain"));
+  runner.start();
+  std::atomic<bool> asked{ false }, resetting{ false };
+  // tf never has the frame; the first look holds the physics thread until the reset is queued
+  auto never = [&](std::int64_t) -> std::optional<Eigen::Isometry3d>
+  {
+    if (!asked.exchange(true))
+    {
+      waitFor([&] { return resetting.load(); }, 10s);
+      // the reset's request is in the queue by then (queued at once after `resetting`), well
+      // inside the attach's 1 s deadline
+      std::this_thread::sleep_for(300ms);
+    }
+    return std::nullopt;
+  };
+  auto attach = std::async(std::launch::async,
+                           [&] { return runner.attach(4, "hand", Vec3::Zero(), true, never); });
+  ASSERT_TRUE(waitFor([&] { return asked.load(); }));
+  resetting = true;
+  EXPECT_TRUE(runner.reset("").success);
+  ASSERT_EQ(attach.wait_for(60s), std::future_status::ready);
+  const RunnerReply reply = attach.get();
+  EXPECT_FALSE(reply.success);
+  EXPECT_EQ(reply.field, "particle");
+  EXPECT_NE(reply.message.find("a reset or scene change came first"), std::string::npos)
+      << reply.message;
+  EXPECT_TRUE(runner.snapshot()->model->tracked().empty());  // nothing attached
 }
 
 TEST(SimulationRunner, StopRefusesWaitingRequestsAndEndsAStep)

@@ -157,19 +157,18 @@ TEST(StateMessage, HealthIsTheWorstConditionWithEveryConditionsWords)
   statistics.solve.singular_count = 3;
   HealthInputs inputs{ snap, statistics };
   inputs.holders_warn = true;
-  inputs.holder_warning = "frame_anchor 0 (frame hand) not followed";
+  inputs.holder_warning = "frame_anchor 0 (frame hand) not followed; the particle is held";
   health = assess(inputs);
   EXPECT_EQ(health.level, diagnostic_msgs::DiagnosticStatus::WARN);
   EXPECT_EQ(health.message,
             "running; 3 singular solves (regularised) in the last second; frame_anchor 0 (frame "
-            "hand) not followed (the particle is held where it is)");
+            "hand) not followed; the particle is held");
   snap.faulted = true;
   snap.fault_reason = "a fault";
   health = assess(inputs);
   EXPECT_EQ(health.level, diagnostic_msgs::DiagnosticStatus::ERROR);
   EXPECT_EQ(health.message,
-            "a fault; frame_anchor 0 (frame hand) not followed (the particle is "
-            "held where it is)");
+            "a fault; frame_anchor 0 (frame hand) not followed; the particle is held");
 }
 
 }  // namespace

@@ -96,7 +96,8 @@ class TfStampsTest(WallClockWaits, unittest.TestCase):
         for probe in PROBES:
             self.wait_until(lambda: "stamp" in self.report(probe), f"a transform on {probe}")
         self.wait_until(lambda: self.latest_state() is not None, "~state")
-        self.sim_advances(1.0)
+        # 3 s at 30 Hz: with the phases below, well over the 100 clocks checked at the end
+        self.sim_advances(3.0)
         self.assert_not_frozen("running")
 
         self.pause()

@@ -120,9 +120,15 @@ public:
   {
     return horizon_;
   }
-  void setHorizon(double horizon)
+  /// The newest knot rests: its tangent 0, never revised (a still holder's pose: the point comes
+  /// to rest there, not past it).
+  void settle()
   {
-    horizon_ = horizon > 0.0 ? horizon : DEFAULT_HORIZON;
+    if (!knots_.empty())
+    {
+      knots_.back().tangent.setZero();
+      knots_.back().fixed = true;
+    }
   }
   std::size_t size() const
   {

@@ -157,8 +157,8 @@ enum class StepCheck
   AdaptiveGuard,  ///< dopri5 hit its internal step guard
   EnergyBudget,   ///< the energy ledger's residual passed energy_budget of its scale
   /// a hold (a tracked record with max_force) would carry more than its max_force, or holds
-  /// made the step impossible (no split or fallback could take it): the step is put back and
-  /// StepStatistics::hold names the hold, for the caller to let go
+  /// made the step impossible (its projection or solve failed at every split and the fallback):
+  /// the step is put back and StepStatistics::hold names the hold, for the caller to let go
   HoldForce,
 };
 constexpr int NUM_STEP_CHECKS = 8;

@@ -46,8 +46,10 @@ public:
   static constexpr double HISTORY = 2.0;
 
   /// `frame_prefix` the node's particle frames' (~frame_prefix): a holder may not be one.
+  /// `clock_ns`: the node's stamp clock now [ns] (ROS time, or with ~publish_clock the /clock it
+  /// publishes), what a sample's arrival is measured on.
   FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame,
-               std::string frame_prefix);
+               std::string frame_prefix, std::function<std::int64_t()> clock_ns);
   ~FrameAnchors();
   /// Subscribes to /tf and /tf_static if not yet (only a node with a holder, or asked to
   /// attach, listens: every /tf message it takes is one more way for tf2 to fail).
@@ -62,13 +64,9 @@ public:
               std::string& warning);
   /// Waits (wall time) up to `timeout` [s] for `frame` to be in tf; true if it is.
   bool waitForFrame(const std::string& frame, double timeout);
-  /// `frame`'s pose in ~fixed_frame at a stamp, looked up without waiting (for ~attach).
+  /// `frame`'s pose in ~fixed_frame at a stamp (-1: the newest), looked up without waiting (for
+  /// ~attach).
   SimulationRunner::PoseLookup poseLookup(const std::string& frame);
-  /// tf, for the anchor wrenches' frames.
-  tf2_ros::Buffer& buffer()
-  {
-    return buffer_;
-  }
 
 private:
   struct Broadcast
@@ -80,6 +78,7 @@ private:
     int track = 0;
     int particle = 0;
     std::string frame, topic;
+    std::string name;  // the holder: its frame, or its topic (holderOf)
     Vec3 offset = Vec3::Zero();
     std::int64_t since_ns = -1;  // samples wanted after this stamp [ns] (an attach's)
     /// What goes on while the runner keeps the holder (an attach or detach of another)
@@ -89,7 +88,8 @@ private:
       std::map<std::int64_t, std::int64_t> waiting;  // stamps to sample -> their arrival [ns]
       bool found = false;                            // the frame was in tf at the last look
       bool warned = false;                           // its absence was logged
-      bool still = false;  // its chain is all on /tf_static: one sample is its path
+      bool still = false;                 // its chain is all on /tf_static: one sample is its path
+      std::int64_t still_posted_ns = -1;  // when its still sample was last posted [ns]
       std::int64_t newest_arrival_ns = -1;  // when its newest broadcast arrived (ROS time) [ns]
       std::uint64_t non_finite = 0, untransformable = 0;
       std::uint64_t logged_jumps = 0;     // teleports already logged
@@ -107,8 +107,9 @@ private:
   void retry(const ros::WallTimerEvent&);
   /// The frames whose motion moves `frame` in ~fixed_frame: those between them in tf's tree.
   std::set<std::string> chainOf(const std::string& frame) const;
-  /// The holder's waiting stamps that tf can resolve, posted (in order); at most `oldest_ns`
-  /// behind now: given up and counted.
+  /// The holder's waiting stamps that tf can resolve at `now_ns`, posted in order with that time
+  /// as their arrival (when they could be used); one waiting over a second is given up and
+  /// counted.
   void sampleWaiting(Holder& holder, std::int64_t now_ns);
   /// A holder frame's state in tf now: found, still (a static chain: posted once), or missing.
   void lookFor(Holder& holder, std::int64_t now_ns);
@@ -129,6 +130,7 @@ private:
   SimulationRunner& runner_;
   std::string fixed_frame_;
   std::string frame_prefix_;
+  std::function<std::int64_t()> clock_ns_;
   tf2_ros::Buffer buffer_;
   std::mutex mutex_;  // guards below: the callbacks, the timer, update() and report()
   ros::Subscriber tf_subscriber_, tf_static_subscriber_;

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -107,7 +108,9 @@ public:
   }
 
   /// Thread-safe, not waited for: samples of holder `track` (Model::tracked() order) of the
-  /// model with serial `serial` (Snapshot::tracks_serial); others are dropped.
+  /// model with serial `serial` (Snapshot::tracks_serial). Posted for a model since replaced in
+  /// the same scene (an attach, a detach, a hold let go), they go to the same holder's track in
+  /// the new one, if it kept it; otherwise they are dropped.
   void post(std::uint64_t serial, int track, std::vector<HolderSample> samples);
   /// A new model (a scene change, attach, detach, a hold let go): a new serial; counts go on for
   /// holders it keeps (same particle and holder). `scene_changed`: a reset or new scene
@@ -157,8 +160,8 @@ public:
   /// refusal naming the field, or nullopt.
   std::optional<std::string> checkAttach(const Model& model, const AttachRequest& request,
                                          const std::string& frame_prefix, std::string& field) const;
-  /// The pose [m] of a tf frame in the fixed frame at a stamp [ns], if tf holds it (looked up
-  /// without waiting; nullopt: not yet, or never).
+  /// The pose [m] of a tf frame in the fixed frame at a stamp [ns] (-1: the newest tf holds), if
+  /// tf holds it (looked up without waiting; nullopt: not yet, or never).
   using PoseLookup = std::function<std::optional<Eigen::Isometry3d>(std::int64_t stamp_ns)>;
   /// An ~attach to take effect as soon as `pose_at` gives its frame's pose at the state's stamp
   /// (the caller takes no step meanwhile), by `deadline` at the latest. The refusal naming the
@@ -174,7 +177,8 @@ public:
   /// The waiting ~attach at the state now (stamp `stamp_ns`, -1: no clock yet): its reply once
   /// its frame's pose there is known (attach()), or refused naming `frame` after its deadline;
   /// nullopt while it still waits.
-  std::optional<RunnerReply> tryAttach(Simulator& simulator, std::int64_t stamp_ns,
+  /// A `resting` scene (paused, faulted) stands for the clock now: the frame's newest pose then.
+  std::optional<RunnerReply> tryAttach(Simulator& simulator, std::int64_t stamp_ns, bool resting,
                                        std::chrono::steady_clock::time_point now);
   /// Forgets the waiting ~attach (the node shuts down).
   void cancelAttach()
@@ -239,6 +243,21 @@ private:
     int track;
     std::vector<HolderSample> samples;
   };
+  /// A holder by what it is, across models: its particle, its holder's name and the offset its
+  /// samples were made with (a re-attach at another offset is another holder).
+  struct TrackKey
+  {
+    int particle;
+    std::string holder;
+    Vec3 offset;
+    bool operator==(const TrackKey& other) const
+    {
+      return particle == other.particle && holder == other.holder && offset == other.offset;
+    }
+  };
+  /// `post`'s track in the newest model (posted_serial_), or false if its holder was not held
+  /// through every model since the post's (or one of them is forgotten). Caller holds mutex_.
+  bool toNewest(Post& post) const;
   /// One sample of holder `k` onto `track`.
   void take(int k, const HolderSample& sample, AnchorTrack& track, double now, double time,
             double lead);
@@ -246,9 +265,10 @@ private:
   void measure(int k, const HolderSample& sample);
 
   HolderLimits limits_;
-  std::mutex mutex_;  // guards inbox_ and posted_serial_
+  std::mutex mutex_;  // guards inbox_, posted_serial_ and keys_
   std::vector<Post> inbox_;
   std::uint64_t posted_serial_ = 0;
+  std::map<std::uint64_t, std::vector<TrackKey>> keys_;  // each recent serial's holders, this scene
   std::uint64_t serial_ = 0;
   std::vector<HolderStatus> status_;  // per track
   std::vector<Holder> holders_;       // per track

@@ -15,6 +15,19 @@
 
 namespace constrained_particles
 {
+/// A steady-clock duration in seconds.
+inline double seconds(std::chrono::steady_clock::duration d)
+{
+  return std::chrono::duration<double>(d).count();
+}
+
+/// seconds() the other way: `s` seconds as a steady-clock duration.
+inline std::chrono::steady_clock::duration wallDuration(double s)
+{
+  return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(s));
+}
+
 /// Whether stepping is behind its real-time factor, with hysteresis: a single slow window of a
 /// busy machine does not turn it on, a single fast one does not turn it off.
 class BehindMonitor
@@ -37,9 +50,10 @@ private:
 };
 
 /// The runner's clocks. The stamp a state at sim time t stands for (standsFor):
-/// - wall (the default): the ROS time anchored at the last (re)start plus (t - t0) / rate;
+/// - wall (the default): the ROS time anchored at the last (re)start (under a foreign /clock,
+///   its first time) plus (t - t0) / rate;
 /// - ~follow_clock: the /clock anchored at the first clock (or a reset, teleport, unpause, or a
-///   clock that went back: a new epoch) plus t - t0;
+///   clock that went back: a new epoch) plus the steps since, each dt in whole nanoseconds;
 /// - ~publish_clock: the node's own clock, base + t, the base moving forward at every reset,
 ///   teleport and fault (TIME_JUMP) so that it never repeats or goes back.
 /// Steps are due up to the stamp (now - latency): a scene whose holders are sampled outside runs
@@ -104,12 +118,20 @@ public:
   // --- the physics thread ---
   /// Starts the first rate window at the state's `time`.
   void beginWindow(double time);
-  /// Steps due at wall time `now` for the state at (time, steps) and `dt` [s], at most 1e15; 0
-  /// if none (or the batch period has not passed). Following /clock, the first clock and one
-  /// that went back (a bag played again) anchor a new epoch: `new_epoch` is then set, and the
-  /// caller rests its holders (their samples stood for the old one).
-  std::uint64_t due(Clock::time_point now, double time, std::uint64_t steps, double dt,
-                    bool& new_epoch);
+  /// What noticeEpoch() found.
+  enum class Epoch
+  {
+    Same,
+    First,  ///< the first /clock (or, on wall time under /use_sim_time, the first ROS time)
+    Back,   ///< /clock went back (a bag played again): a new epoch
+  };
+  /// Anchors the state at (time, steps) to the first clock, or to one that went back: called
+  /// every loop, paused or not. The caller rests its holders (Back: their samples stood for the
+  /// old epoch, and their first pose then carries the scene to them).
+  Epoch noticeEpoch(double time, std::uint64_t steps);
+  /// Steps due at wall time `now` for the state at (time, steps), at most 1e15; 0 if none (or
+  /// the batch period has not passed).
+  std::uint64_t due(Clock::time_point now, double time, std::uint64_t steps);
   /// Marks the start of a batch that steps (the batch period counts from it); a zero time point
   /// lets the next batch start at once.
   void startBatch(Clock::time_point start)
@@ -124,11 +146,11 @@ public:
   /// time the state then stands for a later ROS time than before (stamps jump forward): true,
   /// and the caller moves its holders' samples onto the new mapping.
   bool dropped(double sim_seconds, double time);
-  /// Restarts pacing from the state at (time, steps).
-  void reanchor(double time, std::uint64_t steps, Anchor anchor = Anchor::Now);
+  /// Restarts pacing from the state at (time, steps), stepped by `dt` [s] from here on.
+  void reanchor(double time, std::uint64_t steps, double dt, Anchor anchor = Anchor::Now);
   /// A reset to a new scene after `time_before` [s] of the old: the stamp base moves on by it
-  /// plus TIME_JUMP (stamps never go back), pacing restarts at t = 0.
-  void restart(double time_before);
+  /// plus TIME_JUMP (stamps never go back), pacing restarts at t = 0 with step `dt` [s].
+  void restart(double time_before, double dt);
   /// A teleport or fault at the same sim time: the ~publish_clock base moves on by TIME_JUMP.
   void jump()
   {
@@ -143,13 +165,14 @@ public:
     return latency_;
   }
 
-  /// The stamp [ns] of the ROS time the state at sim time `time` [s] stands for (-1: no clock
-  /// yet; wall pacing before start: -1). Paused or faulted scenes stand for the clock now.
-  std::int64_t standsFor(double time) const;
-  /// The stamp [ns] of a state at `time` that may be `resting` (paused or faulted: it stands
-  /// for the clock now, the newest /clock or on wall time the ROS time now; the node's own clock
-  /// as ever).
-  std::int64_t stampAt(double time, bool resting) const;
+  /// The stamp [ns] of the ROS time the state at sim time `time` [s] and step count `steps`
+  /// stands for (-1: no clock yet). Following /clock it is counted in whole steps from the
+  /// anchor in integer nanoseconds (exactly the clock a step was due at, never after it, however
+  /// long the run: the sim time is a sum of dt and drifts by its rounding).
+  std::int64_t standsFor(double time, std::uint64_t steps) const;
+  /// The stamp [ns] of a state that may be `resting` (paused or faulted: it stands for the clock
+  /// now, the newest /clock or on wall time the ROS time now; the node's own clock as ever).
+  std::int64_t stampAt(double time, std::uint64_t steps, bool resting) const;
   /// The sim time [s] that stands for ROS time `stamp_ns` (NaN: no clock yet): standsFor's
   /// inverse.
   double simTimeOf(std::int64_t stamp_ns) const;
@@ -164,15 +187,10 @@ public:
     return epoch_;
   }
 
-  /// Closes the rate window if RATE_WINDOW passed: the achieved real-time factor and the
-  /// shortfall against the wanted one (the clock's advance under ~follow_clock). `idle`: paused
-  /// or faulted. True if a window closed.
-  bool updateRate(Clock::time_point now, double time, double dt, bool idle);
-  /// Drops the window under way (a scene change: its sim times are another scene's).
-  void invalidateWindow()
-  {
-    window_valid_ = false;
-  }
+  /// Closes the rate window if RATE_WINDOW passed: the achieved real-time factor (0 if
+  /// `idle`: faulted, or paused without a ~step running) and the shortfall against the wanted
+  /// one (the clock's advance under ~follow_clock; none while `paused`). True if a window closed.
+  bool updateRate(Clock::time_point now, double time, std::uint64_t steps, bool idle, bool paused);
   double achievedRealTimeFactor() const
   {
     return achieved_;
@@ -199,6 +217,9 @@ private:
   std::int64_t anchor_ros_ns_ = 0;
   std::int64_t anchor_clock_ns_ = -1;  // -1: no clock yet
   std::int64_t epoch_clock_ns_ = -1;   // the newest clock of this epoch
+  std::int64_t dt_ns_ = 1000000;       // the step [ns] since the anchor
+  double dt_ = 1e-3;                   // the same [s], unrounded
+  bool ros_anchored_ = false;          // wall: anchored at a ROS time (> 0: not before a /clock)
   double base_ = 0.0;                  // ~publish_clock: stamp - sim time [s]
   std::uint64_t epoch_ = 0;
   double latency_ = 0.0;  // [s]

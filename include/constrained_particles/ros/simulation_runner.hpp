@@ -250,8 +250,10 @@ private:
   bool applyRequests();
   /// The wait of an idle loop: until a request, the next due step, a clock, a command's timeout.
   void idle(Clock::time_point now);
-  /// The steps due now: a ~step's rest, or the Pacer's (a new /clock epoch rests the holders).
+  /// The steps due now: a ~step's rest, or the Pacer's.
   std::uint64_t stepsDue(Clock::time_point start);
+  /// The first clock, or one that went back (Pacer::noticeEpoch), every loop: the holders rest.
+  void noticeEpoch();
   /// One batch of due steps, bounded by BATCH_WALL_TIME; false if none were due.
   bool runBatch();
   /// The steps of the next chunk: about CHECK_WALL_TIME of them, at most `left`.
@@ -286,7 +288,7 @@ private:
   /// The stamp [ns] the state stands for now (Pacer::stampAt).
   std::int64_t stampNow() const
   {
-    return pacer_.stampAt(simulator_->state().time, paused_ || faulted_);
+    return pacer_.stampAt(simulator_->state().time, simulator_->state().steps, paused_ || faulted_);
   }
 
   // owned by the physics thread once started (the constructor and stop() before it)

@@ -137,9 +137,10 @@ private:
   std::unique_ptr<ScenePublisher> scene_publisher_;
 
   std::mutex publish_mutex_;  // publish() only: timer callbacks may overlap on the spinner
-  std::optional<ros::Time> last_stamp_;  // the stamp of the last /tf and ~state sent
-  std::uint64_t last_epoch_ = 0;         // its Snapshot::epoch
-  ros::Time last_clock_;                 // ~publish_clock: the last /clock sent
+  std::optional<ros::Time> last_stamp_;            // the stamp of the last /tf and ~state sent
+  std::uint64_t last_epoch_ = 0;                   // its Snapshot::epoch
+  ros::Time last_clock_;                           // ~publish_clock: the last /clock sent
+  std::atomic<std::int64_t> clock_sent_ns_{ -1 };  // the same in ns, for the holders' sampling
   // stamps are sim time (~publish_clock or /use_sim_time): they may stand still, so /tf and
   // ~state go out (latched) whoever listens, and a late /tf subscriber gets the last frames
   bool sim_time_stamps_ = false;

@@ -50,6 +50,12 @@ struct FrameAnchorConstraint
   }
 };
 
+/// Its holder by name: the tf frame, or the pose topic.
+inline const std::string& holderOf(const FrameAnchorConstraint& anchor)
+{
+  return anchor.frame.empty() ? anchor.topic : anchor.frame;
+}
+
 /// The particle it holds.
 inline int eliminatedParticle(const FrameAnchorConstraint& anchor)
 {
