@@ -14,13 +14,6 @@ namespace constrained_particles
 {
 namespace
 {
-using ContactTable = std::vector<KindRecord<SurfaceContact>>;
-
-const ContactTable& contactTable(const Model& model)
-{
-  return std::get<ContactTable>(model.kindTables());
-}
-
 bool acts(const ContactState& contact)
 {
   return contact.mode != ContactMode::Separated;
@@ -45,8 +38,7 @@ Touch touchOf(const Model& model, const UnilateralRecord& record, const Points& 
 {
   if (!record.link)
   {
-    const ContactFrame frame = contactFrame(contactTable(model)[record.table].record,
-                                            model.scene().surfaces, positions, velocities);
+    const ContactFrame frame = contactFrame(model, record, positions, velocities);
     return { frame.gap, frame.normalSpeed(velocities.col(record.particles[0])) };
   }
   const SlackLink& link =
@@ -68,7 +60,7 @@ bool held(const Model& model, const UnilateralRecord& record)
 // sliding, mu |f_n| against the tangential velocity `v_t` (below CONTACT_SPEED along its slip
 // direction); sticking, minus the tangential part of `other` (the particle's other forces), at
 // most mu |f_n| (its demand, the ratio, kept in `contact`)
-Vec3 frictionForce(const SurfaceContact& record, ContactState& contact, const Vec3& normal,
+Vec3 frictionForce(const UnilateralRecord& record, ContactState& contact, const Vec3& normal,
                    double lambda, const Vec3& v, const Vec3& other)
 {
   const double normal_force = std::max(lambda, 0.0) * normal.norm();
@@ -97,7 +89,6 @@ Vec3 frictionForce(const SurfaceContact& record, ContactState& contact, const Ve
 // friction zeroed where none acts
 void recordNormalForces(const Model& model, Data& data)
 {
-  const ContactTable& table = contactTable(model);
   const auto& rows = model.unilateral();
   for (std::size_t k = 0; k < rows.size(); ++k)
   {
@@ -105,7 +96,7 @@ void recordNormalForces(const Model& model, Data& data)
     contact.normal_force =
         acts(contact) ? data.multipliers[rows[k].row] * data.rows.jacobian[rows[k].block].norm()
                       : 0.0;
-    if (!acts(contact) || rows[k].link || table[rows[k].table].record.friction == 0.0)
+    if (!acts(contact) || rows[k].friction == 0.0)
       contact.friction_force.setZero();
   }
 }
@@ -136,10 +127,11 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
                               const Eigen::VectorXd* bias)
 {
   const SolveReport report = constraintForceStage(model, data, bias);
-  const ContactTable& table = contactTable(model);
+  const auto& table = model.unilateral();
+  const std::size_t contacts = static_cast<std::size_t>(model.numParticleContacts());
   bool friction = false;
-  for (std::size_t k = 0; k < table.size(); ++k)
-    friction = friction || (acts(data.contacts[k]) && table[k].record.friction > 0.0);
+  for (std::size_t k = 0; k < contacts; ++k)
+    friction = friction || (acts(data.contacts[k]) && table[k].friction > 0.0);
   if (!friction)
   {
     recordNormalForces(model, data);
@@ -157,15 +149,15 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
   {
     double change = 0.0, scale = 0.0, largest = 0.0;
     data.friction_forces.setZero();
-    for (std::size_t k = 0; k < table.size(); ++k)
+    for (std::size_t k = 0; k < contacts; ++k)
     {
       ContactState& contact = data.contacts[k];
-      const SurfaceContact& record = table[k].record;
+      const UnilateralRecord& record = table[k];
       if (!acts(contact) || record.friction == 0.0)
         continue;
-      const int i = record.particle;
-      const Vec3& normal = data.rows.jacobian[table[k].first_block];
-      const double lambda = data.multipliers[table[k].first_row];
+      const int i = record.particles[0];
+      const Vec3& normal = data.rows.jacobian[record.block];
+      const double lambda = data.multipliers[record.row];
       // the particle's other forces: applied and J^T lambda (data.constraint_forces has no
       // friction yet), less this contact's own normal force, which has no tangential part
       const Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
@@ -219,12 +211,12 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
 
 void kickFriction(const Model& model, const Data& data, double dt, Points& velocities)
 {
-  const ContactTable& table = contactTable(model);
+  const auto& table = model.unilateral();
   const auto& w = model.inverseMasses();
-  for (std::size_t k = 0; k < table.size(); ++k)
-    if (acts(data.contacts[k]) && table[k].record.friction > 0.0)
+  for (std::size_t k = 0; k < static_cast<std::size_t>(model.numParticleContacts()); ++k)
+    if (acts(data.contacts[k]) && table[k].friction > 0.0)
     {
-      const int i = table[k].record.particle;
+      const int i = table[k].particles[0];
       velocities.col(i) += (dt * w[i]) * data.contacts[k].friction_force;
     }
 }
@@ -232,13 +224,13 @@ void kickFriction(const Model& model, const Data& data, double dt, Points& veloc
 double chooseContactModes(const Model& model, Data& data, const StepSettings& settings)
 {
   State& x = data.state;
-  const ContactTable& table = contactTable(model);
   const auto& w = model.inverseMasses();
   const double gap = contactGap(settings);
   const auto& rows = model.unilateral();
+  const std::size_t contacts = static_cast<std::size_t>(model.numParticleContacts());
   // a slack link acts while taut: its span within the gap of its length, neither slackening nor
   // stretching (a stretch is a jerk, resolveImpacts)
-  for (std::size_t k = table.size(); k < rows.size(); ++k)
+  for (std::size_t k = contacts; k < rows.size(); ++k)
   {
     const Touch touch = touchOf(model, rows[k], x.positions, x.velocities);
     data.contacts[k].mode =
@@ -246,13 +238,12 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
             ? ContactMode::Sliding
             : ContactMode::Separated;
   }
-  for (std::size_t k = 0; k < table.size(); ++k)
+  for (std::size_t k = 0; k < contacts; ++k)
   {
-    const SurfaceContact& record = table[k].record;
+    const UnilateralRecord& record = rows[k];
     ContactState& contact = data.contacts[k];
-    const int i = record.particle;
-    const ContactFrame frame =
-        contactFrame(record, model.scene().surfaces, x.positions, x.velocities);
+    const int i = record.particles[0];
+    const ContactFrame frame = contactFrame(model, record, x.positions, x.velocities);
     const Vec3 v = x.velocities.col(i);
     // touching: on the surface, neither leaving it nor approaching it (an approach within the
     // gap ends in an impact, resolveImpacts, which restitution and the ledger see)
@@ -314,12 +305,11 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   // the sticking contacts stop: their tangential velocity goes, and the rows take the change
   double kinetic_before = 0.0;  // summed (O(n)) only when a contact has a slide to stop
   bool stopped = false;
-  for (std::size_t k = 0; k < table.size(); ++k)
+  for (std::size_t k = 0; k < contacts; ++k)
     if (data.contacts[k].mode == ContactMode::Sticking)
     {
-      const int i = table[k].record.particle;
-      const ContactFrame frame =
-          contactFrame(table[k].record, model.scene().surfaces, x.positions, x.velocities);
+      const int i = rows[k].particles[0];
+      const ContactFrame frame = contactFrame(model, rows[k], x.positions, x.velocities);
       const Vec3 v_t = frame.tangential(x.velocities.col(i));
       if (!(v_t.norm() > 0.0))
         continue;
@@ -343,10 +333,61 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   return kinetic_before - kineticEnergy(model, x);
 }
 
+double impactFraction(const Model& model, Data& data, const Points& p0, const Points& v0,
+                      const State& x, double h, double tolerance)
+{
+  const auto& rows = model.unilateral();
+  Points& p = data.control.impact_positions;
+  bool copied = false;
+  double earliest = NAN;
+  for (std::size_t k = 0; k < rows.size(); ++k)
+  {
+    if (acts(data.contacts[k]) || held(model, rows[k]) ||
+        !(touchOf(model, rows[k], x.positions, x.velocities).gap < -tolerance))
+      continue;
+    if (!copied)
+      p = x.positions;  // the other particles' columns are not read: rows touch their own
+    copied = true;
+    const int count = rows[k].link ? 2 : 1;
+    // the row's gap with its particles at fraction s along their Hermite paths
+    auto gapAt = [&](double s)
+    {
+      const double s2 = s * s, s3 = s2 * s;
+      const double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s, h01 = -2 * s3 + 3 * s2,
+                   h11 = s3 - s2;
+      for (int a = 0; a < count; ++a)
+      {
+        const int i = rows[k].particles[a];
+        p.col(i) = h00 * p0.col(i) + (h10 * h) * v0.col(i) + h01 * x.positions.col(i) +
+                   (h11 * h) * x.velocities.col(i);
+      }
+      return touchOf(model, rows[k], p, x.velocities).gap;
+    };
+    // the crossing sought is twice the tolerance in: the piece taken to it ends in (so
+    // resolveImpacts meets the row) by about that much (energy m g 2 tolerance), whatever the
+    // integrator's path differs from the Hermite one by, within a tolerance
+    const double target = -2.0 * tolerance;
+    if (gapAt(0.0) > target)
+    {
+      double low = 0.0, high = 1.0;  // out at low, in at high
+      while (high - low > 1e-12)
+      {
+        const double middle = 0.5 * (low + high);
+        (gapAt(middle) > target ? low : high) = middle;
+      }
+      if (!(earliest <= high))
+        earliest = high;
+    }
+    for (int a = 0; a < count; ++a)
+      p.col(rows[k].particles[a]) = x.positions.col(rows[k].particles[a]);
+  }
+  return earliest;
+}
+
 double resolveImpacts(const Model& model, Data& data, const StepSettings& settings, State& x)
 {
-  const ContactTable& table = contactTable(model);
   const auto& rows = model.unilateral();
+  const std::size_t contacts = static_cast<std::size_t>(model.numParticleContacts());
   Eigen::VectorXd& restitution = data.contact_rhs;
   double before = NAN;
   // a projection onto the new rows moves the particles they are linked to, which may take another
@@ -356,37 +397,37 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
     restitution.setZero();
     bool impact = false, bounce = false;
     // a slack link stretched past its length: it jerks taut (inelastic, with the rows)
-    for (std::size_t k = table.size(); k < rows.size(); ++k)
+    for (std::size_t k = contacts; k < rows.size(); ++k)
       if (!acts(data.contacts[k]) && !held(model, rows[k]) &&
           touchOf(model, rows[k], x.positions, x.velocities).gap < -settings.projection_tolerance)
       {
         data.contacts[k].mode = ContactMode::Sliding;
         impact = true;
       }
-    for (std::size_t k = 0; k < table.size(); ++k)
+    for (std::size_t k = 0; k < contacts; ++k)
     {
       ContactState& contact = data.contacts[k];
-      const SurfaceContact& record = table[k].record;
-      if (acts(contact) || !(model.inverseMasses()[record.particle] > 0.0))
+      const UnilateralRecord& record = rows[k];
+      const int i = record.particles[0];
+      if (acts(contact) || !(model.inverseMasses()[i] > 0.0))
         continue;
-      const ContactFrame frame =
-          contactFrame(record, model.scene().surfaces, x.positions, x.velocities);
+      const ContactFrame frame = contactFrame(model, record, x.positions, x.velocities);
       if (!(frame.gap < -settings.projection_tolerance))
         continue;
       contact.mode = ContactMode::Sliding;  // off until now, so with no friction (switchOff)
       impact = true;
-      const Vec3 v = x.velocities.col(record.particle);
+      const Vec3 v = x.velocities.col(i);
       // slower than twice what the applied forces give in a step is a particle at rest
       // landing again within the step: inelastic (else a bounce and the projection's lift
       // cycle for ever)
       const double resting =
-          std::max(BOUNCE_SPEED, 2.0 * settings.dt *
-                                     std::abs(frame.normal.normalized().dot(
-                                         data.free_accelerations.col(record.particle))));
+          std::max(BOUNCE_SPEED,
+                   2.0 * settings.dt *
+                       std::abs(frame.normal.normalized().dot(data.free_accelerations.col(i))));
       if (record.restitution > 0.0 && -frame.normalSpeed(v) > resting)
       {
         // the row's rate out of the impact: e times the rate in, J v- < 0
-        restitution[table[k].first_row] = -record.restitution * frame.normal.dot(v);
+        restitution[record.row] = -record.restitution * frame.normal.dot(v);
         bounce = true;
       }
     }
@@ -404,10 +445,10 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       // (of these rows at these positions), and v += W J^T x
       data.solver().solveInPlace(restitution);
       addInverseMassJacobianTranspose(model, data.rows, restitution, 1.0, x.velocities);
-      for (std::size_t k = 0; k < table.size(); ++k)  // only contacts bounce
+      for (std::size_t k = 0; k < contacts; ++k)  // only contacts bounce
         if (acts(data.contacts[k]) &&
-            contactFrame(table[k].record, model.scene().surfaces, x.positions, x.velocities)
-                    .normalSpeed(x.velocities.col(table[k].record.particle)) > CONTACT_SPEED)
+            contactFrame(model, rows[k], x.positions, x.velocities)
+                    .normalSpeed(x.velocities.col(rows[k].particles[0])) > CONTACT_SPEED)
           switchOff(data.contacts[k]);  // leaving
       writeContactRows(model, data);
     }

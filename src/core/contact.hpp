@@ -83,6 +83,20 @@ void kickFriction(const Model& model, const Data& data, double dt, Points& veloc
 /// took out [J] (the ledger's dissipation).
 double chooseContactModes(const Model& model, Data& data, const StepSettings& settings);
 
+/// Where in a sub-step of length h from positions `p0`, velocities `v0` to the state `x` the
+/// first unilateral row that is off went in: the fraction s in (0, 1) of h at which its gap
+/// (contact: height over its surface or obstacle; slack link: length less span) reaches -2
+/// `tolerance` (just in: the piece to it ends with the row found) along
+/// each particle's cubic Hermite path (positions and velocities at both ends: third order, as the
+/// integrators' own paths are to their order), by bisection to 1e-12 of the sub-step. NaN where
+/// no row off is in by more than `tolerance` at x, or every such row was already in at p0 (its
+/// impact is at the sub-step's start: resolveImpacts takes it as it is). The impacts can then be
+/// met at their time (Simulator::attemptStep): a particle found a sub-step late is depth d in,
+/// and projecting it out lifts it by d with the speed of falling that far kept, which adds
+/// energy (m g d a bounce).
+double impactFraction(const Model& model, Data& data, const Points& p0, const Points& v0,
+                      const State& x, double h, double tolerance);
+
 /// After a step's projection at `time`: each contact that is off and below its surface by more
 /// than the projection tolerance is switched on and the state projected onto the rows
 /// (positions, then velocities: the inelastic impulse), then for contacts with restitution e and

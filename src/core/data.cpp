@@ -39,6 +39,10 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   contacts.assign(model.numContacts(), ContactState{});
   control.start_contacts = contacts;
   const int contact_n = model.numContacts() > 0 ? n : 0;
+  control.piece_contacts = contacts;
+  control.piece_start.positions.setZero(3, contact_n);
+  control.piece_start.velocities.setZero(3, contact_n);
+  control.impact_positions.setZero(3, contact_n);
   friction_forces.setZero(3, contact_n);
   friction_accelerations.setZero(3, contact_n);
   frictionless_multipliers.setZero(model.numContacts() > 0 ? model.numRows() : 0);

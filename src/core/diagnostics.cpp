@@ -133,9 +133,10 @@ Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& 
   evaluateRowRecords(model, state.time, state.positions, state.velocities, rows, nullptr);
   d.max_position_error = rows.max_violation;
   // a contact's error is how far below its surface it is, whether its row acts or not
-  for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables()))
-    d.max_position_error = worseError(d.max_position_error,
-                                      penetration(contact.record, scene.surfaces, state.positions));
+  const auto& unilateral = model.unilateral();
+  for (int k = 0; k < model.numParticleContacts(); ++k)
+    d.max_position_error =
+        worseError(d.max_position_error, penetration(model, unilateral[k], state.positions));
   // a slack link's, how far over its length it is, taut or slack
   for (const auto& link : std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables()))
     d.max_position_error =

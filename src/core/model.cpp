@@ -576,20 +576,36 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     }
 
   const bool tridiagonal = isTridiagonal(model);
-  const auto& contact_table = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kind_tables_);
+  // the particle contacts first, kind by kind in registry order, then the slack links
+  std::apply(
+      [&](const auto&... tables)
+      {
+        auto add = [&](const auto& table)
+        {
+          using Kind = typename std::decay_t<decltype(table)>::value_type::KindType;
+          if constexpr (IsParticleContact<Kind>::value)
+            for (std::size_t k = 0; k < table.size(); ++k)
+              model.unilateral_.push_back(
+                  UnilateralRecord{ table[k].first_row,
+                                    table[k].first_block,
+                                    static_cast<int>(k),
+                                    table[k].constraint,
+                                    false,
+                                    { table[k].record.particle, table[k].record.particle },
+                                    table[k].record.friction,
+                                    table[k].record.restitution });
+        };
+        (add(tables), ...);
+      },
+      model.kind_tables_);
+  model.num_particle_contacts_ = static_cast<int>(model.unilateral_.size());
   const auto& slack_table = std::get<std::vector<KindRecord<SlackLink>>>(model.kind_tables_);
-  for (std::size_t k = 0; k < contact_table.size(); ++k)
-    model.unilateral_.push_back(
-        UnilateralRecord{ contact_table[k].first_row,
-                          contact_table[k].first_block,
-                          static_cast<int>(k),
-                          false,
-                          { contact_table[k].record.particle, contact_table[k].record.particle } });
   for (std::size_t k = 0; k < slack_table.size(); ++k)
     model.unilateral_.push_back(
         UnilateralRecord{ slack_table[k].first_row,
                           slack_table[k].first_block,
                           static_cast<int>(k),
+                          slack_table[k].constraint,
                           true,
                           { slack_table[k].record.first, slack_table[k].record.second } });
   for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kind_tables_))
@@ -751,6 +767,33 @@ void Model::validateState(const State& state, const std::string& field) const
                   "[m/s]");
   }
   requireFinite(prefix + "time", state.time, "[s]");
+}
+
+ContactFrame contactFrame(const Model& model, const UnilateralRecord& record, const Points& p,
+                          const Points& v)
+{
+  return std::visit(
+      [&](const auto& contact) -> ContactFrame
+      {
+        if constexpr (IsParticleContact<std::decay_t<decltype(contact)>>::value)
+          return contactFrame(contact, model.scene().surfaces, p, v);
+        else
+          return ContactFrame{ Vec3::Zero() };  // not a particle contact: no frame
+      },
+      model.scene().constraints[record.constraint]);
+}
+
+double penetration(const Model& model, const UnilateralRecord& record, const Points& p)
+{
+  return std::visit(
+      [&](const auto& contact)
+      {
+        if constexpr (IsParticleContact<std::decay_t<decltype(contact)>>::value)
+          return penetration(contact, model.scene().surfaces, p);
+        else
+          return 0.0;
+      },
+      model.scene().constraints[record.constraint]);
 }
 
 }  // namespace constrained_particles

@@ -70,10 +70,9 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
                });
   // friction, at its last stage's value (contact.hpp; the step start's under velocity Verlet and
   // fast projection; a contact off holds none): it only dissipates
-  const auto& contacts = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
-  for (std::size_t k = 0; k < contacts.size(); ++k)
-    dissipated -=
-        data.contacts[k].friction_force.dot(x.velocities.col(contacts[k].record.particle));
+  const auto& contacts = model.unilateral();
+  for (int k = 0; k < model.numParticleContacts(); ++k)
+    dissipated -= data.contacts[k].friction_force.dot(x.velocities.col(contacts[k].particles[0]));
 }
 
 // The power the driven anchors put in through their reactions [W]: sum_k r_k . v_k, r_k = m a -
@@ -276,12 +275,10 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     writeContactRows(model, data);
     data.control.contact_loss = 0.0;
   }
-  for (int j = 1; j <= substeps; ++j)
+  // one piece of a sub-step: `length` from the state, ending at `end`
+  auto takePiece = [&](double length, double end)
   {
-    // each sub-step takes h exactly (dt / 2^k is exact; (t + dt) - t is not, and its round-off
-    // would jitter every step's length), and the last ends where one step of dt would
-    const double end = j == substeps ? start.time + settings_.dt : start.time + j * h;
-    sub.dt = h;
+    sub.dt = length;
     // an integrator holding the constraints itself moves x.positions outside the fused stages
     if (method.holds_constraints)
       data.noteStateChange();
@@ -301,8 +298,53 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
       data.control.end_position_error = -1.0;
     }
     x.time = end;
-    if (model.numContacts() > 0)  // a contact that went below its surface: an impact
-      data.control.contact_loss += resolveImpacts(model, data, sub, x);
+    sub.dt = h;  // resolveImpacts reads the sub-step's length
+  };
+  StepControl& control = data.control;
+  for (int j = 1; j <= substeps; ++j)
+  {
+    // each sub-step takes h exactly (dt / 2^k is exact; (t + dt) - t is not, and its round-off
+    // would jitter every step's length), and the last ends where one step of dt would
+    const double end = j == substeps ? start.time + settings_.dt : start.time + j * h;
+    if (model.numContacts() == 0)
+      takePiece(h, end);
+    else
+    {
+      // a row off that the sub-step takes in is met at its time of impact, not a sub-step late
+      // (contact.hpp, impactFraction): the sub-step is taken again to there, the impact
+      // resolved, and the rest taken from it; a handful of impacts in one sub-step at most
+      double from = x.time, length = h;
+      control.piece_start.positions = x.positions;
+      control.piece_start.velocities = x.velocities;
+      control.piece_contacts = data.contacts;
+      for (int split = 0;; ++split)
+      {
+        takePiece(length, end);
+        const double fraction = split < MAX_IMPACT_SPLITS
+                                    ? impactFraction(model, data, control.piece_start.positions,
+                                                     control.piece_start.velocities, x, length,
+                                                     settings_.projection_tolerance)
+                                    : NAN;
+        if (!(fraction < 1.0))
+          break;
+        x.positions = control.piece_start.positions;
+        x.velocities = control.piece_start.velocities;
+        x.time = from;
+        data.contacts = control.piece_contacts;
+        writeContactRows(model, data);
+        data.noteStateChange();
+        const double at = from + fraction * length;
+        takePiece(fraction * length, at);
+        control.contact_loss += resolveImpacts(model, data, sub, x);
+        length = end - at;
+        from = at;
+        control.piece_start.positions = x.positions;
+        control.piece_start.velocities = x.velocities;
+        control.piece_contacts = data.contacts;
+      }
+      // what is still in (a row in at the sub-step's start, or past the splits): as it is
+      control.contact_loss += resolveImpacts(model, data, sub, x);
+    }
     // one sweep for the finiteness and energy checks (the same values as three)
     const StepCheckSums sums =
         conservative_ ? stepCheckSums(model, x, data.applied_forces, appliedForceSum(data))
@@ -408,10 +450,10 @@ void Simulator::readSceneKind()
     driven_ = driven_ || isDriven(constraint);
   // a driven anchor (a time-dependent kind) or a force from outside does work on the system:
   // its energy is not kept
-  // contacts only take energy out (impacts, friction), but a projection after an impact may put
-  // back a little potential energy (m g times the depth it went below): the rise check is off
-  conservative_ = !driven_ && forcesConservative(model_->scene()) && data_->perturbations.empty() &&
-                  model_->numContacts() == 0;
+  // contacts only take energy out (impacts, met at their time: attemptStep; friction), so a
+  // sub-step whose energy rises is the integrator's error there too (a slide into a steep face
+  // faster than the step resolves it): the rise check holds in scenes with contacts
+  conservative_ = !driven_ && forcesConservative(model_->scene()) && data_->perturbations.empty();
   has_stiffness_ = hasStiffness(*model_, data_->perturbations);
   hold_limits_.clear();
   const Model& model = *model_;
@@ -767,12 +809,11 @@ ProjectionReport Simulator::setState(const State& state)
         deepestBelowSurface(model_->scene().constraints, model_->scene().surfaces,
                             projected.positions, &model_->inverseMasses());
     if (below.contact)
-      throw InvalidInput("positions[" + std::to_string(below.contact->particle) + "]",
-                         "would put particle " + std::to_string(below.contact->particle) + " " +
-                             formatValue(below.depth) + " m below surface " +
-                             std::to_string(below.contact->surface) +
-                             " (after projecting onto the constraints), which its "
-                             "surface_contact keeps it above; place it on or above the surface");
+      throw InvalidInput("positions[" + std::to_string(below.particle) + "]",
+                         "would put particle " + std::to_string(below.particle) + " " +
+                             formatValue(below.depth) + " m " + contactTargetText(*below.contact) +
+                             " (after projecting onto the constraints), which its contact keeps "
+                             "it out of; place it on or above the surface, outside the obstacle");
   }
   catch (const InvalidInput&)
   {

@@ -49,7 +49,12 @@ double particleSize(const Model& model)
   for (const Constraint& c : model.scene().constraints)
     if (const auto* link = std::get_if<LinkConstraint>(&c))
       shortest = shortest > 0.0 ? std::min(shortest, link->length) : link->length;
-  return 0.3 * (shortest > 0.0 ? shortest : 0.5);
+  // a rope with a thickness (its obstacles' radius) is drawn that thick
+  double thickest = 0.0;
+  for (const Constraint& c : model.scene().constraints)
+    if (const auto* contact = std::get_if<ShapeContact>(&c))
+      thickest = std::max(thickest, 2.0 * contact->radius);
+  return thickest > 0.0 ? thickest : 0.3 * (shortest > 0.0 ? shortest : 0.5);
 }
 
 double arrowScale(double force_scale, const Points& forces, double region_radius,
@@ -77,13 +82,13 @@ visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& head
                                                     double scale, int previous_count)
 {
   visualization_msgs::MarkerArray array;
-  const auto& table = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
-  for (std::size_t k = 0; k < table.size() && k < contacts.size(); ++k)
+  const auto& table = model.unilateral();
+  const std::size_t count = static_cast<std::size_t>(model.numParticleContacts());
+  for (std::size_t k = 0; k < count && k < contacts.size(); ++k)
   {
     const ContactState& contact = contacts[k];
-    const Eigen::Vector3d start = positions.col(table[k].record.particle);
-    const ContactFrame frame =
-        contactFrame(table[k].record, model.scene().surfaces, positions, positions);
+    const Eigen::Vector3d start = positions.col(table[k].particles[0]);
+    const ContactFrame frame = contactFrame(model, table[k], positions, positions);
     const Eigen::Vector3d forces[2] = { contact.normal_force * frame.normal.normalized(),
                                         contact.friction_force };
     const int id = 2 * static_cast<int>(k);
@@ -104,7 +109,7 @@ visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& head
       array.markers.push_back(m);
     }
   }
-  for (int id = 2 * static_cast<int>(table.size()); id < previous_count; ++id)
+  for (int id = 2 * static_cast<int>(count); id < previous_count; ++id)
     array.markers.push_back(deleteMarker(header, CONTACT_FORCE_NAMESPACE, id));
   return array;
 }
@@ -169,6 +174,66 @@ visualization_msgs::MarkerArray surfaceMarkers(const std_msgs::Header& header, c
       }
   }
   array.markers.push_back(mesh);
+  return array;
+}
+
+visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const Model& model,
+                                                const Vec3& low, const Vec3& high)
+{
+  visualization_msgs::MarkerArray array;
+  visualization_msgs::Marker clear = makeMarker(header, "obstacles", 0, 0);
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  array.markers.push_back(clear);
+  std::vector<std::string> drawn;
+  int id = 0;
+  auto add = [&](const Shape& shape, int type, const Vec3& centre, const Vec3& scale)
+  {
+    visualization_msgs::Marker m = makeMarker(header, "obstacles", id++, type);
+    m.pose.position = tf2::toMsg(Eigen::Vector3d(centre));
+    m.pose.orientation = tf2::toMsg(Eigen::Quaterniond(shape.rotation));  // tf2_eigen converts
+    m.scale.x = scale.x();
+    m.scale.y = scale.y();
+    m.scale.z = scale.z();
+    m.color = color(0.55f, 0.55f, 0.6f, 0.8f);
+    array.markers.push_back(m);
+  };
+  for (const Constraint& c : model.scene().constraints)
+  {
+    const auto* contact = std::get_if<ShapeContact>(&c);
+    if (!contact || std::find(drawn.begin(), drawn.end(), contact->shape.name) != drawn.end())
+      continue;
+    drawn.push_back(contact->shape.name);
+    const Shape& shape = contact->shape;
+    const Vec3 axis = shape.rotation.col(2);
+    const double d = 2.0 * shape.radius;
+    switch (shape.type)
+    {
+      case ShapeType::Plane:
+      {
+        // a thin slab under the plane, centred below the region's centre, as wide as the region
+        const Vec3 middle = 0.5 * (low + high);
+        const Vec3 foot = middle - axis * axis.dot(middle - shape.position);
+        const double width = 2.0 * (high - low).norm();
+        add(shape, visualization_msgs::Marker::CUBE, foot - 0.005 * axis, Vec3(width, width, 0.01));
+        break;
+      }
+      case ShapeType::Sphere:
+        add(shape, visualization_msgs::Marker::SPHERE, shape.position, Vec3(d, d, d));
+        break;
+      case ShapeType::Box:
+        add(shape, visualization_msgs::Marker::CUBE, shape.position, shape.size);
+        break;
+      case ShapeType::Cylinder:
+        add(shape, visualization_msgs::Marker::CYLINDER, shape.position, Vec3(d, d, shape.length));
+        break;
+      case ShapeType::Capsule:
+        add(shape, visualization_msgs::Marker::CYLINDER, shape.position, Vec3(d, d, shape.length));
+        for (const double end : { -0.5, 0.5 })
+          add(shape, visualization_msgs::Marker::SPHERE, shape.position + end * shape.length * axis,
+              Vec3(d, d, d));
+        break;
+    }
+  }
   return array;
 }
 

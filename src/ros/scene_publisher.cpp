@@ -25,6 +25,7 @@ ScenePublisher::ScenePublisher(ros::NodeHandle node, const NodeParameters& param
   particles_ = node.advertise<sensor_msgs::PointCloud2>("particles", 2);
   // latched and sent once per scene whoever listens: a late subscriber gets the current scene's
   surface_ = node.advertise<visualization_msgs::MarkerArray>("surface", 1, true);
+  obstacles_ = node.advertise<visualization_msgs::MarkerArray>("obstacles", 1, true);
   view_ = node.advertise<SceneView>("view", 1, true);
   accuracy_ = node.advertise<Accuracy>("accuracy", 10, true);
 }
@@ -71,8 +72,7 @@ void ScenePublisher::publishArrows(const Snapshot& snap, const std_msgs::Header&
   const visualization_msgs::MarkerArray contact_arrows = contactForceMarkers(
       header, *snap.model, snap.state.positions, snap.contacts, scale, published_contact_arrows_);
   // two arrows a surface contact (slack links, the rest of numContacts(), have none)
-  published_contact_arrows_ = static_cast<int>(
-      2 * std::get<std::vector<KindRecord<SurfaceContact>>>(snap.model->kindTables()).size());
+  published_contact_arrows_ = static_cast<int>(2 * snap.model->numParticleContacts());
   arrows.markers.insert(arrows.markers.end(), contact_arrows.markers.begin(),
                         contact_arrows.markers.end());
   arrows_.publish(arrows);
@@ -90,6 +90,7 @@ void ScenePublisher::publishSceneOnce(const Snapshot& snap, const ros::Time& sta
   const RegionSpec& region = snap.region;
   surface_.publish(
       surfaceMarkers(header, *snap.model, region.low, region.high, parameters_.mesh_cells));
+  obstacles_.publish(obstacleMarkers(header, *snap.model, region.low, region.high));
   SceneView view;
   view.header = header;
   view.scenario = snap.scene->name;

@@ -145,14 +145,14 @@ void fillReleases(const Snapshot& snap, SimState& msg)
 
 void fillContacts(const Snapshot& snap, SimState& msg)
 {
-  const auto& contacts =
-      std::get<std::vector<KindRecord<SurfaceContact>>>(snap.model->kindTables());
-  for (std::size_t k = 0; k < contacts.size() && k < snap.contacts.size(); ++k)
+  const auto& contacts = snap.model->unilateral();
+  const std::size_t count = static_cast<std::size_t>(snap.model->numParticleContacts());
+  for (std::size_t k = 0; k < count && k < snap.contacts.size(); ++k)
     if (const ContactState& contact = snap.contacts[k]; contact.mode != ContactMode::Separated &&
                                                         std::isfinite(contact.normal_force) &&
                                                         contact.friction_force.allFinite())
     {
-      msg.contact_particles.push_back(contacts[k].record.particle);
+      msg.contact_particles.push_back(contacts[k].particles[0]);
       msg.contact_modes.push_back(contact.mode == ContactMode::Sticking
                                       ? SimState::CONTACT_STICKING
                                       : SimState::CONTACT_SLIDING);

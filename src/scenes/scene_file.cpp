@@ -133,23 +133,37 @@ Vec3 readVector(const Where& where, const YAML::Node& node)
               readDouble(where[2], node[2]));
 }
 
-int surfaceIndex(const Where& where, const YAML::Node& node,
-                 const std::vector<NamedSurface>& surfaces)
+// The index of the entry `node` names among `entries` (each with a `name`), which the scene
+// defines under `key` as `what`s
+template <typename Named>
+int nameIndex(const Where& where, const YAML::Node& node, const std::vector<Named>& entries,
+              const std::string& what, const std::string& key)
 {
   if (node.IsScalar())
   {
     const std::string name = node.as<std::string>();
-    for (std::size_t k = 0; k < surfaces.size(); ++k)
-      if (surfaces[k].name == name)
+    for (std::size_t k = 0; k < entries.size(); ++k)
+      if (entries[k].name == name)
         return static_cast<int>(k);
   }
   std::vector<std::string> names;
-  for (const auto& s : surfaces)
-    names.push_back(s.name);
+  for (const Named& entry : entries)
+    names.push_back(entry.name);
   fail(where, node,
-       "must name a surface of this scene" +
-           (names.empty() ? std::string(" (it defines none under 'surfaces')")
+       "must name a " + what + " of this scene" +
+           (names.empty() ? " (it defines none under '" + key + "')"
                           : "; defined: " + joined(names)));
+}
+
+int surfaceIndex(const Where& where, const YAML::Node& node,
+                 const std::vector<NamedSurface>& surfaces)
+{
+  return nameIndex(where, node, surfaces, "surface", "surfaces");
+}
+
+int shapeIndex(const Where& where, const YAML::Node& node, const std::vector<Shape>& shapes)
+{
+  return nameIndex(where, node, shapes, "shape", "shapes");
 }
 
 // The keys of a record kind, in the order its fields() lists them.
@@ -165,8 +179,9 @@ std::vector<std::string> fieldNames()
 // descriptors' (validateFields) and comes after.
 template <typename Record>
 void readFields(const Where& where, const YAML::Node& node, Record& record,
-                const std::vector<NamedSurface>& surfaces)
+                const SceneDescription& scene)
 {
+  const std::vector<NamedSurface>& surfaces = scene.surfaces;
   forEachField<Record>(
       [&](const auto& spec)
       {
@@ -187,6 +202,17 @@ void readFields(const Where& where, const YAML::Node& node, Record& record,
           member = readBool(at, value);
         else if constexpr (std::is_same_v<Member, std::string>)
           member = readString(at, value);
+        else if constexpr (std::is_same_v<Member, Shape>)
+          member = scene.shapes[shapeIndex(at, value, scene.shapes)];
+        else if constexpr (std::is_same_v<Member, std::vector<std::string>>)
+        {
+          // a list of names (a chain's obstacles), each resolved where it is used
+          if (!value.IsSequence())
+            fail(at, value, "must be a list of names");
+          member.clear();
+          for (std::size_t k = 0; k < value.size(); ++k)
+            member.push_back(readString(at[k], value[k]));
+        }
         else if constexpr (std::is_same_v<Member, Stabilization>)
           member = parseStabilization(readString(at, value), at.at(value));
         else
@@ -230,11 +256,63 @@ Surface parseSurface(const Where& where, const YAML::Node& node)
   return makeSurface(type, coefficients, (where / "coefficients").at(node));
 }
 
+// An obstacle: its type, then the keys that type reads (ShapeSpec's), each in its range
+Shape parseShape(const Where& where, const YAML::Node& node, const std::string& name)
+{
+  requireMap(where, node, "a shape");
+  if (!node["type"])
+    fail(where / "type", node, "is missing; valid: " + joined(shapeTypeNames()));
+  Shape shape;
+  shape.name = name;
+  shape.type =
+      parseShapeType(readString(where / "type", node["type"]), where.at(node["type"]) + ".type");
+  std::vector<std::string> keys = { "type", "position", "rpy" };
+  if (shape.type == ShapeType::Box)
+    keys.push_back("size");
+  if (shape.type == ShapeType::Sphere || shape.type == ShapeType::Capsule ||
+      shape.type == ShapeType::Cylinder)
+    keys.push_back("radius");
+  if (shape.type == ShapeType::Capsule || shape.type == ShapeType::Cylinder)
+    keys.push_back("length");
+  checkKeys(where, node, keys, std::string("a ") + shapeTypeName(shape.type));
+  Vec3 rpy = Vec3::Zero();
+  try
+  {
+    if (node["position"])
+      shape.position = readVector(where / "position", node["position"]);
+    if (node["rpy"])
+    {
+      rpy = readVector(where / "rpy", node["rpy"]);
+      requireInRange("rpy", rpy, limits::SHAPE_ANGLE);
+    }
+    if (node["radius"])
+      shape.radius = readDouble(where / "radius", node["radius"]);
+    if (node["length"])
+      shape.length = readDouble(where / "length", node["length"]);
+    if (node["size"])
+      shape.size = readVector(where / "size", node["size"]);
+    shape.rotation = rotationFromRpy(rpy);
+    validateShape(shape, "");
+  }
+  catch (const InvalidInput& e)
+  {
+    // the field is ".radius", ".size.x" or "rpy.z": name it at its line
+    std::string key = e.field();
+    if (!key.empty() && key[0] == '.')
+      key = key.substr(1);
+    const std::size_t dot = key.find('.');
+    const std::string top = dot == std::string::npos ? key : key.substr(0, dot);
+    const std::string message = e.what();
+    fail(where / key, node[top], message.substr(e.field().size() + 1));
+  }
+  return shape;
+}
+
 // Reads one record of a registry variant from a map with a `type` key, field by field.
 template <typename Variant>
 struct RecordReader
 {
-  const std::vector<NamedSurface>& surfaces;
+  const SceneDescription& scene;
   int num_particles;  ///< the scene's, for `particles: all`
 
   // records of `kind`; a record with a `particle` field may list `particles` instead, or give
@@ -252,7 +330,7 @@ struct RecordReader
       known.push_back("particles");
     checkKeys(where, node, known, std::string("a ") + Kind::KIND + " record");
     Kind record;
-    readFields(where, node, record, surfaces);
+    readFields(where, node, record, scene);
     // a field that may be left out (from_start) must be a valid value when it is given: NaN
     // written in the file is refused, not taken as "unset"
     forEachField<Kind>(
@@ -320,12 +398,11 @@ struct RecordReader
 // Reads a list of records (forces or constraints); `where_of` records each one's key for
 // validation messages.
 template <typename Variant>
-void readRecords(const Where& where, const YAML::Node& list,
-                 const std::vector<NamedSurface>& surfaces, int num_particles,
-                 std::vector<Variant>& out, std::vector<std::string>& where_of)
+void readRecords(const Where& where, const YAML::Node& list, const SceneDescription& scene,
+                 int num_particles, std::vector<Variant>& out, std::vector<std::string>& where_of)
 {
   requireSequence(where, list, "records, each a map with a type");
-  RecordReader<Variant> reader{ surfaces, num_particles };
+  RecordReader<Variant> reader{ scene, num_particles };
   for (std::size_t k = 0; k < list.size(); ++k)
   {
     const YAML::Node node = list[k];
@@ -348,12 +425,12 @@ void readRecords(const Where& where, const YAML::Node& list,
 // A map read into a described record (a particle, a chain) and checked against its ranges.
 template <typename Record>
 Record parseDescribed(const Where& where, const YAML::Node& node, const std::string& what,
-                      const std::vector<NamedSurface>& surfaces)
+                      const SceneDescription& scene)
 {
   requireMap(where, node, what);
   checkKeys(where, node, fieldNames<Record>(), what);
   Record record;
-  readFields(where, node, record, surfaces);
+  readFields(where, node, record, scene);
   try
   {
     validateFields(record, 0, 0, "");
@@ -394,8 +471,8 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
   if (!root.IsMap())
     throw InvalidInput(source, "must hold a map with the keys of a scene (see docs/scenes.md)");
   checkKeys(top, root,
-            { "name", "description", "surfaces", "particles", "chains", "forces", "constraints",
-              "solver", "region" },
+            { "name", "description", "surfaces", "shapes", "particles", "chains", "forces",
+              "constraints", "solver", "region" },
             "a scene");
   SceneDescription d;
   d.source = source;
@@ -418,12 +495,25 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
     }
   }
 
+  if (const YAML::Node shapes = root["shapes"])
+  {
+    requireMap(top / "shapes", shapes, "named obstacles (name: {type, position, rpy, ...})");
+    for (const auto& entry : shapes)
+    {
+      const std::string name = entry.first.as<std::string>();
+      for (const Shape& earlier : d.shapes)
+        if (earlier.name == name)
+          fail(top / "shapes" / name, entry.first, "appears twice among the shapes");
+      d.shapes.push_back(parseShape(top / "shapes" / name, entry.second, name));
+    }
+  }
+
   if (const YAML::Node particles = root["particles"])
   {
     requireSequence(top / "particles", particles, "particles, each {mass, position, velocity}");
     for (std::size_t k = 0; k < particles.size(); ++k)
-      d.particles.push_back(parseDescribed<ParticleSpec>((top / "particles")[k], particles[k],
-                                                         "a particle", d.surfaces));
+      d.particles.push_back(
+          parseDescribed<ParticleSpec>((top / "particles")[k], particles[k], "a particle", d));
   }
   if (const YAML::Node chains = root["chains"])
   {
@@ -431,11 +521,13 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
     for (std::size_t k = 0; k < chains.size(); ++k)
     {
       const Where at = (top / "chains")[k];
-      d.chains.push_back(parseDescribed<ChainSpec>(at, chains[k], "a chain", d.surfaces));
+      d.chains.push_back(parseDescribed<ChainSpec>(at, chains[k], "a chain", d));
       if (!d.chains.back().surface.empty())
         surfaceIndex(at / "surface", chains[k]["surface"], d.surfaces);
       if (!d.chains.back().contact.empty())
         surfaceIndex(at / "contact", chains[k]["contact"], d.surfaces);
+      for (std::size_t o = 0; o < d.chains.back().obstacles.size(); ++o)
+        shapeIndex((at / "obstacles")[o], chains[k]["obstacles"][o], d.shapes);
     }
   }
   if (d.numParticles() == 0)
@@ -451,21 +543,21 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
   std::vector<std::string> where_of;
   if (const YAML::Node forces = root["forces"])
   {
-    readRecords(top / "forces", forces, d.surfaces, n, d.forces, where_of);
+    readRecords(top / "forces", forces, d, n, d.forces, where_of);
     for (std::size_t k = 0; k < d.forces.size(); ++k)
       validateForce(d.forces[k], n, where_of[k]);
   }
   where_of.clear();
   if (const YAML::Node constraints = root["constraints"])
   {
-    readRecords(top / "constraints", constraints, d.surfaces, n, d.constraints, where_of);
+    readRecords(top / "constraints", constraints, d, n, d.constraints, where_of);
     for (std::size_t k = 0; k < d.constraints.size(); ++k)
       validateConstraint(d.constraints[k], n, num_surfaces, where_of[k], true);
   }
   if (const YAML::Node region = root["region"])
   {
     const Where at = top / "region";
-    const RegionSpec r = parseDescribed<RegionSpec>(at, region, "a region {low, high}", d.surfaces);
+    const RegionSpec r = parseDescribed<RegionSpec>(at, region, "a region {low, high}", d);
     for (int axis = 0; axis < 3; ++axis)
       if (!(r.low[axis] <= r.high[axis]))
       {
@@ -483,7 +575,7 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
     std::vector<std::string> known = fieldNames<StepSettings>();
     known.push_back("solve_method");
     checkKeys(at, solver, known, "solver settings");
-    readFields(at, solver, d.solver.values, d.surfaces);
+    readFields(at, solver, d.solver.values, d);
     for (const std::string& name : fieldNames<StepSettings>())
       if (solver[name])
         d.solver.given.push_back(name);
@@ -700,6 +792,14 @@ BuiltScene buildScene(const SceneDescription& d)
               (i == next - 1 && chain.pin_last)))
           scene.constraints.push_back(
               SurfaceContact{ i, contact, chain.friction, chain.restitution });
+    // each obstacle keeps every particle out, as a contact keeps them above its surface
+    for (const std::string& name : chain.obstacles)
+      for (const Shape& shape : d.shapes)
+        if (shape.name == name)
+          for (int i = first; i < next; ++i)
+            if (!((i == first && chain.pin_first) || (i == next - 1 && chain.pin_last)))
+              scene.constraints.push_back(
+                  ShapeContact{ i, shape, chain.radius, chain.friction, chain.restitution });
     if (chain.pin_first)
       scene.constraints.push_back(PinConstraint{ first, start });
     if (chain.pin_last)
@@ -739,12 +839,20 @@ BuiltScene buildScene(const SceneDescription& d)
   if (const BelowSurface below =
           deepestBelowSurface(scene.constraints, scene.surfaces, state.positions);
       below.contact)
+  {
+    std::vector<std::string> surface_names;
+    for (const NamedSurface& named : d.surfaces)
+      surface_names.push_back(named.name);
+    const bool surface = std::holds_alternative<SurfaceContact>(*below.contact);
     throw InvalidInput(
-        "particle " + std::to_string(below.contact->particle) + " position.z",
-        "= " + formatValue(state.positions(2, below.contact->particle)) +
-            " where the scene places it, " + formatValue(below.depth) + " m below surface '" +
-            d.surfaces[below.contact->surface].name +
-            "', which its surface_contact keeps it above; start it on or above the surface");
+        "particle " + std::to_string(below.particle) + (surface ? " position.z" : " position"),
+        "= [" + formatValue(state.positions(0, below.particle)) + ", " +
+            formatValue(state.positions(1, below.particle)) + ", " +
+            formatValue(state.positions(2, below.particle)) + "] where the scene places it, " +
+            formatValue(below.depth) + " m " + contactTargetText(*below.contact, surface_names) +
+            ", which its contact keeps it out of; start it on or above the "
+            "surface, outside the obstacle");
+  }
   // a value taken from the start (an angle) is checked like one written in the file
   for (std::size_t k = 0; k < d.constraints.size(); ++k)
     validateConstraint(scene.constraints[first_own + k], n, static_cast<int>(scene.surfaces.size()),

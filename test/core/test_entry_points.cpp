@@ -74,6 +74,8 @@ std::string validYaml(const Spec& spec, int& next_particle)
     return "[0.5, 0.25, 0.75]";
   else if constexpr (std::is_same_v<Member, bool>)
     return "false";
+  else if constexpr (std::is_same_v<Member, Shape>)
+    return "ball";  // checkRecordKind's scene defines it, clear of the particles
   else if constexpr (std::is_same_v<Member, std::string>)
     // a frame_anchor names a frame or a topic, not both: the topic is left empty
     return spec.kind == FieldKind::Surface     ? "ground"
@@ -140,6 +142,7 @@ void checkRecordKind(const std::string& list, int& checked)
 {
   const std::string scene_head =
       "surfaces: {ground: {type: bowl}}\n"
+      "shapes: {ball: {type: sphere, position: [5, 5, 5], radius: 0.5}}\n"
       "particles: [{position: [0, 0, 0]}, {position: [1, 0, 0]}, {position: [1, 1, 0]},\n"
       "            {position: [0, 1, 1]}]\n";
   forEachField<Kind>(

@@ -111,6 +111,18 @@ Kind randomRecord(Random& random)
           // a holder's names: a frame, not a topic (exactly one is set)
           member = std::string(spec.name) == "frame" ? "holder" : "";
         }
+        else if constexpr (std::is_same_v<Member, Shape>)
+        {
+          // any type, turned and moved, sized like the particles' spread
+          member.name = "obstacle";
+          member.type = static_cast<ShapeType>(static_cast<int>(random.uniform(0.0, 4.999)));
+          member.position = random.vector(1.0);
+          member.rotation = rotationFromRpy(random.vector(M_PI));
+          member.radius = random.uniform(0.2, 1.0);
+          member.length = random.uniform(0.2, 1.5);
+          member.size =
+              Vec3(random.uniform(0.2, 1.5), random.uniform(0.2, 1.5), random.uniform(0.2, 1.5));
+        }
         else
         {
           for (int& index : member)
@@ -325,6 +337,11 @@ TYPED_TEST(ConstraintKind, OutOfRangeFieldsAreRefusedNamingThem)
           bad.*(spec.member) = -1;
         else if constexpr (std::is_same_v<Member, std::string>)
           bad.*(spec.member) = (valid.*(spec.member)).empty() ? "other" : "";  // none, or both
+        else if constexpr (std::is_same_v<Member, Shape>)
+        {
+          (bad.*(spec.member)).type = ShapeType::Sphere;
+          (bad.*(spec.member)).radius = -1.0;
+        }
         else
           (bad.*(spec.member))[0] = PARTICLES;
         try

@@ -19,6 +19,7 @@
 #include "constrained_particles/core/effects/pin_constraint.hpp"
 #include "constrained_particles/core/effects/point_on_line.hpp"
 #include "constrained_particles/core/effects/point_on_plane.hpp"
+#include "constrained_particles/core/effects/shape_contact.hpp"
 #include "constrained_particles/core/effects/slack_link.hpp"
 #include "constrained_particles/core/effects/surface_constraint.hpp"
 #include "constrained_particles/core/effects/surface_contact.hpp"
@@ -29,10 +30,10 @@
 namespace constrained_particles
 {
 /// One constraint of a scene: the registry of constraint kinds.
-using Constraint =
-    std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
-                 PointOnLineConstraint, PointOnPlaneConstraint, MovingAnchorConstraint,
-                 CollinearConstraint, FrameAnchorConstraint, SurfaceContact, SlackLink>;
+using Constraint = std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
+                                PointOnLineConstraint, PointOnPlaneConstraint,
+                                MovingAnchorConstraint, CollinearConstraint, FrameAnchorConstraint,
+                                SurfaceContact, SlackLink, ShapeContact>;
 
 /// Number of constraint kinds.
 constexpr int NUM_CONSTRAINT_KINDS = static_cast<int>(std::variant_size_v<Constraint>);
@@ -190,32 +191,55 @@ inline bool isTracked(const Constraint& constraint)
                     constraint);
 }
 
-/// A surface_contact's particle below its surface: the record and how deep [m].
+/// A particle contact's (surface_contact, shape_contact) particle inside what it keeps out of:
+/// the record, its particle and how deep [m].
 struct BelowSurface
 {
-  const SurfaceContact* contact = nullptr;  ///< nullptr: none deeper than CONTACT_START_DEPTH
+  const Constraint* contact = nullptr;  ///< nullptr: none deeper than CONTACT_START_DEPTH
+  int particle = -1;
   double depth = 0.0;
 };
 
-/// The surface_contact of `constraints` whose particle lies deepest below its surface at
-/// `positions` (3 x n) [m], by more than CONTACT_START_DEPTH; particles with a zero entry in
-/// `inverse_masses` (held), when given, are skipped. A scene may not start one there
+/// The particle contact of `constraints` whose particle lies deepest inside its surface or
+/// obstacle at `positions` (3 x n) [m], by more than CONTACT_START_DEPTH; particles with a zero
+/// entry in `inverse_masses` (held), when given, are skipped. A scene may not start one there
 /// (scenes/scene_file.cpp) nor a teleport put one there (Simulator::setState).
 inline BelowSurface deepestBelowSurface(const std::vector<Constraint>& constraints,
                                         const std::vector<Surface>& surfaces,
                                         const Points& positions,
                                         const std::vector<double>* inverse_masses = nullptr)
 {
-  BelowSurface deepest{ nullptr, CONTACT_START_DEPTH };
+  BelowSurface deepest{ nullptr, -1, CONTACT_START_DEPTH };
   for (const Constraint& constraint : constraints)
-    if (const auto* contact = std::get_if<SurfaceContact>(&constraint))
-    {
-      const double depth = penetration(*contact, surfaces, positions);
-      const bool free = !inverse_masses || (*inverse_masses)[contact->particle] > 0.0;
-      if (free && depth > deepest.depth)
-        deepest = { contact, depth };
-    }
+    std::visit(
+        [&](const auto& contact)
+        {
+          if constexpr (IsParticleContact<std::decay_t<decltype(contact)>>::value)
+          {
+            const double depth = penetration(contact, surfaces, positions);
+            const bool free = !inverse_masses || (*inverse_masses)[contact.particle] > 0.0;
+            if (free && depth > deepest.depth)
+              deepest = { &constraint, contact.particle, depth };
+          }
+        },
+        constraint);
   return deepest;
+}
+
+/// Where a particle contact's particle is when it is too deep, for messages: "below surface
+/// 'ground'" (the name from `surface_names`, else its index) or "inside obstacle 'post' (a
+/// cylinder)".
+inline std::string contactTargetText(const Constraint& constraint,
+                                     const std::vector<std::string>& surface_names = {})
+{
+  if (const auto* surface = std::get_if<SurfaceContact>(&constraint))
+    return static_cast<std::size_t>(surface->surface) < surface_names.size()
+               ? "below surface '" + surface_names[surface->surface] + "'"
+               : "below surface " + std::to_string(surface->surface);
+  if (const auto* shape = std::get_if<ShapeContact>(&constraint))
+    return "inside obstacle '" + shape->shape.name + "' (a " + shapeTypeName(shape->shape.type) +
+           ")";
+  return kindOf(constraint);
 }
 
 /// The motion one eliminated record of kind `Kind` imposes at `time` [s]; a tracked kind reads

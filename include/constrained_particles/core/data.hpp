@@ -113,6 +113,12 @@ struct StepControl
   std::vector<ContactState> start_contacts;
   /// Energy the contacts' velocity jumps (impacts) took out in this attempt [J], for the ledger
   double contact_loss = 0.0;
+  /// A sub-step split at an impact (Simulator::attemptStep): the state and contact modes the
+  /// piece being taken started from, and the positions the time of impact is sought along
+  /// (impactFraction, contact.hpp); sized once, with contacts only
+  State piece_start;
+  std::vector<ContactState> piece_contacts;
+  Points impact_positions;
   /// The contact stage's last forward stage, at the state and time a step starts from
   /// (chooseContactModes, with the modes it chose): a step's first stage there finds its rows,
   /// multipliers, forces and Data::accelerations made, and solves nothing (counted as a reused

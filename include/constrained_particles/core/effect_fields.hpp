@@ -4,6 +4,7 @@
 #pragma once
 
 #include "constrained_particles/core/limits.hpp"
+#include "constrained_particles/core/shapes.hpp"
 #include "constrained_particles/core/types.hpp"
 
 #include <array>
@@ -12,6 +13,7 @@
 #include <tuple>
 #include <type_traits>
 #include <variant>
+#include <vector>
 
 namespace constrained_particles
 {
@@ -22,6 +24,7 @@ enum class FieldKind
   Particle,   ///< a particle index in [0, n)
   Particles,  ///< a fixed-size list of distinct particle indices
   Surface,    ///< an index into Scene::surfaces (a name in scene files)
+  Shape,      ///< an obstacle (shapes.hpp), held by value (a name under `shapes` in scene files)
   Vector,     ///< three doubles, each inside the range
   Direction,  ///< three doubles, each inside the range, not all zero
   Name,       ///< a name: one of a table (an integrator, a stabilisation), a frame, a path
@@ -108,7 +111,10 @@ void validateFields(const Record& record, int num_particles, int num_surfaces,
                                  spec.kind == FieldKind::Surface ? num_surfaces : num_particles,
                                  spec.kind == FieldKind::Surface);
         }
-        else if constexpr (std::is_same_v<Member, bool> || std::is_same_v<Member, std::string>)
+        else if constexpr (std::is_same_v<Member, Shape>)
+          validateShape(value, name);
+        else if constexpr (std::is_same_v<Member, bool> || std::is_same_v<Member, std::string> ||
+                           std::is_same_v<Member, std::vector<std::string>>)
         {
           // flags and names: any value reads as valid here; names are resolved by their reader
         }

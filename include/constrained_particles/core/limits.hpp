@@ -98,6 +98,14 @@ constexpr Range SURFACE_WAVENUMBER{ 0.0, false, 1e3, "rad/m", false };
 /// A Gaussian bump's width sigma [m].
 constexpr Range SURFACE_WIDTH{ 1e-6, false, 1e6, "m", false };
 
+// --- obstacle shapes (shapes.hpp) ---
+/// A shape's radius, length or side [m].
+constexpr Range SHAPE_SIZE{ 1e-6, false, 1e3, "m", false };
+/// A shape's roll, pitch or yaw [rad] (URDF's rpy: about fixed x, then y, then z).
+constexpr Range SHAPE_ANGLE{ -1e3, false, 1e3, "rad", false };
+/// A particle's radius against obstacles [m] (a rope's thickness / 2); 0: a point.
+constexpr Range PARTICLE_RADIUS{ 0.0, false, 10.0, "m", false };
+
 // --- constraints ---
 /// The angle an angle constraint holds at its vertex [rad]. Straight (pi) and folded (0) are
 /// refused: there the angle has no gradient (a straight joint bends two ways; one row holds one;

@@ -197,15 +197,18 @@ struct EliminatedBlock
   int eliminated;  ///< index in eliminated() of the record holding its particle
 };
 
-/// One row the contact stage switches on and off (Model::unilateral()): a surface contact's or a
-/// slack link's, its index in its kind's table.
+/// One row the contact stage switches on and off (Model::unilateral()): a particle contact's
+/// (a kind with PARTICLE_CONTACT: surface_contact, shape_contact) or a slack link's.
 struct UnilateralRecord
 {
-  int row = 0;            ///< its row
-  int block = 0;          ///< its first Jacobian block
-  int table = 0;          ///< its index in its kind's table (SurfaceContact's or SlackLink's)
-  bool link = false;      ///< a SlackLink (else a SurfaceContact)
-  int particles[2] = {};  ///< the particles it touches (a contact's twice)
+  int row = 0;             ///< its row
+  int block = 0;           ///< its first Jacobian block
+  int table = 0;           ///< its index in its kind's table
+  int constraint = 0;      ///< its index in Scene::constraints
+  bool link = false;       ///< a SlackLink (else a particle contact)
+  int particles[2] = {};   ///< the particles it touches (a contact's twice)
+  double friction = 0.0;   ///< a contact's Coulomb mu [1] (a link's 0)
+  double restitution = 0;  ///< a contact's Newton e [1] (a link's 0)
 };
 
 /// A validated scene plus the structure the solver needs. Constant during a run.
@@ -414,18 +417,24 @@ public:
   {
     return chain_unlinked_;
   }
-  /// Number of rows that switch on and off (contact.hpp): the SurfaceContact records, then the
-  /// SlackLink records, each kind in its table's order, as Data::contacts holds them. A scene with
+  /// Number of rows that switch on and off (contact.hpp): the particle contacts (each
+  /// PARTICLE_CONTACT kind in registry order), then the SlackLink records, each kind in its
+  /// table's order, as Data::contacts holds them. A scene with
   /// any takes the generic stages and the tree solve (automatic, where particles and rows form a
   /// forest), the sparse or the dense one; tridiagonal and single are refused.
   int numContacts() const
   {
     return static_cast<int>(unilateral_.size());
   }
-  /// Those rows, surface contacts first (Data::contacts' order).
+  /// Those rows, particle contacts first (Data::contacts' order).
   const std::vector<UnilateralRecord>& unilateral() const
   {
     return unilateral_;
+  }
+  /// How many of unilateral()'s first rows are particle contacts (the rest are slack links).
+  int numParticleContacts() const
+  {
+    return num_particle_contacts_;
   }
   /// Throws InvalidInput unless the state has this model's particle count and is finite.
   /// @param field name used in messages, e.g. "state"
@@ -464,8 +473,18 @@ private:
   int chain_surface_rows_ = 0;
   std::vector<int> chain_surface_records_;
   std::vector<UnilateralRecord> unilateral_;
+  int num_particle_contacts_ = 0;
   PathChoice path_;
 };
+
+/// The frame of particle contact `record` (one of model.unilateral()'s first
+/// numParticleContacts()) at positions p [m] and velocities v [m/s] (3 x n): its kind's
+/// contactFrame(). Stateless.
+ContactFrame contactFrame(const Model& model, const UnilateralRecord& record, const Points& p,
+                          const Points& v);
+
+/// How deep particle contact `record`'s particle is inside what it keeps out of [m] (0 outside).
+double penetration(const Model& model, const UnilateralRecord& record, const Points& p);
 
 /// A free particle exactly two rows touch (in a chain, what couples a row to the next): the
 /// particle and its touches by the earlier and the later row.

@@ -18,7 +18,8 @@ constexpr const char* CONTACT_FORCE_NAMESPACE = "contact_forces";
 /// With ~force_scale 0 the largest arrow is this share of the region's radius [1].
 constexpr double FORCE_ARROW_FRACTION = 0.15;
 
-/// The diameter particles are drawn with [m]: 0.3 of the shortest link (0.15 m without links).
+/// The diameter particles are drawn with [m]: the rope's (twice its shape_contact radius) if it
+/// has one, else 0.3 of the shortest link (0.15 m without links).
 double particleSize(const Model& model);
 
 /// With ~force_scale 0, forces below this share of the scene's weight (total mass x 9.81 m/s^2)
@@ -57,6 +58,13 @@ visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& head
 visualization_msgs::MarkerArray surfaceMarkers(const std_msgs::Header& header, const Model& model,
                                                const Vec3& region_low, const Vec3& region_high,
                                                int cells);
+
+/// The scene's obstacles (shape_contact records' shapes, each once by name), ns "obstacles", one
+/// marker per shape (a capsule: a CYLINDER and two SPHEREs), posed as the shapes are; a plane as
+/// a thin CUBE over the region's extent. DELETEALL first, so a scene change leaves none of the
+/// last scene's. Made once per scene (~obstacles, latched).
+visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const Model& model,
+                                                const Vec3& region_low, const Vec3& region_high);
 
 /// Scene markers: particles (SPHERE_LIST, ns "particles") and links (LINE_LIST, ns "links"; a
 /// DELETE when there are none).

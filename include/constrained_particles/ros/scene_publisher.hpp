@@ -38,7 +38,7 @@ private:
   void publishAccuracy(const Snapshot& snap, const std_msgs::Header& header);
 
   const NodeParameters parameters_;
-  ros::Publisher arrows_, scene_, particles_, surface_, view_, accuracy_;
+  ros::Publisher arrows_, scene_, particles_, surface_, obstacles_, view_, accuracy_;
   std::uint64_t published_scene_serial_ = 0, published_accuracy_serial_ = 0;
   int published_arrows_ = 0;
   int published_contact_arrows_ = 0;  // contact arrow ids sent last: more are deleted

@@ -52,6 +52,8 @@ struct ChainSpec
   double friction = 0.0;     ///< the contacts' Coulomb mu [1]
   double restitution = 0.0;  ///< the contacts' Newton e [1]
   bool slack = false;        ///< links that go slack: at most link_length, pulling only taut
+  std::vector<std::string> obstacles;  ///< shapes every particle stays out of (shape_contact)
+  double radius = 0.0;                 ///< the chain's radius against its obstacles [m]
 
   static constexpr auto fields()
   {
@@ -81,7 +83,12 @@ struct ChainSpec
         field("restitution", &ChainSpec::restitution, FieldKind::Number, &limits::RESTITUTION,
               "the contacts' Newton e"),
         field("slack", &ChainSpec::slack, FieldKind::Flag, nullptr,
-              "its links go slack (slack_link): at most link_length apart, pulling only taut"));
+              "its links go slack (slack_link): at most link_length apart, pulling only taut"),
+        field("obstacles", &ChainSpec::obstacles, FieldKind::Name, nullptr,
+              "names of shapes every particle stays out of (a shape_contact each, with the "
+              "chain's friction and restitution)"),
+        field("radius", &ChainSpec::radius, FieldKind::Number, &limits::PARTICLE_RADIUS,
+              "the chain's radius against its obstacles (half the rope's thickness)"));
   }
 };
 
@@ -158,6 +165,7 @@ struct SceneDescription
   std::string description;  ///< one line for humans
   std::string source;       ///< file it came from, for messages ("" if parsed from text)
   std::vector<NamedSurface> surfaces;
+  std::vector<Shape> shapes;  ///< obstacles, each named (Shape::name) by its key under `shapes`
   std::vector<ParticleSpec> particles;
   std::vector<ChainSpec> chains;
   std::vector<Force> forces;

@@ -31,6 +31,7 @@ struct SurfaceContact
   static constexpr bool ELIMINATED = false;
   static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
   static constexpr bool UNILATERAL = true;           ///< rows switch on and off (contact.hpp)
+  static constexpr bool PARTICLE_CONTACT = true;     ///< one particle against the world
   static constexpr int ROWS = 1;                     ///< the normal row
   static constexpr int PARTICLES = 1;                ///< on particle i
   static constexpr auto fields()
@@ -59,6 +60,19 @@ struct IsUnilateral : std::false_type
 template <class Kind>
 struct IsUnilateral<Kind, std::void_t<decltype(Kind::UNILATERAL)>>
   : std::bool_constant<Kind::UNILATERAL>
+{
+};
+
+/// A kind that holds one particle off the world (a surface, an obstacle) declares `static
+/// constexpr bool PARTICLE_CONTACT = true` and gives `particle`, `friction`, `restitution`,
+/// contactFrame() and penetration(): the contact stage treats every such kind alike.
+template <class Kind, class = void>
+struct IsParticleContact : std::false_type
+{
+};
+template <class Kind>
+struct IsParticleContact<Kind, std::void_t<decltype(Kind::PARTICLE_CONTACT)>>
+  : std::bool_constant<Kind::PARTICLE_CONTACT>
 {
 };
 
@@ -108,15 +122,34 @@ inline ContactFrame contactFrame(const SurfaceContact& contact,
   return f;
 }
 
-/// The row at (p, v) as if active (the contact stage zeroes it when off). Stateless.
-inline void evaluateRows(const SurfaceContact& contact, const EffectContext& context,
-                         const Points& positions, const Points& velocities, RowBlock out)
+/// A particle contact's row at (p, v) as if active, from its kind's contactFrame() (the contact
+/// stage zeroes it when off): J = the frame's normal, C = its gap, Jdot v its curvature term.
+template <typename Contact>
+void evaluateContactRow(const Contact& contact, const EffectContext& context,
+                        const Points& positions, const Points& velocities, RowBlock out)
 {
   const ContactFrame f = contactFrame(contact, context.surfaces, positions, velocities);
   out.jacobian[0] = f.normal;
   out.value[0] = f.gap;
   out.jdot_v[0] = f.curvature_term;
   out.violation[0] = std::abs(f.gap);
+}
+
+/// A particle contact on or in what it keeps out of: its approach speed max(0, -Cdot) [m/s];
+/// clear of it, 0 (it may leave).
+template <typename Contact>
+void contactViolationRate(const Contact& contact, const EffectContext& context,
+                          const Points& positions, const Points& velocities, double* rates)
+{
+  const ContactFrame f = contactFrame(contact, context.surfaces, positions, velocities);
+  rates[0] = f.gap > 0.0 ? 0.0 : std::max(0.0, -f.normal.dot(velocities.col(contact.particle)));
+}
+
+/// The row at (p, v) as if active (the contact stage zeroes it when off). Stateless.
+inline void evaluateRows(const SurfaceContact& contact, const EffectContext& context,
+                         const Points& positions, const Points& velocities, RowBlock out)
+{
+  evaluateContactRow(contact, context, positions, velocities, out);
 }
 
 /// Geometric stiffness (stability.hpp): a surface row's (C is minus its, the Hessian's size alike).
@@ -132,8 +165,7 @@ inline void addGeometricStiffness(const SurfaceContact& contact, const EffectCon
 inline void violationRates(const SurfaceContact& contact, const EffectContext& context,
                            const Points& positions, const Points& velocities, double* rates)
 {
-  const ContactFrame f = contactFrame(contact, context.surfaces, positions, velocities);
-  rates[0] = f.gap > 0.0 ? 0.0 : std::max(0.0, -f.normal.dot(velocities.col(contact.particle)));
+  contactViolationRate(contact, context, positions, velocities, rates);
 }
 
 /// How far below the surface the particle is, max(0, -C) [m]: a contact's position error

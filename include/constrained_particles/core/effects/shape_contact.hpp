@@ -1,0 +1,113 @@
+/// @file shape_contact.hpp
+/// @brief A particle of radius r that cannot enter an obstacle (shapes.hpp): a unilateral contact
+/// with Coulomb friction, one row that the contact stage (src/core/contact.hpp) switches on and
+/// off exactly as a surface contact's. docs/physics.md, "Obstacles".
+#pragma once
+
+#include "constrained_particles/core/effect_fields.hpp"
+#include "constrained_particles/core/effects/row_block.hpp"
+#include "constrained_particles/core/effects/surface_contact.hpp"
+#include "constrained_particles/core/shapes.hpp"
+
+#include <array>
+#include <cmath>
+#include <vector>
+
+namespace constrained_particles
+{
+/// Particle i (a ball of radius r) outside shape S:  C = d_S(p_i) - r >= 0 [m], d_S the shape's
+/// signed distance, with multiplier lambda_n >= 0 and lambda_n C = 0: one row, J = grad d_S (unit,
+/// so lambda_n is the normal force [N]), Jdot v = v^T (Hessian of d_S) v. Friction and impacts as
+/// a surface contact's (surface_contact.hpp).
+struct ShapeContact
+{
+  int particle = 0;          ///< particle i
+  Shape shape;               ///< the obstacle, in the world frame
+  double radius = 0.0;       ///< r [m]: the particle's, or the rope's, thickness / 2
+  double friction = 0.0;     ///< Coulomb coefficient mu [1]; 0: frictionless
+  double restitution = 0.0;  ///< Newton's coefficient e [1]
+
+  static constexpr const char* KIND = "shape_contact";
+  static constexpr bool ELIMINATED = false;
+  static constexpr bool GALILEAN_INVARIANT = false;  ///< acts from outside (Model::isolated())
+  static constexpr bool UNILATERAL = true;           ///< rows switch on and off (contact.hpp)
+  static constexpr bool PARTICLE_CONTACT = true;     ///< one particle against the world
+  static constexpr int ROWS = 1;
+  static constexpr int PARTICLES = 1;
+  static constexpr auto fields()
+  {
+    return std::make_tuple(
+        field("particle", &ShapeContact::particle, FieldKind::Particle, nullptr, "particle i"),
+        field("shape", &ShapeContact::shape, FieldKind::Shape, nullptr,
+              "the obstacle it stays out of (a name under `shapes` in scene files)"),
+        field("radius", &ShapeContact::radius, FieldKind::Number, &limits::PARTICLE_RADIUS,
+              "r: the particle's radius against the shape"),
+        field("friction", &ShapeContact::friction, FieldKind::Number, &limits::FRICTION,
+              "Coulomb's mu: sticks while |f_t| <= mu |f_n| (0: frictionless)"),
+        field("restitution", &ShapeContact::restitution, FieldKind::Number, &limits::RESTITUTION,
+              "Newton's e: normal speed after an impact over before"));
+  }
+};
+
+/// Particles the row touches.
+inline std::array<int, 1> rowParticles(const ShapeContact& contact)
+{
+  return { { contact.particle } };
+}
+
+/// The contact's frame at positions p [m], velocities v [m/s]: J = the shape's unit normal,
+/// C = distance - r, Jdot v = v^T H v. Stateless.
+inline ContactFrame contactFrame(const ShapeContact& contact,
+                                 const std::vector<Surface>& /*surfaces*/, const Points& positions,
+                                 const Points& velocities)
+{
+  const Vec3 v = velocities.col(contact.particle);
+  const ShapeSample s = evaluateShape(contact.shape, positions.col(contact.particle));
+  ContactFrame f;
+  f.normal = s.normal;
+  f.gap = s.distance - contact.radius;
+  f.curvature_term = v.dot(s.hessian * v);
+  return f;
+}
+
+/// The row at (p, v) as if active (the contact stage zeroes it when off). Stateless.
+inline void evaluateRows(const ShapeContact& contact, const EffectContext& context,
+                         const Points& positions, const Points& velocities, RowBlock out)
+{
+  evaluateContactRow(contact, context, positions, velocities, out);
+}
+
+/// Geometric stiffness (stability.hpp): |lambda| times the row Hessian's largest row sum
+/// (its infinity norm) [N/m], added to the particle's entry as the other kinds add theirs.
+inline void addGeometricStiffness(const ShapeContact& contact, const EffectContext& /*context*/,
+                                  const Points& positions, const double* multipliers,
+                                  double* stiffness)
+{
+  const ShapeSample s = evaluateShape(contact.shape, positions.col(contact.particle));
+  stiffness[contact.particle] +=
+      std::abs(multipliers[0]) * s.hessian.cwiseAbs().rowwise().sum().maxCoeff();
+}
+
+/// On or inside the shape, the approach speed max(0, -Cdot) [m/s]; outside, 0 (it may leave).
+inline void violationRates(const ShapeContact& contact, const EffectContext& context,
+                           const Points& positions, const Points& velocities, double* rates)
+{
+  contactViolationRate(contact, context, positions, velocities, rates);
+}
+
+/// How deep inside the shape the particle's ball is, max(0, -C) [m].
+inline double penetration(const ShapeContact& contact, const std::vector<Surface>& /*surfaces*/,
+                          const Points& positions)
+{
+  return std::max(
+      0.0, contact.radius - evaluateShape(contact.shape, positions.col(contact.particle)).distance);
+}
+
+/// @throws InvalidInput naming the bad field
+inline void validate(const ShapeContact& contact, int num_particles, int num_surfaces,
+                     const std::string& prefix, bool allow_unset = false)
+{
+  validateFields(contact, num_particles, num_surfaces, prefix, allow_unset);
+}
+
+}  // namespace constrained_particles

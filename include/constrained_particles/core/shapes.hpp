@@ -1,0 +1,71 @@
+/// @file shapes.hpp
+/// @brief Obstacle shapes a particle cannot enter: plane, sphere, box, capsule and cylinder, each
+/// a closed-form signed distance with its gradient and Hessian (the contact row's J and Jdot v are
+/// read from them, exactly). Conventions are URDF's and FCL's: a shape sits at `position`, turned
+/// by roll-pitch-yaw `rpy`; a box's `size` is its full sides, a cylinder's and a capsule's axis is
+/// their local z with `length` the straight part, centred. docs/physics.md, "Obstacles".
+///
+/// Why closed forms and not FCL: these five shapes' distances are exact in a few lines and their
+/// Hessians (which the row's Jdot v needs) are not something FCL gives; meshes and URDF geometry,
+/// where a library earns its keep, go through FCL when they land (issue 48, item 1).
+#pragma once
+
+#include "constrained_particles/core/types.hpp"
+
+#include <string>
+#include <vector>
+
+namespace constrained_particles
+{
+/// Kinds of obstacle.
+enum class ShapeType
+{
+  Plane,     ///< the half-space below the local x-y plane (its normal is the local z)
+  Sphere,    ///< radius
+  Box,       ///< size: full side lengths along the local x, y, z
+  Capsule,   ///< radius, length: a segment of `length` along the local z, thickened by radius
+  Cylinder,  ///< radius, length: along the local z, flat ends
+};
+
+/// One obstacle, fixed in the world frame.
+struct Shape
+{
+  std::string name;  ///< for messages and markers (its key under `shapes` in a scene file)
+  ShapeType type = ShapeType::Sphere;
+  Vec3 position = Vec3::Zero();  ///< its origin (centre; a plane: a point on it) [m]
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< world from local [1]
+  double radius = 0.5;                                     ///< sphere, capsule, cylinder [m]
+  double length = 1.0;       ///< capsule's segment, cylinder's height [m]
+  Vec3 size = Vec3::Ones();  ///< box's full sides [m]
+};
+
+/// The signed distance from a point to a shape's surface and its derivatives, in the world frame.
+struct ShapeSample
+{
+  double distance = 0.0;                              ///< > 0 outside, < 0 inside [m]
+  Vec3 normal = Vec3::UnitZ();                        ///< its gradient: unit, outward [1]
+  Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();  ///< its second derivatives [1/m]
+};
+
+/// The signed distance of point `p` [m] (world) from `shape`, with its gradient and Hessian.
+/// Outside, the distance is C1 (its Hessian jumps between a face and an edge); inside, it is the
+/// nearest face's (a box, a cylinder: their pieces meet at edges). At a point where the gradient
+/// is undefined (a sphere's or a capsule's centre, a cylinder's axis) the local +z is taken.
+/// Stateless; no allocation.
+ShapeSample evaluateShape(const Shape& shape, const Vec3& p);
+
+/// World from local for roll, pitch, yaw [rad] (URDF: about fixed x, then y, then z).
+Eigen::Matrix3d rotationFromRpy(const Vec3& rpy);
+
+/// "plane", "sphere", ...
+const char* shapeTypeName(ShapeType type);
+/// Every type's name, in enum order.
+std::vector<std::string> shapeTypeNames();
+/// @throws InvalidInput naming `field` and the valid names
+ShapeType parseShapeType(const std::string& name, const std::string& field);
+
+/// Throws InvalidInput naming `field`.<member> unless every size is in limits::SHAPE_SIZE, the
+/// position in limits::COORDINATE and the rotation orthonormal.
+void validateShape(const Shape& shape, const std::string& field);
+
+}  // namespace constrained_particles

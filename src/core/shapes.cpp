@@ -1,0 +1,194 @@
+#include "constrained_particles/core/shapes.hpp"
+
+#include "constrained_particles/core/limits.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace constrained_particles
+{
+namespace
+{
+const char* const SHAPE_NAMES[] = { "plane", "sphere", "box", "capsule", "cylinder" };
+constexpr int NUM_SHAPE_TYPES = 5;
+
+using Mat3 = Eigen::Matrix3d;
+
+// Distance r from a point set at offset w (its nearest point at w's foot) whose level sets curve
+// only in the directions of `projector`: d = |w| - radius, n = w / |w|, H = (P - n n^T) / |w|
+// (a sphere's P = I; a cylinder's side and a capsule's, P = I - z z^T: they do not vary along z)
+ShapeSample roundDistance(const Vec3& w, double radius, const Mat3& projector)
+{
+  ShapeSample s;
+  const double r = w.norm();
+  s.distance = r - radius;
+  if (!(r > 0.0))
+    return s;  // on the centre or the axis: no gradient, the local +z (shapes.hpp)
+  s.normal = w / r;
+  s.hessian = (projector - s.normal * s.normal.transpose()) / r;
+  return s;
+}
+
+ShapeSample cylinderDistance(const Vec3& q, double radius, double half_length)
+{
+  const Vec3 xy(q.x(), q.y(), 0.0);
+  const double rho = xy.norm();
+  const Vec3 radial = rho > 0.0 ? Vec3(xy / rho) : Vec3::UnitX();
+  const Vec3 around = Vec3::UnitZ().cross(radial);  // e_phi
+  const Vec3 axial = q.z() < 0.0 ? Vec3(-Vec3::UnitZ()) : Vec3::UnitZ();
+  const double dr = rho - radius, h = std::abs(q.z()) - half_length;
+  ShapeSample s;
+  if (dr > 0.0 && h > 0.0)
+  {
+    // nearest the rim circle: in the meridian plane (radial, axial) the distance to a point,
+    // (I - n n^T) / d there; around the axis, its radial rate over rho (cylindrical coordinates)
+    const double d = std::hypot(dr, h);
+    const double nr = dr / d, nz = h / d;
+    s.distance = d;
+    s.normal = nr * radial + nz * axial;
+    const double m00 = (1.0 - nr * nr) / d, m01 = -nr * nz / d, m11 = (1.0 - nz * nz) / d;
+    s.hessian = m00 * radial * radial.transpose() +
+                m01 * (radial * axial.transpose() + axial * radial.transpose()) +
+                m11 * axial * axial.transpose() + (nr / rho) * around * around.transpose();
+    return s;
+  }
+  if (dr >= h)  // the side nearest (outside, or inside and nearer than the ends)
+  {
+    s.distance = dr;
+    s.normal = radial;
+    if (rho > 0.0)
+      s.hessian = around * around.transpose() / rho;
+    return s;
+  }
+  s.distance = h;  // an end face nearest
+  s.normal = axial;
+  return s;
+}
+
+ShapeSample boxDistance(const Vec3& q, const Vec3& half)
+{
+  ShapeSample s;
+  Vec3 w = Vec3::Zero();
+  Mat3 projector = Mat3::Zero();
+  bool outside = false;
+  int nearest = 0;
+  double deepest = -std::numeric_limits<double>::infinity();
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    const double excess = std::abs(q[axis]) - half[axis];
+    const double sign = q[axis] < 0.0 ? -1.0 : 1.0;
+    if (excess > 0.0)
+    {
+      outside = true;
+      w[axis] = sign * excess;
+      projector(axis, axis) = 1.0;
+    }
+    if (excess > deepest)
+    {
+      deepest = excess;
+      nearest = axis;
+    }
+  }
+  if (outside)  // nearest a face (one axis out), an edge (two) or a corner (three)
+    return roundDistance(w, 0.0, projector);
+  s.distance = deepest;  // inside: the nearest face's plane
+  s.normal = Vec3::Zero();
+  s.normal[nearest] = q[nearest] < 0.0 ? -1.0 : 1.0;
+  return s;
+}
+
+}  // namespace
+
+ShapeSample evaluateShape(const Shape& shape, const Vec3& p)
+{
+  const Vec3 q = shape.rotation.transpose() * (p - shape.position);  // local
+  ShapeSample local;
+  switch (shape.type)
+  {
+    case ShapeType::Plane:
+      local.distance = q.z();
+      break;
+    case ShapeType::Sphere:
+      local = roundDistance(q, shape.radius, Mat3::Identity());
+      break;
+    case ShapeType::Box:
+      local = boxDistance(q, 0.5 * shape.size);
+      break;
+    case ShapeType::Capsule:
+    {
+      const double half = 0.5 * shape.length;
+      const double foot = std::clamp(q.z(), -half, half);
+      Mat3 projector = Mat3::Identity();
+      if (std::abs(q.z()) <= half)
+        projector(2, 2) = 0.0;  // beside the segment: no curvature along it
+      local = roundDistance(q - foot * Vec3::UnitZ(), shape.radius, projector);
+      break;
+    }
+    case ShapeType::Cylinder:
+      local = cylinderDistance(q, shape.radius, 0.5 * shape.length);
+      break;
+  }
+  ShapeSample world;
+  world.distance = local.distance;
+  world.normal = shape.rotation * local.normal;
+  world.hessian = shape.rotation * local.hessian * shape.rotation.transpose();
+  return world;
+}
+
+Eigen::Matrix3d rotationFromRpy(const Vec3& rpy)
+{
+  return (Eigen::AngleAxisd(rpy.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(rpy.y(), Vec3::UnitY()) *
+          Eigen::AngleAxisd(rpy.x(), Vec3::UnitX()))
+      .toRotationMatrix();
+}
+
+const char* shapeTypeName(ShapeType type)
+{
+  return SHAPE_NAMES[static_cast<int>(type)];
+}
+
+std::vector<std::string> shapeTypeNames()
+{
+  return std::vector<std::string>(SHAPE_NAMES, SHAPE_NAMES + NUM_SHAPE_TYPES);
+}
+
+ShapeType parseShapeType(const std::string& name, const std::string& field)
+{
+  for (int i = 0; i < NUM_SHAPE_TYPES; ++i)
+    if (name == SHAPE_NAMES[i])
+      return static_cast<ShapeType>(i);
+  std::string valid;
+  for (int i = 0; i < NUM_SHAPE_TYPES; ++i)
+    valid += std::string(i ? ", " : "") + SHAPE_NAMES[i];
+  throw InvalidInput(field, "= '" + name + "' is not a shape type; valid: " + valid);
+}
+
+void validateShape(const Shape& shape, const std::string& field)
+{
+  requireInRange(field + ".position", shape.position, limits::COORDINATE);
+  if (!shape.rotation.allFinite() ||
+      !((shape.rotation.transpose() * shape.rotation - Mat3::Identity()).norm() <= 1e-9) ||
+      !(shape.rotation.determinant() > 0.0))
+    throw InvalidInput(field + ".rpy", "gives no rotation (the rotation is not orthonormal)");
+  switch (shape.type)
+  {
+    case ShapeType::Plane:
+      break;
+    case ShapeType::Sphere:
+      requireInRange(field + ".radius", shape.radius, limits::SHAPE_SIZE);
+      break;
+    case ShapeType::Box:
+      requireInRange(field + ".size", shape.size, limits::SHAPE_SIZE);
+      break;
+    case ShapeType::Capsule:
+    case ShapeType::Cylinder:
+      requireInRange(field + ".radius", shape.radius, limits::SHAPE_SIZE);
+      requireInRange(field + ".length", shape.length, limits::SHAPE_SIZE);
+      break;
+  }
+}
+
+}  // namespace constrained_particles
