@@ -342,8 +342,10 @@ double impactFraction(const Model& model, Data& data, const Points& p0, const Po
   double earliest = NAN;
   for (std::size_t k = 0; k < rows.size(); ++k)
   {
-    if (acts(data.contacts[k]) || held(model, rows[k]) ||
-        !(touchOf(model, rows[k], x.positions, x.velocities).gap < -tolerance))
+    const Touch touch = touchOf(model, rows[k], x.positions, x.velocities);
+    // a contact in but moving out is no impact (resolveImpacts lifts it): no time to meet
+    if (acts(data.contacts[k]) || held(model, rows[k]) || !(touch.gap < -tolerance) ||
+        (!rows[k].link && touch.opening > 0.0))
       continue;
     if (!copied)
       p = x.positions;  // the other particles' columns are not read: rows touch their own
@@ -394,6 +396,42 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
   // contact below its surface: again, until none is (each round switches one on at least)
   for (std::size_t round = 0; round <= rows.size(); ++round)
   {
+    // a contact in but moving out is not an impact: its method's path bent past a surface the
+    // motion leaves (semi-implicit Euler's drift, dt^2 a where the motion's is dt^2 a / 2, lands
+    // a bead leaving a dome inside it until z = R / 2): its particle is lifted out, positions
+    // only, and keeps its velocity; an impulse there would hold it on
+    bool lift = false;
+    for (std::size_t k = 0; k < contacts; ++k)
+    {
+      ContactState& contact = data.contacts[k];
+      const int i = rows[k].particles[0];
+      if (acts(contact) || !(model.inverseMasses()[i] > 0.0))
+        continue;
+      const ContactFrame frame = contactFrame(model, rows[k], x.positions, x.velocities);
+      if (frame.gap < -settings.projection_tolerance &&
+          frame.normalSpeed(x.velocities.col(i)) > 0.0)
+      {
+        contact.mode = ContactMode::Sliding;
+        contact.lifting = true;
+        lift = true;
+      }
+    }
+    if (lift)
+    {
+      if (std::isnan(before))
+        before = kineticEnergy(model, x) + potentialEnergy(model, x);
+      writeContactRows(model, data);
+      projectPositions(model, data, x.time, x.positions, settings.projection_tolerance,
+                       settings.projection_max_iterations);
+      for (ContactState& contact : data.contacts)
+        if (contact.lifting)
+        {
+          switchOff(contact);
+          contact.lifting = false;
+        }
+      writeContactRows(model, data);
+      data.noteStateChange();
+    }
     restitution.setZero();
     bool impact = false, bounce = false;
     // a slack link stretched past its length: it jerks taut (inelastic, with the rows)

@@ -449,8 +449,9 @@ PathChoice choosePathOf(const Model& model, StagePaths paths, const std::string&
     return { ForwardPath::Generic, "no constraint rows to solve" };
   if (model.numContacts() > 0)
     return { ForwardPath::Generic,
-             std::string("surface_contact or slack_link rows switch on and off: the generic "
-                         "stages and the ") +
+             std::string(
+                 "surface_contact, shape_contact or slack_link rows switch on and off: the generic "
+                 "stages and the ") +
                  solveMethodName(model.solveMethod()) + " solve" };
   if (model.solveMethod() == SolveMethod::Tridiagonal)
     return { ForwardPath::Generic, "a chain, but " + chain_why_not };
@@ -608,6 +609,36 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
                           slack_table[k].constraint,
                           true,
                           { slack_table[k].record.first, slack_table[k].record.second } });
+  // two contacts of one particle with one obstacle: identical rows, J W J^T singular (sorted by
+  // particle, each particle's few contacts compared: O(n log n))
+  const auto& shape_table = std::get<std::vector<KindRecord<ShapeContact>>>(model.kind_tables_);
+  std::vector<std::size_t> order(shape_table.size());
+  for (std::size_t k = 0; k < order.size(); ++k)
+    order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b)
+                   { return shape_table[a].record.particle < shape_table[b].record.particle; });
+  for (std::size_t first = 0; first < order.size();)
+  {
+    std::size_t last = first;
+    while (last < order.size() &&
+           shape_table[order[last]].record.particle == shape_table[order[first]].record.particle)
+      ++last;
+    for (std::size_t k = first + 1; k < last; ++k)
+      for (std::size_t earlier = first; earlier < k; ++earlier)
+      {
+        const auto& a = shape_table[order[earlier]];
+        const auto& b = shape_table[order[k]];
+        if (a.record.shape.name == b.record.shape.name)
+          throw InvalidInput(
+              "constraints[" + std::to_string(std::max(a.constraint, b.constraint)) + "].shape",
+              "= " + b.record.shape.name + " keeps particle " + std::to_string(b.record.particle) +
+                  " out already (constraints[" +
+                  std::to_string(std::min(a.constraint, b.constraint)) +
+                  "]): a second contact with it is redundant");
+      }
+    first = last;
+  }
   for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kind_tables_))
   {
     for (const auto& row : std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kind_tables_))
@@ -633,7 +664,7 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
            method != SolveMethod::Sparse && method != SolveMethod::Dense)
     throw InvalidInput("solve_method",
                        std::string("= ") + solveMethodName(method) +
-                           ", but the scene has surface_contact or slack_link rows, which "
+                           ", but the scene has contact or slack_link rows, which "
                            "switch on and off; use automatic, tree, sparse or dense");
   else if (method == SolveMethod::Automatic)
   {

@@ -28,7 +28,9 @@ ShapeSample roundDistance(const Vec3& w, double radius, const Mat3& projector)
   if (!(r > 0.0))
     return s;  // on the centre or the axis: no gradient, the local +z (shapes.hpp)
   s.normal = w / r;
-  s.hessian = (projector - s.normal * s.normal.transpose()) / r;
+  // a box's edge or corner, a cylinder's rim: curvature 1 / r, unbounded on them for a particle
+  // of radius 0; taken as rounded by MIN_CURVATURE_RADIUS there (Jdot v stays finite)
+  s.hessian = (projector - s.normal * s.normal.transpose()) / std::max(r, MIN_CURVATURE_RADIUS);
   return s;
 }
 
@@ -50,9 +52,12 @@ ShapeSample cylinderDistance(const Vec3& q, double radius, double half_length)
     s.distance = d;
     s.normal = nr * radial + nz * axial;
     const double m00 = (1.0 - nr * nr) / d, m01 = -nr * nz / d, m11 = (1.0 - nz * nz) / d;
-    s.hessian = m00 * radial * radial.transpose() +
-                m01 * (radial * axial.transpose() + axial * radial.transpose()) +
-                m11 * axial * axial.transpose() + (nr / rho) * around * around.transpose();
+    const double bend = std::max(d, MIN_CURVATURE_RADIUS) / d;  // as roundDistance's
+    s.hessian = (m00 * radial * radial.transpose() +
+                 m01 * (radial * axial.transpose() + axial * radial.transpose()) +
+                 m11 * axial * axial.transpose()) /
+                    bend +
+                (nr / rho) * around * around.transpose();
     return s;
   }
   if (dr >= h)  // the side nearest (outside, or inside and nearer than the ends)

@@ -319,6 +319,10 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
       control.piece_contacts = data.contacts;
       for (int split = 0;; ++split)
       {
+        // a piece put back fails no check of the attempt (a projection it did not converge, a
+        // singular solve, a forced internal step): those flags are the piece's start's again;
+        // its work stays counted (it was done)
+        piece_flags_ = data.statistics;
         takePiece(length, end);
         const double fraction = split < MAX_IMPACT_SPLITS
                                     ? impactFraction(model, data, control.piece_start.positions,
@@ -330,6 +334,10 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
         x.positions = control.piece_start.positions;
         x.velocities = control.piece_start.velocities;
         x.time = from;
+        data.statistics.solve.singular = piece_flags_.solve.singular;
+        data.statistics.projection.converged = piece_flags_.projection.converged;
+        data.statistics.projection.singular = piece_flags_.projection.singular;
+        data.statistics.forced_internal_steps = piece_flags_.forced_internal_steps;
         data.contacts = control.piece_contacts;
         writeContactRows(model, data);
         data.noteStateChange();

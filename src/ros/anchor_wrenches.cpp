@@ -13,13 +13,18 @@ Vec3 holderForce(const Model& model, const Eigen::VectorXd& multipliers, int eli
 
 std::string anchorWrenchTopic(const std::string& frame)
 {
-  std::string name = frame;
+  return wrenchTopic("anchor_wrench", frame);
+}
+
+std::string wrenchTopic(const std::string& prefix, const std::string& name_in)
+{
+  std::string name = name_in;
   for (char& c : name)
     if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
           c == '/'))
       c = '_';
   // a ROS name's parts start with a letter (or '_' in a private name): frames rarely break it
-  std::string topic = "anchor_wrench";
+  std::string topic = prefix;
   std::string part;
   for (std::size_t i = 0; i <= name.size(); ++i)
   {

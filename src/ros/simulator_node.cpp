@@ -121,6 +121,8 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   wrench_commands_ = std::make_unique<WrenchCommands>(nh_, *runner_, parameters_.frame_prefix);
   anchor_wrenches_ = std::make_unique<AnchorWrenches>(nh_, parameters_.frame_prefix);
   anchor_wrenches_->update(*first);
+  obstacle_wrenches_ = std::make_unique<ObstacleWrenches>(nh_);
+  obstacle_wrenches_->update(*first);
   // holders' topics are named like any topic the node reads: relative to its namespace
   // a sample's arrival on the clock its stamp is on: the /clock we publish, or ROS time
   auto clock_ns = [this]() -> std::int64_t
@@ -313,6 +315,7 @@ void SimulatorNode::publish()
   scene_publisher_->publishSceneOnce(*snap, header.stamp);
   tf_publisher_->publish(*snap, header.stamp);
   anchor_wrenches_->publish(*snap, header);
+  obstacle_wrenches_->publish(*snap, header);
   if (state_publisher_.getNumSubscribers() > 0 || sim_time_stamps_)
   {
     SimState msg;

@@ -275,22 +275,21 @@ Shape parseShape(const Where& where, const YAML::Node& node, const std::string& 
   if (shape.type == ShapeType::Capsule || shape.type == ShapeType::Cylinder)
     keys.push_back("length");
   checkKeys(where, node, keys, std::string("a ") + shapeTypeName(shape.type));
+  // read first (a wrong type names its key and line itself), then checked against the ranges
   Vec3 rpy = Vec3::Zero();
+  if (node["position"])
+    shape.position = readVector(where / "position", node["position"]);
+  if (node["rpy"])
+    rpy = readVector(where / "rpy", node["rpy"]);
+  if (node["radius"])
+    shape.radius = readDouble(where / "radius", node["radius"]);
+  if (node["length"])
+    shape.length = readDouble(where / "length", node["length"]);
+  if (node["size"])
+    shape.size = readVector(where / "size", node["size"]);
   try
   {
-    if (node["position"])
-      shape.position = readVector(where / "position", node["position"]);
-    if (node["rpy"])
-    {
-      rpy = readVector(where / "rpy", node["rpy"]);
-      requireInRange("rpy", rpy, limits::SHAPE_ANGLE);
-    }
-    if (node["radius"])
-      shape.radius = readDouble(where / "radius", node["radius"]);
-    if (node["length"])
-      shape.length = readDouble(where / "length", node["length"]);
-    if (node["size"])
-      shape.size = readVector(where / "size", node["size"]);
+    requireInRange("rpy", rpy, limits::SHAPE_ANGLE);
     shape.rotation = rotationFromRpy(rpy);
     validateShape(shape, "");
   }
@@ -330,6 +329,14 @@ struct RecordReader
       known.push_back("particles");
     checkKeys(where, node, known, std::string("a ") + Kind::KIND + " record");
     Kind record;
+    // an obstacle has no default: a record must name one
+    forEachField<Kind>(
+        [&](const auto& spec)
+        {
+          if constexpr (std::is_same_v<typename std::decay_t<decltype(spec)>::MemberType, Shape>)
+            if (!node[spec.name])
+              fail(where / spec.name, node, "is missing: name a shape defined under 'shapes'");
+        });
     readFields(where, node, record, scene);
     // a field that may be left out (from_start) must be a valid value when it is given: NaN
     // written in the file is refused, not taken as "unset"
@@ -500,6 +507,8 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
     requireMap(top / "shapes", shapes, "named obstacles (name: {type, position, rpy, ...})");
     for (const auto& entry : shapes)
     {
+      if (!entry.first.IsScalar())
+        fail(top / "shapes", entry.first, "must be named by a string");
       const std::string name = entry.first.as<std::string>();
       for (const Shape& earlier : d.shapes)
         if (earlier.name == name)
@@ -526,8 +535,16 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
         surfaceIndex(at / "surface", chains[k]["surface"], d.surfaces);
       if (!d.chains.back().contact.empty())
         surfaceIndex(at / "contact", chains[k]["contact"], d.surfaces);
-      for (std::size_t o = 0; o < d.chains.back().obstacles.size(); ++o)
+      const ChainSpec& chain = d.chains.back();
+      for (std::size_t o = 0; o < chain.obstacles.size(); ++o)
+      {
         shapeIndex((at / "obstacles")[o], chains[k]["obstacles"][o], d.shapes);
+        if (std::find(chain.obstacles.begin(), chain.obstacles.begin() + o, chain.obstacles[o]) !=
+            chain.obstacles.begin() + o)
+          fail((at / "obstacles")[o], chains[k]["obstacles"][o],
+               "= " + chain.obstacles[o] + " appears twice (one contact per particle and shape)");
+      }
+
     }
   }
   if (d.numParticles() == 0)

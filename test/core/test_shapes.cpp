@@ -334,4 +334,38 @@ chains: [{particles: 3, link_length: 0.3, start: [0, 0, 0.1], obstacles: [ball]}
 )");
   EXPECT_NE(inside.find("inside obstacle 'ball' (a sphere)"), std::string::npos) << inside;
   EXPECT_NE(inside.find("particle 0 position"), std::string::npos) << inside;
+  // a wrong type names its key and line
+  const std::string word = refusal(R"(
+shapes: {post: {type: sphere, radius: big}}
+chains: [{particles: 2, start: [0, 0, 1], obstacles: [post]}]
+)");
+  EXPECT_NE(word.find("bad.yaml:2: shapes.post.radius"), std::string::npos) << word;
+  // a record must name its obstacle; a chain may not list one twice
+  const std::string unnamed = refusal(R"(
+particles: [{position: [0, 0, 1]}]
+constraints: [{type: shape_contact, particle: 0}]
+)");
+  EXPECT_NE(unnamed.find("constraints[0].shape is missing"), std::string::npos) << unnamed;
+  const std::string twice = refusal(R"(
+shapes: {post: {type: sphere, radius: 0.1}}
+chains: [{particles: 2, start: [0, 0, 1], obstacles: [post, post]}]
+)");
+  EXPECT_NE(twice.find("obstacles[1]"), std::string::npos) << twice;
+  // a record repeating what a chain's obstacles made: the model refuses the second row
+  const BuiltScene doubled = buildScene(parseScene(R"(
+shapes: {post: {type: sphere, radius: 0.1}}
+chains: [{particles: 2, start: [0, 0, 1], obstacles: [post]}]
+constraints: [{type: shape_contact, particle: 1, shape: post}]
+)",
+                                                   "doubled.yaml"));
+  try
+  {
+    Model::compile(doubled.scene);
+    ADD_FAILURE() << "two contacts of particle 1 with 'post' accepted";
+  }
+  catch (const InvalidInput& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("keeps particle 1 out already"), std::string::npos)
+        << e.what();
+  }
 }

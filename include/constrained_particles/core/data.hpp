@@ -40,8 +40,8 @@ struct RowData
   void resize(const Model& model);
 };
 
-/// What a surface contact does during a step (contact.hpp): the contact stage's choice at the
-/// step's start, kept through its stages.
+/// What a particle contact (surface_contact, shape_contact) or slack link does during a step
+/// (contact.hpp): the contact stage's choice at the step's start, kept through its stages.
 enum class ContactMode : std::uint8_t
 {
   Separated,  ///< its rows are off: above the surface, leaving it, or pulled from it
@@ -49,7 +49,7 @@ enum class ContactMode : std::uint8_t
   Sticking,   ///< the row acts; friction cancels the tangential force, up to mu |f_n|
 };
 
-/// One surface contact's state (Model::numContacts(), in its kind table's order).
+/// One unilateral row's state (Model::numContacts(), in Model::unilateral()'s order).
 struct ContactState
 {
   ContactMode mode = ContactMode::Separated;
@@ -60,6 +60,8 @@ struct ContactState
   Vec3 friction_force = Vec3::Zero();  ///< f_t at the last stage [N]
   /// Sticking: the friction the particle needs to stay, over mu |f_n| (> 1: it slips)
   double friction_demand = 0.0;
+  /// Switched on only to lift its particle out (resolveImpacts: in, but moving out)
+  bool lifting = false;
 };
 
 /// Stage buffers of the integrators, by name, each 3 x n.
@@ -267,7 +269,7 @@ public:
   /// Each tracked record's path (Model::tracked(), t), written between steps by whoever samples
   /// its holder (Simulator::tracks()); each rests at its particle's start until then.
   std::vector<AnchorTrack> tracks;
-  /// Each surface contact's mode and forces (Model::numContacts(); contact.hpp)
+  /// Each unilateral row's mode and forces (Model::numContacts(); contact.hpp)
   std::vector<ContactState> contacts;
   /// The contact stage's buffers: friction forces [N] and W times them [m/s^2] (3 x n), the
   /// frictionless multipliers and a solve's right-hand side (m); empty without contacts

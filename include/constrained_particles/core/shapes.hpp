@@ -47,11 +47,16 @@ struct ShapeSample
   Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();  ///< its second derivatives [1/m]
 };
 
+/// Least radius of curvature a Hessian is taken with [m]: a box's edges and corners and a
+/// cylinder's rim are sharp (curvature 1 / distance, unbounded on them), so within this distance
+/// of one the Hessian is that of an edge rounded this much.
+constexpr double MIN_CURVATURE_RADIUS = 1e-6;
+
 /// The signed distance of point `p` [m] (world) from `shape`, with its gradient and Hessian.
 /// Outside, the distance is C1 (its Hessian jumps between a face and an edge); inside, it is the
-/// nearest face's (a box, a cylinder: their pieces meet at edges). At a point where the gradient
-/// is undefined (a sphere's or a capsule's centre, a cylinder's axis) the local +z is taken.
-/// Stateless; no allocation.
+/// nearest face's (a box, a cylinder: their pieces meet at edges). Where the gradient is undefined
+/// the normal is taken as the local +z (a sphere's or a capsule's centre, a point on a box's
+/// surface) or the local +x (a cylinder's axis, its side nearest). Stateless; no allocation.
 ShapeSample evaluateShape(const Shape& shape, const Vec3& p);
 
 /// World from local for roll, pitch, yaw [rad] (URDF: about fixed x, then y, then z).

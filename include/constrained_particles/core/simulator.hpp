@@ -56,8 +56,9 @@ public:
   /// Teleports to a state, projected onto the constraints (eliminated particles exact); time and
   /// step count are kept from the current state.
   /// @throws InvalidInput if the state is malformed or cannot be projected, or puts a free
-  /// particle below the surface its surface_contact keeps it above (by over CONTACT_START_DEPTH,
-  /// field "positions[i]"); state and contacts untouched
+  /// particle below the surface its surface_contact keeps it above, or inside the obstacle its
+  /// shape_contact keeps it out of (by over CONTACT_START_DEPTH, field "positions[i]"); state and
+  /// contacts untouched
   ProjectionReport setState(const State& state);
 
   /// Replaces the scene and initial state, and resets. @throws InvalidInput; nothing changes
@@ -253,8 +254,9 @@ private:
   std::unique_ptr<Data> data_;
   State initial_state_;
   StepSettings settings_;
-  StepSettings substep_settings_;  // settings_ with a sub-step's dt (attemptStep)
-  StepStatistics driven_attempt_;  // a driven scene's attempt, aside while its end is evaluated
+  StepStatistics piece_flags_;  // attemptStep's, at the start of an impact split's piece
+  StepSettings substep_settings_;    // settings_ with a sub-step's dt (attemptStep)
+  StepStatistics driven_attempt_;    // a driven scene's attempt, aside while its end is evaluated
   StagePaths paths_ = StagePaths::Specialized;  // kept for every model compiled later
   const IntegratorInfo* integrator_ = nullptr;  // settings_.integrator's row
   const IntegratorInfo* stiff_ = nullptr;       // STIFF_FALLBACK's row

@@ -26,6 +26,10 @@ Vec3 holderForce(const Model& model, const Eigen::VectorXd& multipliers, int eli
 /// a ROS name may not hold ([A-Za-z0-9_/] only) written '_', e.g. "anchor_wrench/particle_0".
 std::string anchorWrenchTopic(const std::string& frame);
 
+/// `prefix` + "/" + `name` as a ROS name: every character a name may not hold ([A-Za-z0-9_/]
+/// only) written '_', each part starting with a letter ('_' put before one that does not).
+std::string wrenchTopic(const std::string& prefix, const std::string& name);
+
 /// One geometry_msgs/WrenchStamped publisher per held particle of the scene in force: when the
 /// scene changes, topics it still has keep their publishers (and their subscribers), new ones
 /// are advertised and vanished ones end. Each message built only while its topic has a

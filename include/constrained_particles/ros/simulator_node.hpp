@@ -6,6 +6,7 @@
 #include "constrained_particles/SimulatorConfig.h"
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/ros/anchor_wrenches.hpp"
+#include "constrained_particles/ros/obstacle_wrenches.hpp"
 #include "constrained_particles/ros/frame_anchors.hpp"
 #include "constrained_particles/ros/compare_methods_server.hpp"
 #include "constrained_particles/ros/grab_markers.hpp"
@@ -131,7 +132,8 @@ private:
   std::unique_ptr<CompareMethodsServer> compare_methods_;
   std::unique_ptr<GrabMarkers> grab_markers_;
   std::unique_ptr<WrenchCommands> wrench_commands_;
-  std::unique_ptr<AnchorWrenches> anchor_wrenches_;  // publish() only
+  std::unique_ptr<AnchorWrenches> anchor_wrenches_;      // publish() only
+  std::unique_ptr<ObstacleWrenches> obstacle_wrenches_;  // publish() only
   std::unique_ptr<FrameAnchors> frame_anchors_;
   std::unique_ptr<TfPublisher> tf_publisher_;
   std::unique_ptr<ScenePublisher> scene_publisher_;
