@@ -314,31 +314,43 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
       // (contact.hpp, impactFraction): the sub-step is taken again to there, the impact
       // resolved, and the rest taken from it; a handful of impacts in one sub-step at most
       double from = x.time, length = h;
-      control.piece_start.positions = x.positions;
-      control.piece_start.velocities = x.velocities;
-      control.piece_contacts = data.contacts;
+      // the piece's start: a step's first sub-step starts where the step did, and the step's
+      // start is kept whole where it may be retaken (no copy then); a later one's is copied
+      const bool at_step_start = j == 1 && settings_.max_substeps > 1;
+      const State* piece_start = at_step_start ? &start : &control.piece_start;
+      const std::vector<ContactState>* piece_contacts =
+          at_step_start ? &control.start_contacts : &control.piece_contacts;
+      if (!at_step_start)
+      {
+        control.piece_start.positions = x.positions;
+        control.piece_start.velocities = x.velocities;
+        control.piece_contacts = data.contacts;
+      }
       for (int split = 0;; ++split)
       {
         // a piece put back fails no check of the attempt (a projection it did not converge, a
         // singular solve, a forced internal step): those flags are the piece's start's again;
         // its work stays counted (it was done)
-        piece_flags_ = data.statistics;
+        const StepStatistics& now = data.statistics;
+        const bool solve_singular = now.solve.singular, converged = now.projection.converged,
+                   projection_singular = now.projection.singular;
+        const long forced = now.forced_internal_steps;
         takePiece(length, end);
-        const double fraction = split < MAX_IMPACT_SPLITS
-                                    ? impactFraction(model, data, control.piece_start.positions,
-                                                     control.piece_start.velocities, x, length,
-                                                     settings_.projection_tolerance)
-                                    : NAN;
+        const double fraction =
+            split < MAX_IMPACT_SPLITS
+                ? impactFraction(model, data, piece_start->positions, piece_start->velocities, x,
+                                 length, settings_.projection_tolerance)
+                : NAN;
         if (!(fraction < 1.0))
           break;
-        x.positions = control.piece_start.positions;
-        x.velocities = control.piece_start.velocities;
+        x.positions = piece_start->positions;
+        x.velocities = piece_start->velocities;
         x.time = from;
-        data.statistics.solve.singular = piece_flags_.solve.singular;
-        data.statistics.projection.converged = piece_flags_.projection.converged;
-        data.statistics.projection.singular = piece_flags_.projection.singular;
-        data.statistics.forced_internal_steps = piece_flags_.forced_internal_steps;
-        data.contacts = control.piece_contacts;
+        data.statistics.solve.singular = solve_singular;
+        data.statistics.projection.converged = converged;
+        data.statistics.projection.singular = projection_singular;
+        data.statistics.forced_internal_steps = forced;
+        data.contacts = *piece_contacts;
         writeContactRows(model, data);
         data.noteStateChange();
         const double at = from + fraction * length;
@@ -349,6 +361,8 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
         control.piece_start.positions = x.positions;
         control.piece_start.velocities = x.velocities;
         control.piece_contacts = data.contacts;
+        piece_start = &control.piece_start;
+        piece_contacts = &control.piece_contacts;
       }
       // what is still in (a row in at the sub-step's start, or past the splits): as it is
       control.contact_loss += resolveImpacts(model, data, sub, x);

@@ -507,8 +507,8 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
     requireMap(top / "shapes", shapes, "named obstacles (name: {type, position, rpy, ...})");
     for (const auto& entry : shapes)
     {
-      if (!entry.first.IsScalar())
-        fail(top / "shapes", entry.first, "must be named by a string");
+      if (!entry.first.IsScalar() || entry.first.as<std::string>().empty())
+        fail(top / "shapes", entry.first, "must be named by a non-empty string");
       const std::string name = entry.first.as<std::string>();
       for (const Shape& earlier : d.shapes)
         if (earlier.name == name)
@@ -538,13 +538,21 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
       const ChainSpec& chain = d.chains.back();
       for (std::size_t o = 0; o < chain.obstacles.size(); ++o)
       {
-        shapeIndex((at / "obstacles")[o], chains[k]["obstacles"][o], d.shapes);
+        const Shape& shape =
+            d.shapes[shapeIndex((at / "obstacles")[o], chains[k]["obstacles"][o], d.shapes)];
+        try
+        {
+          requireRoundedEdges(shape, chain.radius, "radius");
+        }
+        catch (const InvalidInput& e)
+        {
+          failAt(at, chains[k]["radius"] ? chains[k]["radius"] : chains[k], e);
+        }
         if (std::find(chain.obstacles.begin(), chain.obstacles.begin() + o, chain.obstacles[o]) !=
             chain.obstacles.begin() + o)
           fail((at / "obstacles")[o], chains[k]["obstacles"][o],
                "= " + chain.obstacles[o] + " appears twice (one contact per particle and shape)");
       }
-
     }
   }
   if (d.numParticles() == 0)
@@ -867,8 +875,8 @@ BuiltScene buildScene(const SceneDescription& d)
             formatValue(state.positions(1, below.particle)) + ", " +
             formatValue(state.positions(2, below.particle)) + "] where the scene places it, " +
             formatValue(below.depth) + " m " + contactTargetText(*below.contact, surface_names) +
-            ", which its contact keeps it out of; start it on or above the "
-            "surface, outside the obstacle");
+            ", which its contact keeps it out of; start it " +
+            (surface ? "on or above the surface" : "outside the obstacle"));
   }
   // a value taken from the start (an angle) is checked like one written in the file
   for (std::size_t k = 0; k < d.constraints.size(); ++k)

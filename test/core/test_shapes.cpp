@@ -351,6 +351,13 @@ shapes: {post: {type: sphere, radius: 0.1}}
 chains: [{particles: 2, start: [0, 0, 1], obstacles: [post, post]}]
 )");
   EXPECT_NE(twice.find("obstacles[1]"), std::string::npos) << twice;
+  // a point against a box's sharp edges: refused, naming the chain's radius
+  const std::string point = refusal(R"(
+shapes: {block: {type: box, position: [0, 0, 0], size: [0.4, 0.4, 0.4]}}
+chains: [{particles: 2, start: [0, 0, 1], obstacles: [block]}]
+)");
+  EXPECT_NE(point.find("chains[0].radius = 0 against box 'block', must be > 0"), std::string::npos)
+      << point;
   // a record repeating what a chain's obstacles made: the model refuses the second row
   const BuiltScene doubled = buildScene(parseScene(R"(
 shapes: {post: {type: sphere, radius: 0.1}}

@@ -254,7 +254,6 @@ private:
   std::unique_ptr<Data> data_;
   State initial_state_;
   StepSettings settings_;
-  StepStatistics piece_flags_;     // attemptStep's, at the start of an impact split's piece
   StepSettings substep_settings_;  // settings_ with a sub-step's dt (attemptStep)
   StepStatistics driven_attempt_;  // a driven scene's attempt, aside while its end is evaluated
   StagePaths paths_ = StagePaths::Specialized;  // kept for every model compiled later

@@ -103,11 +103,26 @@ inline double penetration(const ShapeContact& contact, const std::vector<Surface
       0.0, contact.radius - evaluateShape(contact.shape, positions.col(contact.particle)).distance);
 }
 
+/// A point (radius 0) against a box or a cylinder is refused: their edges and rim are sharp, and a
+/// point's contact normal turns through 90 degrees on one, within a step (it launched a particle
+/// through the box); a ball of radius r rolls over them, its centre on a surface rounded by r.
+/// @throws InvalidInput naming `field`
+inline void requireRoundedEdges(const Shape& shape, double radius, const std::string& field)
+{
+  if ((shape.type == ShapeType::Box || shape.type == ShapeType::Cylinder) && !(radius > 0.0))
+    throw InvalidInput(field, "= " + formatValue(radius) + " against " + shapeTypeName(shape.type) +
+                                  " '" + shape.name + "', must be > 0 (in (0, " +
+                                  formatValue(limits::PARTICLE_RADIUS.high) +
+                                  "] m): its edges are sharp, and a point's contact normal turns "
+                                  "through 90 degrees on one; a ball of radius r rolls over them");
+}
+
 /// @throws InvalidInput naming the bad field
 inline void validate(const ShapeContact& contact, int num_particles, int num_surfaces,
                      const std::string& prefix, bool allow_unset = false)
 {
   validateFields(contact, num_particles, num_surfaces, prefix, allow_unset);
+  requireRoundedEdges(contact.shape, contact.radius, prefix + ".radius");
 }
 
 }  // namespace constrained_particles
