@@ -386,6 +386,53 @@ double impactFraction(const Model& model, Data& data, const Points& p0, const Po
   return earliest;
 }
 
+double releaseFraction(const Model& model, Data& data, const std::vector<ContactState>& at_start,
+                       State& x, const StepSettings& settings, int& released)
+{
+  released = -1;
+  const auto& rows = model.unilateral();
+  bool candidate = false;
+  for (int k = 0; k < model.numParticleContacts() && !candidate; ++k)
+    if (acts(data.contacts[k]))
+    {
+      const ContactFrame frame = contactFrame(model, rows[k], x.positions, x.velocities);
+      const int i = rows[k].particles[0];
+      candidate = frame.normal.dot(data.free_accelerations.col(i)) + frame.curvature_term > 0.0;
+    }
+  if (!candidate)
+    return NAN;
+  // the multipliers at x: a forward stage there, in the stage buffers (the integrator is done)
+  data.stages.p_stage = x.positions;
+  data.stages.v_stage = x.velocities;
+  forward(model, data, settings, x.time, data.stages.p_stage, data.stages.v_stage,
+          data.stages.a_stage);
+  double earliest = NAN;
+  for (int k = 0; k < model.numParticleContacts(); ++k)
+  {
+    if (!acts(data.contacts[k]))
+      continue;
+    const double end =
+        data.multipliers[rows[k].row] * data.rows.jacobian[rows[k].block].norm();  // [N]
+    if (!(end < 0.0))
+      continue;
+    const double start = std::max(at_start[k].normal_force, 0.0);
+    const double fraction = start / (start - end);
+    if (!(earliest <= fraction))
+    {
+      earliest = fraction;
+      released = k;
+    }
+  }
+  return earliest;
+}
+
+void releaseContact(const Model& model, Data& data, int k)
+{
+  switchOff(data.contacts[k]);
+  writeContactRows(model, data);
+  data.noteStateChange();
+}
+
 double resolveImpacts(const Model& model, Data& data, const StepSettings& settings, State& x)
 {
   const auto& rows = model.unilateral();

@@ -336,11 +336,20 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
                    projection_singular = now.projection.singular;
         const long forced = now.forced_internal_steps;
         takePiece(length, end);
-        const double fraction =
-            split < MAX_IMPACT_SPLITS
-                ? impactFraction(model, data, piece_start->positions, piece_start->velocities, x,
-                                 length, settings_.projection_tolerance)
-                : NAN;
+        // the piece is taken again to the first event in it: an impact, or a contact that
+        // should have let go (its force crossing 0) and was held on
+        double fraction = NAN;
+        int released = -1;
+        if (split < MAX_IMPACT_SPLITS)
+        {
+          fraction = impactFraction(model, data, piece_start->positions, piece_start->velocities, x,
+                                    length, settings_.projection_tolerance);
+          const double release = releaseFraction(model, data, *piece_contacts, x, sub, released);
+          if (release < fraction || (std::isnan(fraction) && release < 1.0))
+            fraction = release;
+          else
+            released = -1;
+        }
         if (!(fraction < 1.0))
           break;
         x.positions = piece_start->positions;
@@ -354,8 +363,12 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
         writeContactRows(model, data);
         data.noteStateChange();
         const double at = from + fraction * length;
-        takePiece(fraction * length, at);
-        control.contact_loss += resolveImpacts(model, data, sub, x);
+        if (fraction > 0.0)
+          takePiece(fraction * length, at);
+        if (released >= 0)
+          releaseContact(model, data, released);
+        else
+          control.contact_loss += resolveImpacts(model, data, sub, x);
         length = end - at;
         from = at;
         control.piece_start.positions = x.positions;

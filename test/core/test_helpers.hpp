@@ -205,5 +205,23 @@ inline double relativeError(double a, double b, double floor = 1.0)
   return std::abs(a - b) / std::max(std::abs(b), floor);
 }
 
+/// Where a particle flying free under gravity G (down z), at p1 with velocity v1 now, left a
+/// surface: the point of its path (a parabola, exact) over the last `span` seconds where `gap`
+/// (height over the surface at a point [m]) crosses 0, found by bisection. It left where gravity's
+/// normal part stopped holding it on, where the parabola's curvature is the surface's: the gap
+/// along it has a triple zero there (in before, out after), found to its cube root of round-off.
+template <typename Gap>
+Vec3 lastTouch(const Vec3& p1, const Vec3& v1, double span, Gap gap)
+{
+  auto at = [&](double tau) { return Vec3(p1 + v1 * tau - Vec3(0.0, 0.0, 0.5 * G * tau * tau)); };
+  double low = -span, high = 0.0;  // in (or on) at low, out at high
+  for (int k = 0; k < 200 && high - low > 1e-15; ++k)
+  {
+    const double middle = 0.5 * (low + high);
+    (gap(at(middle)) > 0.0 ? high : low) = middle;
+  }
+  return at(0.5 * (low + high));
+}
+
 }  // namespace testing
 }  // namespace constrained_particles
