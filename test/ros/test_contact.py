@@ -1,7 +1,8 @@
 #!/usr/bin/python3
-"""Contact through the node (issue 35): surface_chain_contact for 10 s keeps every particle on or
-above the bowl and its links exact, with no fault, ~state naming the touching particles; a rope
-slides off its table without going into it. Waits are wall-clock deadlines with polling."""
+"""Contact through the node (issues 35, 48): surface_chain_contact for 10 s keeps every particle
+on or above the bowl and its links exact, with no fault, ~state naming the touching particles; a
+rope slides off its table without going into it; a rope dropped over a post stays out of it and
+its floor and loads both. Waits are wall-clock deadlines with polling."""
 import math
 import unittest
 
@@ -12,6 +13,8 @@ from wall_clock import WallClockWaits
 from constrained_particles.msg import SimState
 from constrained_particles.srv import Reset, Step
 from std_srvs.srv import Empty
+from geometry_msgs.msg import WrenchStamped
+from visualization_msgs.msg import Marker, MarkerArray
 import time
 
 NODE = "/simulator"
@@ -37,10 +40,11 @@ class ContactTest(WallClockWaits, unittest.TestCase):
         cls.reset = rospy.ServiceProxy(f"{NODE}/reset", Reset)
         cls.states = Recorder(f"{NODE}/state", SimState)
 
-    def run_scene(self, scenario, surface, seconds, link=None):
+    def run_scene(self, scenario, surface, seconds, link=None, outside=None):
         """Steps `scenario` `seconds` in chunks of 0.1 s, checking the state after each: no
-        particle below `surface` by more than TOLERANCE, links of `link` [m] exact to it, no
-        fault. Returns the last state."""
+        particle below `surface` by more than TOLERANCE (nor, given `outside`, a gap function of
+        a position, inside by more), links of `link` [m] exact to it, no fault. Returns the last
+        state."""
         self.pause()
         reply = self.reset(scenario)
         self.assertTrue(reply.success, reply.message)
@@ -58,6 +62,9 @@ class ContactTest(WallClockWaits, unittest.TestCase):
             for i, p in enumerate(state.positions):
                 self.assertGreaterEqual(p.z - surface(p.x, p.y), -TOLERANCE,
                                         f"{scenario}: particle {i} below at t = {t}")
+                if outside is not None:
+                    self.assertGreaterEqual(outside(p), -TOLERANCE,
+                                            f"{scenario}: particle {i} inside at t = {t}")
             if link is not None:
                 for a, b in zip(state.positions, state.positions[1:]):
                     length = math.dist((a.x, a.y, a.z), (b.x, b.y, b.z))
@@ -81,6 +88,52 @@ class ContactTest(WallClockWaits, unittest.TestCase):
         # the rope's end that lay on the table went over its edge at x = 0.5 to the floor
         self.assertGreater(last.positions[0].x, 0.6)
         self.assertLess(last.positions[0].z, -0.9)
+
+    def test_rope_lies_over_the_post(self):
+        """rope_over_post (issue 48): a rope of radius 1 cm dropped over a post (a cylinder of
+        radius 5 cm on the y axis at z = 0.5) onto a floor: never inside either over 4 s, its
+        middle over the post and its ends on the floor, both obstacles loaded
+        (~obstacle_wrench/<shape>, stamped as ~state), ~obstacles drawing both. The loads' sum
+        against the weight at rest is test_obstacle_wrenches' (core, closed form)."""
+        markers = Recorder(f"{NODE}/obstacles", MarkerArray)
+        post = Recorder(f"{NODE}/obstacle_wrench/post", WrenchStamped)
+        floor = Recorder(f"{NODE}/obstacle_wrench/floor", WrenchStamped)
+
+        def post_gap(p):  # the post's axis is y: distance from it in x-z, less both radii
+            return math.hypot(p.x, p.z - 0.5) - 0.05 - 0.01
+
+        last = self.run_scene("rope_over_post", lambda x, y: 0.01, 4.0, link=0.05,
+                              outside=post_gap)
+        # it hangs over the post: its middle on it, its ends on the floor
+        middle = last.positions[len(last.positions) // 2]
+        self.assertGreater(middle.z, 0.5)
+        self.assertLess(last.positions[0].z, 0.02)
+        self.assertLess(last.positions[-1].z, 0.02)
+        # the loads published with the last state (one stamp for a state's outputs)
+        def with_last_stamp(recorder):
+            return next((m for m in reversed(recorder.since(0.0))
+                         if m.header.stamp == last.header.stamp), None)
+        loads = self.wait_until(
+            lambda: (with_last_stamp(post), with_last_stamp(floor))
+            if with_last_stamp(post) and with_last_stamp(floor) else None,
+            "~obstacle_wrench/post and /floor stamped as the last ~state")
+        weight = 30 * 0.02 * 9.81
+        carried = -(loads[0].wrench.force.z + loads[1].wrench.force.z)
+        rospy.loginfo("rope_over_post: post carries %.4f N, floor %.4f N, of the rope's %.4f N; "
+                      "fastest particle %.3g m/s; touching %s",
+                      -loads[0].wrench.force.z, -loads[1].wrench.force.z, weight,
+                      max(math.sqrt(v.x ** 2 + v.y ** 2 + v.z ** 2) for v in last.velocities),
+                      list(last.contact_particles))
+        # still swinging at 4 s (friction 0.5 damps it slowly): each carries a part of it, down,
+        # and together not more than the rope and its motion can put on them
+        self.assertLess(carried, 2.0 * weight)
+        self.assertGreater(-loads[0].wrench.force.z, 0.1 * weight)
+        self.assertGreater(-loads[1].wrench.force.z, 0.1 * weight)
+        drawn = self.wait_until(
+            lambda: next((m for m in reversed(markers.since(0.0))
+                          if len(m.markers) == 3), None), "~obstacles with both shapes")
+        types = sorted(m.type for m in drawn.markers[1:])
+        self.assertEqual(types, sorted([Marker.CYLINDER, Marker.CUBE]))
 
 
 if __name__ == "__main__":
