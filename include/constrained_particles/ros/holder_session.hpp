@@ -92,9 +92,11 @@ public:
   /// The latency before a holder's arrivals are measured (three samples) [s].
   static constexpr double INITIAL_LATENCY = 0.1;
   /// The latency asked is the slowest arrival measured (a sample two after the knot the steps
-  /// are leaving) times this, plus LATENCY_MARGIN [s]: room for jitter and the batch.
+  /// are leaving) times this, plus LATENCY_MARGIN [s]: room for jitter and the batch (3 ms let
+  /// a delivery hiccup of a shared machine overrun a 1 kHz hand once in about ten runs of
+  /// holders_lockstep.test; 10 ms has room for one)
   static constexpr double LATENCY_FACTOR = 1.25;
-  static constexpr double LATENCY_MARGIN = 0.003;
+  static constexpr double LATENCY_MARGIN = 0.010;
   /// Arrivals are measured over the samples stamped within this of the newest [s].
   static constexpr double LATENCY_WINDOW = 2.0;
   /// A hold's default limit: this many times the weight of the whole scene (g at least 9.81).
