@@ -438,7 +438,8 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
             self.wait_until(lambda: path_reported("fused_chain: "), "the path on /diagnostics")
             client.update_configuration({"stabilization": "baumgarte"})
             state = self.wait_until(
-                lambda: self.latest_state if self.latest_state.forward_path == "generic" else None,
+                lambda: self.latest_state if self.latest_state is not None and
+                self.latest_state.forward_path == "generic" else None,
                 "~state on the generic stages after the change to Baumgarte")
             self.assertIn("baumgarte", state.forward_path_reason)
             self.wait_until(lambda: path_reported("generic: stabilization = baumgarte"),
@@ -464,7 +465,8 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
             response = self.step(3000)
             self.assertTrue(response.success, response.message)
             state = self.wait_until(
-                lambda: self.latest_state if self.latest_state.sim_time >= 2.9 else None,
+                lambda: self.latest_state if self.latest_state is not None and
+                self.latest_state.sim_time >= 2.9 else None,
                 "the ~state after 3,000 steps")
             self.assertTrue(state.energy_fallback)
             self.assertNotEqual(state.status, SimState.STATUS_FAULT, state.status_message)
