@@ -71,7 +71,8 @@ void AnchorTrack::resumeAt(double now, const Eigen::Quaterniond& orientation)
   // at rest at `now` (on the hold, or coasting past the last knot): set off from there, as fast
   // as it goes, never from the past
   if (knots_.empty() || knots_.back().time < now)
-    startAt(now, knots_.empty() ? orientation : knots_.back().orientation);
+    startAt(now, knots_.empty() ? (hold_turned_ ? hold_orientation_ : orientation)
+                                : knots_.back().orientation);
 }
 
 void AnchorTrack::startAt(double now, const Eigen::Quaterniond& orientation)
@@ -163,10 +164,18 @@ void AnchorTrack::resync(double now)
 
 void AnchorTrack::restart(const Vec3& position)
 {
+  restart(position, Eigen::Quaterniond::Identity());
+  hold_turned_ = false;
+}
+
+void AnchorTrack::restart(const Vec3& position, const Eigen::Quaterniond& orientation)
+{
   knots_.clear();
   jumps_.clear();
   pending_.setZero();
   hold_ = position;
+  hold_orientation_ = orientation;
+  hold_turned_ = true;
 }
 
 ImposedMotion AnchorTrack::motion(double time) const
@@ -209,7 +218,7 @@ ImposedMotion AnchorTrack::motion(double time) const
 Eigen::Quaterniond AnchorTrack::orientation(double time) const
 {
   if (knots_.empty())
-    return Eigen::Quaterniond::Identity();
+    return hold_orientation_;
   if (!(time > knots_.front().time))
     return knots_.front().orientation;
   if (!(time < knots_.back().time))
@@ -218,6 +227,21 @@ Eigen::Quaterniond AnchorTrack::orientation(double time) const
                                       [](double t, const AnchorSample& s) { return t < s.time; });
   const AnchorSample &b = *after, &a = *(after - 1);
   return a.orientation.slerp((time - a.time) / (b.time - a.time), b.orientation);
+}
+
+Vec3 AnchorTrack::angularVelocity(double time) const
+{
+  if (knots_.size() < 2 || !(time >= knots_.front().time) || !(time < knots_.back().time))
+    return Vec3::Zero();
+  const auto after = std::upper_bound(knots_.begin(), knots_.end(), time,
+                                      [](double t, const AnchorSample& s) { return t < s.time; });
+  const AnchorSample &b = *after, &a = *(after - 1);
+  // slerp(a, b, u) = (b a^-1)^u a on the shorter arc: the world-frame turn b a^-1, signed so
+  Eigen::Quaterniond turn = b.orientation * a.orientation.conjugate();
+  if (turn.w() < 0.0)
+    turn.coeffs() = -turn.coeffs();
+  const Eigen::AngleAxisd axis_angle(turn.normalized());
+  return axis_angle.axis() * (axis_angle.angle() / (b.time - a.time));
 }
 
 void AnchorTrack::dropBefore(double time)

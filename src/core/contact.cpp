@@ -33,13 +33,19 @@ struct Touch
 {
   double gap, opening;
 };
-Touch touchOf(const Model& model, const UnilateralRecord& record, const Points& positions,
-              const Points& velocities)
+// The obstacles where they are at `time`: carried shapes on their tracks (Data::carriers)
+EffectContext contextAt(const Model& model, const Data& data, double time)
+{
+  return EffectContext{ model.scene().surfaces, time, nullptr, &data.carriers };
+}
+
+Touch touchOf(const Model& model, const UnilateralRecord& record, const EffectContext& context,
+              const Points& positions, const Points& velocities)
 {
   if (!record.link)
   {
-    const ContactFrame frame = contactFrame(model, record, positions, velocities);
-    return { frame.gap, frame.normalSpeed(velocities.col(record.particles[0])) };
+    const ContactFrame frame = contactFrame(model, record, context, positions, velocities);
+    return { frame.gap, frame.normalSpeed(frame.relative(velocities.col(record.particles[0]))) };
   }
   const SlackLink& link =
       std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables())[record.table].record;
@@ -57,9 +63,9 @@ bool held(const Model& model, const UnilateralRecord& record)
 }
 
 // The friction force [N] an acting contact exerts at multiplier `lambda` (its row's J `normal`):
-// sliding, mu |f_n| against the tangential velocity `v_t` (below CONTACT_SPEED along its slip
-// direction); sticking, minus the tangential part of `other` (the particle's other forces), at
-// most mu |f_n| (its demand, the ratio, kept in `contact`)
+// sliding, mu |f_n| against the tangential part of `v` (relative to the obstacle; below
+// CONTACT_SPEED along its slip direction); sticking, minus the tangential part of `other` (the
+// particle's other forces), at most mu |f_n| (its demand, the ratio, kept in `contact`)
 Vec3 frictionForce(const UnilateralRecord& record, ContactState& contact, const Vec3& normal,
                    double lambda, const Vec3& v, const Vec3& other)
 {
@@ -123,8 +129,8 @@ void writeContactRows(const Model& model, Data& data)
   }
 }
 
-SolveReport contactForceStage(const Model& model, Data& data, const Points& velocities,
-                              const Eigen::VectorXd* bias)
+SolveReport contactForceStage(const Model& model, Data& data, double time, const Points& positions,
+                              const Points& velocities, const Eigen::VectorXd* bias)
 {
   const SolveReport report = constraintForceStage(model, data, bias);
   const auto& table = model.unilateral();
@@ -161,7 +167,12 @@ SolveReport contactForceStage(const Model& model, Data& data, const Points& velo
       // the particle's other forces: applied and J^T lambda (data.constraint_forces has no
       // friction yet), less this contact's own normal force, which has no tangential part
       const Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
-      const Vec3 f = frictionForce(record, contact, normal, lambda, velocities.col(i), other);
+      // on a carried shape the slip is relative to the shape's point under the particle
+      const Vec3 v = model.hasCarriers() ? contactFrame(model, record, contextAt(model, data, time),
+                                                        positions, velocities)
+                                               .relative(velocities.col(i))
+                                         : Vec3(velocities.col(i));
+      const Vec3 f = frictionForce(record, contact, normal, lambda, v, other);
       change = std::max(change, (f - contact.friction_force).norm());
       largest = std::max(largest, f.norm());
       scale = std::max(scale, std::max(lambda, 0.0) * normal.norm());
@@ -228,11 +239,12 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   const double gap = contactGap(settings);
   const auto& rows = model.unilateral();
   const std::size_t contacts = static_cast<std::size_t>(model.numParticleContacts());
+  const EffectContext context = contextAt(model, data, x.time);
   // a slack link acts while taut: its span within the gap of its length, neither slackening nor
   // stretching (a stretch is a jerk, resolveImpacts)
   for (std::size_t k = contacts; k < rows.size(); ++k)
   {
-    const Touch touch = touchOf(model, rows[k], x.positions, x.velocities);
+    const Touch touch = touchOf(model, rows[k], context, x.positions, x.velocities);
     data.contacts[k].mode =
         !held(model, rows[k]) && touch.gap <= gap && std::abs(touch.opening) <= CONTACT_SPEED
             ? ContactMode::Sliding
@@ -243,8 +255,8 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
     const UnilateralRecord& record = rows[k];
     ContactState& contact = data.contacts[k];
     const int i = record.particles[0];
-    const ContactFrame frame = contactFrame(model, record, x.positions, x.velocities);
-    const Vec3 v = x.velocities.col(i);
+    const ContactFrame frame = contactFrame(model, record, context, x.positions, x.velocities);
+    const Vec3 v = frame.relative(x.velocities.col(i));  // to the obstacle's point under it
     // touching: on the surface, neither leaving it nor approaching it (an approach within the
     // gap ends in an impact, resolveImpacts, which restitution and the ledger see)
     const double normal_speed = frame.normalSpeed(v);
@@ -309,8 +321,8 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
     if (data.contacts[k].mode == ContactMode::Sticking)
     {
       const int i = rows[k].particles[0];
-      const ContactFrame frame = contactFrame(model, rows[k], x.positions, x.velocities);
-      const Vec3 v_t = frame.tangential(x.velocities.col(i));
+      const ContactFrame frame = contactFrame(model, rows[k], context, x.positions, x.velocities);
+      const Vec3 v_t = frame.tangential(frame.relative(x.velocities.col(i)));
       if (!(v_t.norm() > 0.0))
         continue;
       if (!stopped)
@@ -340,9 +352,10 @@ double impactFraction(const Model& model, Data& data, const Points& p0, const Po
   Points& p = data.control.impact_positions;
   bool copied = false;
   double earliest = NAN;
+  const EffectContext at_end = contextAt(model, data, x.time);
   for (std::size_t k = 0; k < rows.size(); ++k)
   {
-    const Touch touch = touchOf(model, rows[k], x.positions, x.velocities);
+    const Touch touch = touchOf(model, rows[k], at_end, x.positions, x.velocities);
     // a contact in but moving out is no impact (resolveImpacts lifts it): no time to meet
     if (acts(data.contacts[k]) || held(model, rows[k]) || !(touch.gap < -tolerance) ||
         (!rows[k].link && touch.opening > 0.0))
@@ -363,7 +376,10 @@ double impactFraction(const Model& model, Data& data, const Points& p0, const Po
         p.col(i) = h00 * p0.col(i) + (h10 * h) * v0.col(i) + h01 * x.positions.col(i) +
                    (h11 * h) * x.velocities.col(i);
       }
-      return touchOf(model, rows[k], p, x.velocities).gap;
+      // a carried obstacle where it is then
+      return touchOf(model, rows[k], contextAt(model, data, x.time - (1.0 - s) * h), p,
+                     x.velocities)
+          .gap;
     };
     // the crossing sought is twice the tolerance in: the piece taken to it ends in (so
     // resolveImpacts meets the row) by about that much (energy m g 2 tolerance), whatever the
@@ -391,11 +407,12 @@ double releaseFraction(const Model& model, Data& data, const std::vector<Contact
 {
   released = -1;
   const auto& rows = model.unilateral();
+  const EffectContext context = contextAt(model, data, x.time);
   bool candidate = false;
   for (int k = 0; k < model.numParticleContacts() && !candidate; ++k)
     if (acts(data.contacts[k]))
     {
-      const ContactFrame frame = contactFrame(model, rows[k], x.positions, x.velocities);
+      const ContactFrame frame = contactFrame(model, rows[k], context, x.positions, x.velocities);
       const int i = rows[k].particles[0];
       candidate = frame.normal.dot(data.free_accelerations.col(i)) + frame.curvature_term > 0.0;
     }
@@ -437,6 +454,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
 {
   const auto& rows = model.unilateral();
   const std::size_t contacts = static_cast<std::size_t>(model.numParticleContacts());
+  const EffectContext context = contextAt(model, data, x.time);
   Eigen::VectorXd& restitution = data.contact_rhs;
   double before = NAN;
   // a projection onto the new rows moves the particles they are linked to, which may take another
@@ -454,9 +472,9 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       const int i = rows[k].particles[0];
       if (acts(contact) || !(model.inverseMasses()[i] > 0.0))
         continue;
-      const ContactFrame frame = contactFrame(model, rows[k], x.positions, x.velocities);
+      const ContactFrame frame = contactFrame(model, rows[k], context, x.positions, x.velocities);
       if (frame.gap < -settings.projection_tolerance &&
-          frame.normalSpeed(x.velocities.col(i)) > 0.0)
+          frame.normalSpeed(frame.relative(x.velocities.col(i))) > 0.0)
       {
         contact.mode = ContactMode::Sliding;
         contact.lifting = true;
@@ -484,7 +502,8 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
     // a slack link stretched past its length: it jerks taut (inelastic, with the rows)
     for (std::size_t k = contacts; k < rows.size(); ++k)
       if (!acts(data.contacts[k]) && !held(model, rows[k]) &&
-          touchOf(model, rows[k], x.positions, x.velocities).gap < -settings.projection_tolerance)
+          touchOf(model, rows[k], context, x.positions, x.velocities).gap <
+              -settings.projection_tolerance)
       {
         data.contacts[k].mode = ContactMode::Sliding;
         impact = true;
@@ -496,12 +515,12 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       const int i = record.particles[0];
       if (acts(contact) || !(model.inverseMasses()[i] > 0.0))
         continue;
-      const ContactFrame frame = contactFrame(model, record, x.positions, x.velocities);
+      const ContactFrame frame = contactFrame(model, record, context, x.positions, x.velocities);
       if (!(frame.gap < -settings.projection_tolerance))
         continue;
       contact.mode = ContactMode::Sliding;  // off until now, so with no friction (switchOff)
       impact = true;
-      const Vec3 v = x.velocities.col(i);
+      const Vec3 v = frame.relative(x.velocities.col(i));  // to the obstacle's point
       // slower than twice what the applied forces give in a step is a particle at rest
       // landing again within the step: inelastic (else a bounce and the projection's lift
       // cycle for ever)
@@ -511,7 +530,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
                        std::abs(frame.normal.normalized().dot(data.free_accelerations.col(i))));
       if (record.restitution > 0.0 && -frame.normalSpeed(v) > resting)
       {
-        // the row's rate out of the impact: e times the rate in, J v- < 0
+        // the row's rate out of the impact: e times the rate in, Cdot- = J v- + dC/dt < 0
         restitution[record.row] = -record.restitution * frame.normal.dot(v);
         bounce = true;
       }
@@ -531,10 +550,14 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       data.solver().solveInPlace(restitution);
       addInverseMassJacobianTranspose(model, data.rows, restitution, 1.0, x.velocities);
       for (std::size_t k = 0; k < contacts; ++k)  // only contacts bounce
-        if (acts(data.contacts[k]) &&
-            contactFrame(model, rows[k], x.positions, x.velocities)
-                    .normalSpeed(x.velocities.col(rows[k].particles[0])) > CONTACT_SPEED)
+      {
+        if (!acts(data.contacts[k]))
+          continue;
+        const ContactFrame frame = contactFrame(model, rows[k], context, x.positions, x.velocities);
+        if (frame.normalSpeed(frame.relative(x.velocities.col(rows[k].particles[0]))) >
+            CONTACT_SPEED)
           switchOff(data.contacts[k]);  // leaving
+      }
       writeContactRows(model, data);
     }
     data.noteStateChange();

@@ -65,8 +65,10 @@ void writeContactRows(const Model& model, Data& data);
 /// sticking, minus the tangential force on the particle, at most mu |f_n|. Friction enters the
 /// right-hand side as J W f, solved again with the same factorisation until it stops changing.
 /// data.constraint_forces include it; data.contacts get each contact's forces.
-SolveReport contactForceStage(const Model& model, Data& data, const Points& velocities,
-                              const Eigen::VectorXd* bias);
+/// `time`, `positions`: the stage's (where carried obstacles are, and their points' velocities,
+/// which slip is measured against).
+SolveReport contactForceStage(const Model& model, Data& data, double time, const Points& positions,
+                              const Points& velocities, const Eigen::VectorXd* bias);
 
 /// velocities += dt W f_t, f_t each acting contact's friction force [N] as data.contacts hold it
 /// (the step's start: chooseContactModes' solve). For the integrators that hold the constraints

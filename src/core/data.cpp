@@ -15,6 +15,7 @@ void RowData::resize(const Model& model)
   violation.setZero(m);
   diagonal.setZero(m);
   velocity.setZero(m);
+  time_rate.setZero(m);
   bias.setZero(m);
   jacobian.assign(model.numBlocks(), Vec3::Zero());
   max_violation = 0.0;
@@ -35,7 +36,10 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   free_accelerations.setZero(3, n);
   imposed.assign(model.eliminated().size(),
                  ImposedMotion{ Vec3::Zero(), Vec3::Zero(), Vec3::Zero() });
-  tracks.assign(model.tracked().size(), AnchorTrack());  // Simulator rests them at the start
+  tracks.assign(model.tracked().size(), AnchorTrack());
+  carriers.assign(
+      model.carriers().size(),
+      AnchorTrack());  // at rest: each shape at its pose  // Simulator rests them at the start
   contacts.assign(model.numContacts(), ContactState{});
   control.start_contacts = contacts;
   const int contact_n = model.numContacts() > 0 ? n : 0;

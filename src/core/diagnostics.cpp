@@ -116,27 +116,30 @@ StepCheckSums stepCheckSums(const Model& model, const State& state, const Points
 }
 
 Diagnostics computeDiagnostics(const Model& model, const State& state,
-                               const std::vector<AnchorTrack>* tracks)
+                               const std::vector<AnchorTrack>* tracks,
+                               const std::vector<AnchorTrack>* carriers)
 {
   RowData rows;
   rows.resize(model);
   Eigen::VectorXd rates;
-  return computeDiagnostics(model, state, rows, rates, tracks);
+  return computeDiagnostics(model, state, rows, rates, tracks, carriers);
 }
 
 Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& rows,
-                               Eigen::VectorXd& rates, const std::vector<AnchorTrack>* tracks)
+                               Eigen::VectorXd& rates, const std::vector<AnchorTrack>* tracks,
+                               const std::vector<AnchorTrack>* carriers)
 {
   Diagnostics d;
   const Scene& scene = model.scene();
-  const EffectContext context{ scene.surfaces, state.time };
-  evaluateRowRecords(model, state.time, state.positions, state.velocities, rows, nullptr);
+  const EffectContext context{ scene.surfaces, state.time, nullptr, carriers };
+  evaluateRowRecords(model, state.time, state.positions, state.velocities, rows, nullptr, true,
+                     nullptr, carriers);
   d.max_position_error = rows.max_violation;
   // a contact's error is how far below its surface it is, whether its row acts or not
   const auto& unilateral = model.unilateral();
   for (int k = 0; k < model.numParticleContacts(); ++k)
-    d.max_position_error =
-        worseError(d.max_position_error, penetration(model, unilateral[k], state.positions));
+    d.max_position_error = worseError(d.max_position_error,
+                                      penetration(model, unilateral[k], context, state.positions));
   // a slack link's, how far over its length it is, taut or slack
   for (const auto& link : std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables()))
     d.max_position_error =

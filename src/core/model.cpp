@@ -533,10 +533,21 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
       model.eliminated_particles_.push_back(i);
       continue;
     }
+    // a carried shape's contacts share its track, Data::carriers[carrier]: numbered by name
+    if (auto* contact = std::get_if<ShapeContact>(&model.scene_.constraints[k]);
+        contact && contact->shape.carried())
+    {
+      auto same = [contact](const Shape& s) { return s.name == contact->shape.name; };
+      const auto found = std::find_if(model.carriers_.begin(), model.carriers_.end(), same);
+      contact->carrier = static_cast<int>(found - model.carriers_.begin());
+      if (found == model.carriers_.end())
+        model.carriers_.push_back(contact->shape);
+    }
     int particles[MAX_ROW_PARTICLES];
     const int count = rowParticles(c, particles);
     RowRecord record{ static_cast<int>(k), model.numRows(), rowCount(c), model.numBlocks(), count };
-    model.addToKindTable(c, record.constraint, record.first_row, record.first_block);
+    model.addToKindTable(model.scene_.constraints[k], record.constraint, record.first_row,
+                         record.first_block);
     for (int r = 0; r < record.rows; ++r)
     {
       for (int p = 0; p < count; ++p)
@@ -800,27 +811,28 @@ void Model::validateState(const State& state, const std::string& field) const
   requireFinite(prefix + "time", state.time, "[s]");
 }
 
-ContactFrame contactFrame(const Model& model, const UnilateralRecord& record, const Points& p,
-                          const Points& v)
+ContactFrame contactFrame(const Model& model, const UnilateralRecord& record,
+                          const EffectContext& context, const Points& p, const Points& v)
 {
   return std::visit(
       [&](const auto& contact) -> ContactFrame
       {
         if constexpr (IsParticleContact<std::decay_t<decltype(contact)>>::value)
-          return contactFrame(contact, model.scene().surfaces, p, v);
+          return contactFrame(contact, context, p, v);
         else
           return ContactFrame{ Vec3::Zero() };  // not a particle contact: no frame
       },
       model.scene().constraints[record.constraint]);
 }
 
-double penetration(const Model& model, const UnilateralRecord& record, const Points& p)
+double penetration(const Model& model, const UnilateralRecord& record, const EffectContext& context,
+                   const Points& p)
 {
   return std::visit(
       [&](const auto& contact)
       {
         if constexpr (IsParticleContact<std::decay_t<decltype(contact)>>::value)
-          return penetration(contact, model.scene().surfaces, p);
+          return penetration(contact, context, p);
         else
           return 0.0;
       },

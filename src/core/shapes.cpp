@@ -107,9 +107,22 @@ ShapeSample boxDistance(const Vec3& q, const Vec3& half)
 
 }  // namespace
 
+ShapePose fixedPose(const Shape& shape)
+{
+  ShapePose pose;
+  pose.origin = shape.position;
+  pose.rotation = shape.rotation;
+  return pose;
+}
+
 ShapeSample evaluateShape(const Shape& shape, const Vec3& p)
 {
-  const Vec3 q = shape.rotation.transpose() * (p - shape.position);  // local
+  return evaluateShape(shape, fixedPose(shape), p);
+}
+
+ShapeSample evaluateShape(const Shape& shape, const ShapePose& pose, const Vec3& p)
+{
+  const Vec3 q = pose.rotation.transpose() * (p - pose.origin);  // local
   ShapeSample local;
   switch (shape.type)
   {
@@ -138,8 +151,8 @@ ShapeSample evaluateShape(const Shape& shape, const Vec3& p)
   }
   ShapeSample world;
   world.distance = local.distance;
-  world.normal = shape.rotation * local.normal;
-  world.hessian = shape.rotation * local.hessian * shape.rotation.transpose();
+  world.normal = pose.rotation * local.normal;
+  world.hessian = pose.rotation * local.hessian * pose.rotation.transpose();
   return world;
 }
 
@@ -178,6 +191,12 @@ void validateShape(const Shape& shape, const std::string& field)
       !((shape.rotation.transpose() * shape.rotation - Mat3::Identity()).norm() <= 1e-9) ||
       !(shape.rotation.determinant() > 0.0))
     throw InvalidInput(field + ".rpy", "gives no rotation (the rotation is not orthonormal)");
+  if (!shape.frame.empty() && !shape.topic.empty())
+    throw InvalidInput(field + ".topic", "= '" + shape.topic + "' beside frame = '" + shape.frame +
+                                             "': give a frame or a topic, not both");
+  if (!shape.frame.empty() && shape.frame.front() == '/')
+    throw InvalidInput(field + ".frame",
+                       "= '" + shape.frame + "': tf2 frame names have no leading /");
   switch (shape.type)
   {
     case ShapeType::Plane:

@@ -69,10 +69,25 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
                    in += p;
                });
   // friction, at its last stage's value (contact.hpp; the step start's under velocity Verlet and
-  // fast projection; a contact off holds none): it only dissipates
+  // fast projection; a contact off holds none): it only dissipates, against the slip
   const auto& contacts = model.unilateral();
+  const EffectContext context{ model.scene().surfaces, x.time, nullptr, &data.carriers };
   for (int k = 0; k < model.numParticleContacts(); ++k)
-    dissipated -= data.contacts[k].friction_force.dot(x.velocities.col(contacts[k].particles[0]));
+  {
+    const ContactState& contact = data.contacts[k];
+    const Vec3 v = x.velocities.col(contacts[k].particles[0]);
+    if (!model.hasCarriers() || contact.mode == ContactMode::Separated)
+    {
+      dissipated -= contact.friction_force.dot(v);
+      continue;
+    }
+    // on a moving obstacle the slip is relative to its point, and the contact force (normal and
+    // friction) does work through that point's motion: the obstacle's holder puts it in
+    const ContactFrame frame = contactFrame(model, contacts[k], context, x.positions, x.velocities);
+    const Vec3 force = contact.normal_force * frame.normal.normalized() + contact.friction_force;
+    dissipated -= contact.friction_force.dot(frame.relative(v));
+    in += force.dot(frame.surface_velocity);
+  }
 }
 
 // The power the driven anchors put in through their reactions [W]: sum_k r_k . v_k, r_k = m a -
@@ -480,7 +495,7 @@ void Simulator::bookStep(double dt, bool end_energies)
 
 void Simulator::readSceneKind()
 {
-  driven_ = false;
+  driven_ = model_->hasCarriers();  // a carried obstacle moves in time, as a driven anchor
   for (const Constraint& constraint : model_->scene().constraints)
     driven_ = driven_ || isDriven(constraint);
   // a driven anchor (a time-dependent kind) or a force from outside does work on the system:
@@ -840,9 +855,10 @@ ProjectionReport Simulator::setState(const State& state)
                           "cannot be projected onto the constraints");
     // below a contact's surface it is refused, as a scene starting there is: the next step would
     // take the jump as an impact as deep as it
-    const BelowSurface below =
-        deepestBelowSurface(model_->scene().constraints, model_->scene().surfaces,
-                            projected.positions, &model_->inverseMasses());
+    const BelowSurface below = deepestBelowSurface(
+        model_->scene().constraints,
+        EffectContext{ model_->scene().surfaces, projected.time, nullptr, &data_->carriers },
+        projected.positions, &model_->inverseMasses());
     if (below.contact)
       throw InvalidInput("positions[" + std::to_string(below.particle) + "]",
                          "would put particle " + std::to_string(below.particle) + " " +
@@ -906,7 +922,8 @@ void Simulator::setForces(const std::vector<Force>& forces)
   scene.forces = forces;
   auto [model, data] = recompile(scene, *model_, *data_, paths_);
   data->tracks = data_->tracks;  // the holders' paths come from outside the scene too
-  data_.reset();                 // the old data refers to the old model: it goes first
+  data->carriers = data_->carriers;
+  data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(model);
   data_ = std::move(data);
   const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
@@ -945,6 +962,11 @@ ProjectionReport Simulator::setConstraints(const std::vector<Constraint>& constr
       if (eliminatedParticle(model_->scene().constraints[model_->tracked()[old]]) == particle)
         data->tracks[k] = data_->tracks[old];
   }
+  // carried shapes by name: the world outside the scene goes on
+  for (std::size_t k = 0; k < model->carriers().size(); ++k)
+    for (std::size_t old = 0; old < model_->carriers().size(); ++old)
+      if (model_->carriers()[old].name == model->carriers()[k].name)
+        data->carriers[k] = data_->carriers[old];
   // project with the new model before anything is replaced: a refusal changes nothing
   State projected = data_->state;
   ProjectionReport report = projectState(*model, *data, settings_, projected, "constraints",
@@ -986,7 +1008,7 @@ void Simulator::setPerturbations(const std::vector<Force>& perturbations)
 Diagnostics Simulator::diagnostics() const
 {
   return computeDiagnostics(*model_, data_->state, diagnostic_rows_, diagnostic_rates_,
-                            &data_->tracks);
+                            &data_->tracks, &data_->carriers);
 }
 
 void Simulator::constraintForces(Points& forces, Eigen::VectorXd& multipliers)

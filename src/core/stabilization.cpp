@@ -50,10 +50,12 @@ double projectVelocities(const Model& model, Data& data, double time, const Poin
   imposeEliminated(model, data, time, nullptr, &velocities);
   if (model.numRows() == 0)
     return 0.0;
-  // dv = -W J^T (J W J^T)^-1 J v; only J is needed, not Jdot v
+  // dv = -W J^T (J W J^T)^-1 (J v + dC/dt); only J (and dC/dt) is needed, not Jdot v
   if (!rows_current)
     rowStage(model, data, time, positions, velocities, data.rows);
   multiplyJacobian(model, data.rows, velocities, data.rhs);
+  if (model.hasCarriers())
+    data.rhs += data.rows.time_rate;  // a carried shape's contact moves with it
   // the change is J^T-shaped: when measured, track its size separately, not as a difference of
   // velocities
   Points& change = data.stages.change;
@@ -83,7 +85,7 @@ ProjectionReport shakePositions(const Model& model, Data& data, double time,
   {
     // the trial rows give C only; the directions stay those of the reference
     evaluateRowRecords(model, time, positions, data.stages.zero, data.trial_rows, &data.counters,
-                       false, &reference);
+                       false, &reference, &data.carriers);
     report.max_position_error = data.trial_rows.max_violation;
     report.converged = report.max_position_error <= tolerance;
     if (report.converged || iteration >= max_iterations ||
@@ -145,7 +147,8 @@ ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, P
     // singular: the generic fallbacks below read every row's C and diagonal, which the sweep
     // does not store (evaluated at zero velocities, as projectPositions evaluates them)
     if (!factorised)
-      evaluateRowRecords(model, time, positions, data.stages.zero, data.rows, nullptr);
+      evaluateRowRecords(model, time, positions, data.stages.zero, data.rows, nullptr, true,
+                         nullptr, &data.carriers);
     report.max_position_error = data.rows.max_violation;
     report.converged = report.max_position_error <= tolerance;
     if (report.converged || iteration >= max_iterations ||
@@ -173,6 +176,8 @@ ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, P
   else
   {
     multiplyJacobian(model, data.rows, velocities, data.rhs);
+    if (model.hasCarriers())
+      data.rhs += data.rows.time_rate;
     report.singular |= correctAlongRows(model, data, velocities);
   }
   // the factorisation at the state's final positions serves the next step's first stage

@@ -26,13 +26,14 @@ void evaluateKind(const std::vector<KindRecord<Kind>>& table, const Model& model
           entry.record, context, positions, velocities,
           RowBlock{ rows.value.data() + entry.first_row, rows.jdot_v.data() + entry.first_row,
                     rows.violation.data() + entry.first_row,
-                    rows.jacobian.data() + entry.first_block });
+                    rows.jacobian.data() + entry.first_block,
+                    rows.time_rate.data() + entry.first_row });
       if constexpr (IsUnilateral<Kind>::value)
         for (int r = 0; r < Kind::ROWS; ++r)
           if (rows.inactive[entry.first_row + r])  // switched off: an identity row (contact.hpp)
           {
             const int row = entry.first_row + r;
-            rows.value[row] = rows.jdot_v[row] = rows.violation[row] = 0.0;
+            rows.value[row] = rows.jdot_v[row] = rows.violation[row] = rows.time_rate[row] = 0.0;
             for (int k = 0; k < Kind::PARTICLES; ++k)
               rows.jacobian[entry.first_block + r * Kind::PARTICLES + k].setZero();
           }
@@ -83,9 +84,10 @@ void imposeKind(const std::vector<KindRecord<Kind>>& table, double time,
 
 void evaluateRowRecords(const Model& model, double time, const Points& positions,
                         const Points& velocities, RowData& rows, EffectCounters* counters,
-                        bool diagonals, const Points* frame_positions)
+                        bool diagonals, const Points* frame_positions,
+                        const std::vector<AnchorTrack>* carriers)
 {
-  const EffectContext context{ model.scene().surfaces, time, frame_positions };
+  const EffectContext context{ model.scene().surfaces, time, frame_positions, carriers };
   double max_violation = 0.0;
   std::apply(
       [&](const auto&... tables)
@@ -102,7 +104,8 @@ void rowStage(const Model& model, Data& data, double time, const Points& positio
               const Points& velocities, RowData& rows)
 {
   data.noteStateChange();  // its callers may move the positions past any kept factorisation
-  evaluateRowRecords(model, time, positions, velocities, rows, &data.counters);
+  evaluateRowRecords(model, time, positions, velocities, rows, &data.counters, true, nullptr,
+                     &data.carriers);
 }
 
 void appliedForceStage(const Model& model, Data& data, const Points& positions,
@@ -161,6 +164,8 @@ void appliedForceStage(const Model& model, Data& data, const Points& positions,
 void rowVelocityStage(const Model& model, Data& data, const Points& velocities)
 {
   multiplyJacobian(model, data.rows, velocities, data.rows.velocity);
+  if (model.hasCarriers())
+    data.rows.velocity += data.rows.time_rate;  // rows on a moving shape: Cdot = J v + dC/dt
 }
 
 SolveReport factorizeRows(const Model& model, Data& data)
@@ -291,7 +296,7 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
   }
   // a scene with contacts adds their friction, solved with the rows (contact.hpp)
   const SolveReport report = model.numContacts() > 0
-                                 ? contactForceStage(model, data, velocities, bias)
+                                 ? contactForceStage(model, data, time, positions, velocities, bias)
                                  : constraintForceStage(model, data, bias);
   accelerationStage(model, data, accelerations);
   return report;

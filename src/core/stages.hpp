@@ -21,10 +21,12 @@ namespace constrained_particles
 {
 /// Evaluates every row record at (p, v) and time t into `rows`: C, J, Jdot v, the metric
 /// violations and their max, and (if `diagonals`) each row's diagonal entry of J W J^T. Counts
-/// each record in `counters` if given. `frame_positions`: see EffectContext. Stateless otherwise.
+/// each record in `counters` if given. `frame_positions`, `carriers`: see EffectContext.
+/// Stateless otherwise.
 void evaluateRowRecords(const Model& model, double time, const Points& positions,
                         const Points& velocities, RowData& rows, EffectCounters* counters,
-                        bool diagonals = true, const Points* frame_positions = nullptr);
+                        bool diagonals = true, const Points* frame_positions = nullptr,
+                        const std::vector<AnchorTrack>* carriers = nullptr);
 
 /// Stage 1, rows at positions: evaluateRowRecords into `rows`, counted in data.counters.
 void rowStage(const Model& model, Data& data, double time, const Points& positions,
@@ -158,7 +160,8 @@ inline SolveReport fusedForward(const Model& model, Data& data, double time,
     report = countFusedFactorization(model, data, min_ratio);
   else
   {
-    evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr);
+    evaluateRowRecords(model, time, positions, velocities, data.rows, nullptr, true, nullptr,
+                       &data.carriers);
     report = constraintForceStage(model, data, nullptr);
     accelerationStage(model, data, accelerations);
     return report;

@@ -233,15 +233,15 @@ void FrameAnchors::lookFor(Holder& holder, std::int64_t now_ns)
     holder.missing = e.what();
     if (!holder.s.warned)
       ROS_WARN(
-          "simulator: frame_anchor on particle %d: frame '%s' is not in tf (%s): the "
-          "particle is held where it is until the frame appears",
-          holder.particle, holder.frame.c_str(), e.what());
+          "simulator: %s: frame '%s' is not in tf (%s): %s is held where it is until the "
+          "frame appears",
+          holder.label.c_str(), holder.frame.c_str(), e.what(), holder.moved.c_str());
     holder.s.warned = true;
     return;
   }
   if (!holder.s.found && holder.s.warned)
-    ROS_INFO("simulator: frame_anchor on particle %d: frame '%s' has appeared: following it",
-             holder.particle, holder.frame.c_str());
+    ROS_INFO("simulator: %s: frame '%s' has appeared: following it", holder.label.c_str(),
+             holder.frame.c_str());
   holder.s.found = true;
   holder.missing.clear();
   if (!newest.header.stamp.isZero())
@@ -323,6 +323,8 @@ void FrameAnchors::update(const Snapshot& snap)
       holder.frame = anchor->frame;
       holder.topic = anchor->topic;
       holder.name = holderOf(*anchor);
+      holder.label = "frame_anchor on particle " + std::to_string(anchor->particle);
+      holder.moved = "the particle";
       holder.offset = anchor->offset;
       if (k < snap.holders.size())
         holder.since_ns = snap.holders[k].since_ns;
@@ -343,6 +345,24 @@ void FrameAnchors::update(const Snapshot& snap)
                 holder.s.waiting.emplace(b.stamp_ns, b.arrival_ns);
       holders_.push_back(std::move(holder));
     }
+    // the carried obstacles' holders, after the anchors' (their samples: the frame's origin)
+    for (std::size_t c = 0; c < model.carriers().size(); ++c)
+    {
+      const Shape& shape = model.carriers()[c];
+      Holder holder;
+      holder.track = static_cast<int>(model.tracked().size() + c);
+      holder.particle = -1;
+      holder.frame = shape.frame;
+      holder.topic = shape.topic;
+      holder.name = shape.frame.empty() ? shape.topic : shape.frame;
+      holder.label = "obstacle '" + shape.name + "'";
+      holder.moved = "the obstacle";
+      for (Holder& was : old)
+        if (was.particle < 0 && was.label == holder.label && was.frame == holder.frame &&
+            was.topic == holder.topic)
+          holder.s = std::move(was.s);
+      holders_.push_back(std::move(holder));
+    }
     for (Holder& holder : holders_)
     {
       if (!holder.frame.empty() && holder.frame.rfind(frame_prefix_, 0) == 0)
@@ -352,8 +372,8 @@ void FrameAnchors::update(const Snapshot& snap)
       if (!holder.topic.empty() && !ros::names::validate(holder.topic, error))
         holder.refused = "topic '" + holder.topic + "' is not a valid ROS name (" + error + ")";
       if (!holder.refused.empty())
-        ROS_WARN("simulator: frame_anchor on particle %d: %s: the particle is held where it is",
-                 holder.particle, holder.refused.c_str());
+        ROS_WARN("simulator: %s: %s: %s is held where it is", holder.label.c_str(),
+                 holder.refused.c_str(), holder.moved.c_str());
       else
         any = true;
     }
@@ -507,27 +527,28 @@ bool FrameAnchors::report(const Snapshot& snap,
   for (Holder& holder : holders_)
   {
     const std::string name =
-        "frame_anchor " + std::to_string(holder.particle) + " (" +
-        (holder.frame.empty() ? "topic " + holder.topic : "frame " + holder.frame) + ")";
+        (holder.particle >= 0 ? "frame_anchor " + std::to_string(holder.particle) : holder.label) +
+        " (" + (holder.frame.empty() ? "topic " + holder.topic : "frame " + holder.frame) + ")";
+    const std::string& moved = holder.moved;
     const bool counted =
         snap.tracks_serial == serial_ && holder.track < static_cast<int>(snap.holders.size());
     const HolderStatus* s = counted ? &snap.holders[holder.track] : nullptr;
     std::string value;
     if (!holder.refused.empty())
-      value = "not followed: " + holder.refused + "; the particle is held where it is";
+      value = "not followed: " + holder.refused + "; " + moved + " is held where it is";
     else if (!holder.missing.empty())
-      value = "not followed: " + holder.missing + "; the particle is held where it is";
+      value = "not followed: " + holder.missing + "; " + moved + " is held where it is";
     else if (holder.s.newest_arrival_ns < 0 && !holder.s.still)
-      value = "waiting for its first pose: the particle rests where it is";
+      value = "waiting for its first pose: " + moved + " rests where it is";
     else if (const double silent = static_cast<double>(now_ns - holder.s.newest_arrival_ns) * 1e-9;
              !holder.s.still && silent > STALE_AFTER)
       value = "its newest pose arrived " + formatValue(std::round(silent * 10.0) / 10.0) +
-              " s ago (its publisher stopped?): the particle coasted to rest after the last";
+              " s ago (its publisher stopped?): " + moved + " coasted to rest after the last";
     if (!value.empty())
       say(name + " " + value);
     else
-      value =
-          holder.s.still ? "following (a static frame: the particle is held still)" : "following";
+      value = holder.s.still ? "following (a static frame: " + moved + " is held still)"
+                             : std::string("following");
     if (snap.faulted)
       value += " (stepping is stopped: its poses are not taken)";
     if (s)
@@ -556,25 +577,28 @@ bool FrameAnchors::report(const Snapshot& snap,
       holder.s.logged_dropped = dropped;
       if (s->overruns > holder.s.logged_overruns)
         say(name + ": the steps ran past its newest pose " +
-            std::to_string(s->overruns - holder.s.logged_overruns) +
-            " times in the last second (the particle coasted on; the latency grows to cover "
+            std::to_string(s->overruns - holder.s.logged_overruns) + " times in the last second (" +
+            moved +
+            " coasted on; the latency grows to cover "
             "its arrivals)");
       holder.s.logged_overruns = s->overruns;
       if (s->refused > holder.s.logged_refused)
       {
         ROS_WARN(
-            "simulator: frame_anchor on particle %d: the scene cannot follow its holder's "
-            "teleport (%s): the particle rests where it is",
-            holder.particle, s->last_refusal.c_str());
+            "simulator: %s: the scene cannot follow its holder's teleport (%s): %s rests "
+            "where it is",
+            holder.label.c_str(), s->last_refusal.c_str(), moved.c_str());
         say(name + ": a teleport it cannot follow");
       }
       holder.s.logged_refused = s->refused;
       if (s->jumps > holder.s.logged_jumps)
         ROS_WARN(
-            "simulator: frame_anchor on particle %d: its holder '%s' jumped %s m between two "
-            "samples (over ~anchor_max_jump or ~anchor_max_speed): a teleport, the scene "
-            "carried along with it",
-            holder.particle, holder.name.c_str(), formatValue(s->last_jump).c_str());
+            "simulator: %s: its holder '%s' jumped %s m between two samples (over "
+            "~anchor_max_jump or ~anchor_max_speed): a teleport, %s",
+            holder.label.c_str(), holder.name.c_str(), formatValue(s->last_jump).c_str(),
+            holder.particle >= 0 ? "the scene carried along with it"
+                                 : "the obstacle put there at once (what it meets is "
+                                   "projected out)");
       holder.s.logged_jumps = s->jumps;
     }
     value += ", non-finite " + std::to_string(holder.s.non_finite) + ", untransformable " +

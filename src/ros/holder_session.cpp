@@ -78,8 +78,11 @@ void HolderSession::setModel(const Model& model, bool scene_changed)
       const Constraint& constraint = model.scene().constraints[k];
       const auto* anchor = std::get_if<FrameAnchorConstraint>(&constraint);
       keys.push_back(TrackKey{ eliminatedParticle(constraint), holderName(constraint),
-                               anchor ? anchor->offset : Vec3::Zero() });
+                               anchor ? anchor->offset : Vec3::Zero(), std::string() });
     }
+    for (const Shape& shape : model.carriers())
+      keys.push_back(TrackKey{ -1, shape.frame.empty() ? shape.topic : shape.frame, Vec3::Zero(),
+                               shape.name });
     std::lock_guard<std::mutex> lock(mutex_);
     posted_serial_ = ++serial_;
     if (scene_changed)
@@ -101,18 +104,32 @@ void HolderSession::setModel(const Model& model, bool scene_changed)
   }
   std::vector<HolderStatus> status;
   std::vector<Holder> holders;
+  std::vector<HolderStatus> wanted;  // the new model's holders: anchors, then obstacles
   for (int k : model.tracked())
   {
     const Constraint& constraint = model.scene().constraints[k];
     HolderStatus fresh;
     fresh.particle = eliminatedParticle(constraint);
     fresh.holder = holderName(constraint);
+    wanted.push_back(fresh);
+  }
+  for (const Shape& shape : model.carriers())
+  {
+    HolderStatus fresh;
+    fresh.particle = -1;
+    fresh.holder = shape.frame.empty() ? shape.topic : shape.frame;
+    fresh.shape = shape.name;
+    wanted.push_back(fresh);
+  }
+  for (HolderStatus& fresh : wanted)
+  {
     Holder holder;
     // a holder kept (an attach or detach of another): its counts, and its samples' place
-    const auto kept =
-        std::find_if(status_.begin(), status_.end(),
-                     [&fresh](const HolderStatus& s)
-                     { return s.particle == fresh.particle && s.holder == fresh.holder; });
+    const auto kept = std::find_if(status_.begin(), status_.end(),
+                                   [&fresh](const HolderStatus& s) {
+                                     return s.particle == fresh.particle &&
+                                            s.holder == fresh.holder && s.shape == fresh.shape;
+                                   });
     // a scene change starts every holder again: its track, its counts and what its arrivals
     // asked (a new run measures its own)
     if (kept != status_.end() && !scene_changed)
@@ -189,18 +206,31 @@ void HolderSession::follow(Simulator& simulator, const Pacer& pacer, double lead
     std::lock_guard<std::mutex> lock(mutex_);
     posts.swap(inbox_);
   }
-  std::vector<AnchorTrack>& tracks = simulator.tracks();
   const double now = simulator.state().time;
   for (Post& post : posts)
   {
-    if (post.serial != serial_ || post.track < 0 || post.track >= static_cast<int>(tracks.size()) ||
-        post.track >= static_cast<int>(status_.size()))
+    AnchorTrack* track = trackOf(simulator, post.track);
+    if (post.serial != serial_ || !track || post.track >= static_cast<int>(status_.size()))
       continue;
     for (const HolderSample& sample : post.samples)
-      take(post.track, sample, tracks[post.track], now, pacer.simTimeOf(sample.stamp_ns), lead);
+      take(post.track, sample, *track, now, pacer.simTimeOf(sample.stamp_ns), lead);
   }
-  for (AnchorTrack& track : tracks)
+  for (AnchorTrack& track : simulator.tracks())
     track.dropBefore(now);
+  for (AnchorTrack& track : simulator.carriers())
+    track.dropBefore(now);
+}
+
+AnchorTrack* HolderSession::trackOf(Simulator& simulator, int k)
+{
+  const int anchors = static_cast<int>(simulator.tracks().size());
+  if (k < 0)
+    return nullptr;
+  if (k < anchors)
+    return &simulator.tracks()[k];
+  if (k - anchors < static_cast<int>(simulator.carriers().size()))
+    return &simulator.carriers()[k - anchors];
+  return nullptr;
 }
 
 void HolderSession::take(int k, const HolderSample& sample, AnchorTrack& track, double now,
@@ -241,6 +271,23 @@ void HolderSession::take(int k, const HolderSample& sample, AnchorTrack& track, 
   const bool jump = holder.replace || distance > limits_.max_jump ||
                     (interval > 0.0 && distance > limits_.max_speed * interval);
   const double ahead = std::max(lead, MIN_SPACING);
+  if (status.particle < 0 && (jump || !holder.has_previous))
+  {
+    // an obstacle's first pose, or its holder's teleport: it is there at once (a sweep from
+    // where it rested would strike whatever lies between); it carries no scene along
+    track.restart(sample.position, sample.orientation);
+    if (holder.has_previous && !holder.replace)
+    {
+      ++status.jumps;
+      status.last_jump = distance;
+    }
+    holder.replace = false;
+    ++status.taken;
+    holder.has_previous = true;
+    holder.previous = sample.position;
+    holder.previous_ns = sample.stamp_ns;
+    return;
+  }
   AnchorSample knot;
   // a still holder's pose holds at any time: never too late for the steps (a long dt)
   knot.time = sample.still ? std::max(time, now + ahead) : time;
@@ -328,6 +375,16 @@ bool HolderSession::afterChunk(Simulator& simulator)
       ++status.overruns;
     status.coasting = coasting;
   }
+  // the obstacles' holders: overruns only (a teleport put them there at once, take())
+  const std::size_t anchors = simulator.tracks().size();
+  for (std::size_t c = 0; c < simulator.carriers().size() && anchors + c < status_.size(); ++c)
+  {
+    HolderStatus& status = status_[anchors + c];
+    const bool coasting = simulator.carriers()[c].coasting(simulator.state().time);
+    if (coasting && !status.coasting)
+      ++status.overruns;
+    status.coasting = coasting;
+  }
   return changed;
 }
 
@@ -356,6 +413,10 @@ void HolderSession::rest(Simulator& simulator, bool new_epoch)
   for (HolderStatus& status : status_)
     status.coasting = false;
   simulator.restTracks();
+  // an obstacle rests where and as it is turned now, until its next pose
+  const double now = simulator.state().time;
+  for (AnchorTrack& track : simulator.carriers())
+    track.restart(track.motion(now).position, track.orientation(now));
 }
 
 void HolderSession::resync(Simulator& simulator)
@@ -363,6 +424,8 @@ void HolderSession::resync(Simulator& simulator)
   discard();
   const double now = simulator.state().time;
   for (AnchorTrack& track : simulator.tracks())
+    track.resync(now);
+  for (AnchorTrack& track : simulator.carriers())
     track.resync(now);
   for (Holder& holder : holders_)
     holder.has_previous = false;

@@ -79,8 +79,11 @@ double arrowForceFloor(const Model& model)
 visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& header,
                                                     const Model& model, const Points& positions,
                                                     const std::vector<ContactState>& contacts,
-                                                    double scale, int previous_count)
+                                                    double scale, int previous_count,
+                                                    const std::vector<AnchorTrack>* carriers,
+                                                    double time)
 {
+  const EffectContext context{ model.scene().surfaces, time, nullptr, carriers };
   visualization_msgs::MarkerArray array;
   const auto& table = model.unilateral();
   const std::size_t count = static_cast<std::size_t>(model.numParticleContacts());
@@ -88,7 +91,7 @@ visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& head
   {
     const ContactState& contact = contacts[k];
     const Eigen::Vector3d start = positions.col(table[k].particles[0]);
-    const ContactFrame frame = contactFrame(model, table[k], positions, positions);
+    const ContactFrame frame = contactFrame(model, table[k], context, positions, positions);
     const Eigen::Vector3d forces[2] = { contact.normal_force * frame.normal.normalized(),
                                         contact.friction_force };
     const int id = 2 * static_cast<int>(k);
@@ -189,6 +192,8 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
   auto add = [&](const Shape& shape, int type, const Vec3& centre, const Vec3& scale)
   {
     visualization_msgs::Marker m = makeMarker(header, "obstacles", id++, type);
+    if (!shape.frame.empty())
+      m.header.frame_id = shape.frame;  // its pose is in its frame: rviz carries it with tf
     m.pose.position = tf2::toMsg(Eigen::Vector3d(centre));
     m.pose.orientation = tf2::toMsg(Eigen::Quaterniond(shape.rotation));  // tf2_eigen converts
     m.scale.x = scale.x();
@@ -204,6 +209,8 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
       continue;
     drawn.push_back(contact->shape.name);
     const Shape& shape = contact->shape;
+    if (shape.frame.empty() && !shape.topic.empty())
+      continue;  // on a pose topic: no frame rviz could carry it in
     const Vec3 axis = shape.rotation.col(2);
     const double d = 2.0 * shape.radius;
     switch (shape.type)

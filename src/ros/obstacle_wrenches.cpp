@@ -7,9 +7,11 @@
 namespace constrained_particles
 {
 std::vector<ObstacleWrench> obstacleWrenches(const Model& model, const Points& positions,
-                                             const std::vector<ContactState>& contacts)
+                                             const std::vector<ContactState>& contacts,
+                                             const std::vector<AnchorTrack>* carriers, double time)
 {
   std::vector<ObstacleWrench> loads;
+  const EffectContext context{ model.scene().surfaces, time, nullptr, carriers };
   const auto& rows = model.unilateral();
   const bool current = contacts.size() == rows.size();
   for (int k = 0; k < model.numParticleContacts(); ++k)
@@ -25,11 +27,12 @@ std::vector<ObstacleWrench> obstacleWrenches(const Model& model, const Points& p
     if (!current || contacts[k].mode == ContactMode::Separated)
       continue;
     const Vec3 p = positions.col(contact->particle);
-    const Vec3 normal = evaluateShape(contact->shape, p).normal;
+    const ShapePose pose = shapePose(*contact, context);
+    const Vec3 normal = evaluateShape(contact->shape, pose, p).normal;
     const Vec3 force = -(contacts[k].normal_force * normal + contacts[k].friction_force);
     const Vec3 at = p - contact->radius * normal;  // where the ball touches the shape
     load->force += force;
-    load->torque += (at - contact->shape.position).cross(force);
+    load->torque += (at - pose.origin).cross(force);
   }
   return loads;
 }
@@ -71,8 +74,8 @@ void ObstacleWrenches::publish(const Snapshot& snap, const std_msgs::Header& hea
     listened = listened || entry.second.getNumSubscribers() > 0;
   if (!listened)
     return;
-  for (const ObstacleWrench& load :
-       obstacleWrenches(*snap.model, snap.state.positions, snap.contacts))
+  for (const ObstacleWrench& load : obstacleWrenches(
+           *snap.model, snap.state.positions, snap.contacts, &snap.carriers, snap.state.time))
   {
     auto found = by_topic_.find(obstacleWrenchTopic(load.shape));
     if (found == by_topic_.end() || found->second.getNumSubscribers() == 0 ||

@@ -69,8 +69,9 @@ void ScenePublisher::publishArrows(const Snapshot& snap, const std_msgs::Header&
       constraintForceMarkers(header, snap.state.positions, snap.constraint_forces, scale,
                              std::max(published_arrows_, stale_arrows_));
   // the contacts' normal and friction forces beside the totals (they are in them)
-  const visualization_msgs::MarkerArray contact_arrows = contactForceMarkers(
-      header, *snap.model, snap.state.positions, snap.contacts, scale, published_contact_arrows_);
+  const visualization_msgs::MarkerArray contact_arrows =
+      contactForceMarkers(header, *snap.model, snap.state.positions, snap.contacts, scale,
+                          published_contact_arrows_, &snap.carriers, snap.state.time);
   // two arrows a surface contact (slack links, the rest of numContacts(), have none)
   published_contact_arrows_ = static_cast<int>(2 * snap.model->numParticleContacts());
   arrows.markers.insert(arrows.markers.end(), contact_arrows.markers.begin(),

@@ -625,7 +625,7 @@ bool SimulationRunner::runChunk(int steps, StepStatistics& batch)
   steps_now = static_cast<int>(until_expiry);
   // holders' poses posted since the last chunk, known before the steps that reach them; a
   // holder's teleport ends the chunk on its step
-  if (!simulator_->tracks().empty())
+  if (hasHolders())
   {
     holders_.follow(*simulator_, pacer_, simulator_->stepSettings().dt);
     if (holders_.stepsToNextJump(*simulator_, 1) == 0 && holders_.afterChunk(*simulator_))
@@ -675,7 +675,7 @@ bool SimulationRunner::runChunk(int steps, StepStatistics& batch)
   noteForces(perturbations_.takeQueuedInto(*simulator_, session_.serial(), command_clock_()));
   if (std::isfinite(perturbations_.nextCommandExpiry()))
     noteForces(perturbations_.expireCommandsInto(*simulator_, command_clock_()));
-  if (!simulator_->tracks().empty() && holders_.afterChunk(*simulator_))
+  if (hasHolders() && holders_.afterChunk(*simulator_))
     afterChange();  // a teleport: the shadow cannot know it
   last_good_ = simulator_->state();
   if (accuracy_.record(simulator_->state()))
@@ -792,6 +792,7 @@ void SimulationRunner::makeSnapshot()
   s->constraint_forces = forces_;
   s->multipliers = multipliers_;
   s->contacts = simulator_->data().contacts;
+  s->carriers = simulator_->carriers();
   s->diagnostics = simulator_->diagnostics();
   s->ledger = simulator_->energyLedger();
   s->forward_path = simulator_->forwardPath();
@@ -839,7 +840,7 @@ void SimulationRunner::updateAccuracy()
   // pushed or dragged, the live state follows forces the shadow does not feel: no window opens
   const bool stepping = !faulted_ && (!paused_ || step_request_) && perturbations_.empty();
   // the shadow reference cannot know where holders outside the node go: no window with one
-  const bool measurable = stepping && simulator_->tracks().empty();
+  const bool measurable = stepping && !hasHolders();
   if (accuracy_.update(simulator_->state(), measurable, parameters_.step,
                        parameters_.accuracy_window, parameters_.publish_rate,
                        simulator_->model().numParticles(), session_.scene(), pacer_.base()))

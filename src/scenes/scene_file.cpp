@@ -266,7 +266,7 @@ Shape parseShape(const Where& where, const YAML::Node& node, const std::string& 
   shape.name = name;
   shape.type =
       parseShapeType(readString(where / "type", node["type"]), where.at(node["type"]) + ".type");
-  std::vector<std::string> keys = { "type", "position", "rpy" };
+  std::vector<std::string> keys = { "type", "position", "rpy", "frame", "topic" };
   if (shape.type == ShapeType::Box)
     keys.push_back("size");
   if (shape.type == ShapeType::Sphere || shape.type == ShapeType::Capsule ||
@@ -287,6 +287,11 @@ Shape parseShape(const Where& where, const YAML::Node& node, const std::string& 
     shape.length = readDouble(where / "length", node["length"]);
   if (node["size"])
     shape.size = readVector(where / "size", node["size"]);
+  // carried by a tf frame or a PoseStamped topic: position and rpy are then in its frame
+  if (node["frame"])
+    shape.frame = readString(where / "frame", node["frame"]);
+  if (node["topic"])
+    shape.topic = readString(where / "topic", node["topic"]);
   try
   {
     requireInRange("rpy", rpy, limits::SHAPE_ANGLE);
@@ -861,8 +866,8 @@ BuiltScene buildScene(const SceneDescription& d)
   // a contact's particle starts on or above its surface: below it, the first step would have to
   // lift it out (an impact as deep as the start is wrong), so the file is refused, saying where
   // (the deepest one)
-  if (const BelowSurface below =
-          deepestBelowSurface(scene.constraints, scene.surfaces, state.positions);
+  if (const BelowSurface below = deepestBelowSurface(
+          scene.constraints, EffectContext{ scene.surfaces, 0.0 }, state.positions);
       below.contact)
   {
     std::vector<std::string> surface_names;

@@ -285,3 +285,52 @@ TEST(HolderSession, AStillSampleIsNeverLate)
   EXPECT_EQ(simulator.tracks()[0].last().position, Vec3(0.01, 0, 0));
   EXPECT_GE(simulator.tracks()[0].last().time, 0.15);
 }
+
+// A carried obstacle's holder comes after the frame anchors' (its status names the shape): its
+// first pose puts the shape there at once, later ones are knots of its track, a jump over
+// ~anchor_max_jump puts it there at once too (counted) and carries no particle along.
+TEST(HolderSession, CarriedObstacleTakesItsPosesAndTeleportsAlone)
+{
+  Scene scene;
+  scene.masses = { 0.1 };
+  Shape finger;
+  finger.name = "finger";
+  finger.type = ShapeType::Sphere;
+  finger.radius = 0.05;
+  finger.frame = "finger_link";
+  finger.position = Vec3(0.1, 0.0, 0.0);  // in its frame
+  scene.constraints = { ShapeContact{ 0, finger, 0.01 } };
+  State start;
+  start.positions = Points::Zero(3, 1);
+  start.velocities = Points::Zero(3, 1);
+  Simulator simulator(scene, start, StepSettings{});
+  HolderSession holders(HolderLimits{});
+  holders.setModel(simulator.model(), true);
+  ASSERT_EQ(holders.status().size(), 1u);
+  EXPECT_EQ(holders.status()[0].particle, -1);
+  EXPECT_EQ(holders.status()[0].shape, "finger");
+  EXPECT_EQ(holders.status()[0].holder, "finger_link");
+  const Pacer pacer = ownClock();
+  simulator.step(100);  // t = 0.1 s
+  const std::uint64_t serial = holders.serial();
+  HolderSample first = at(110000000, Vec3(1.0, 0, 0));
+  first.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Vec3::UnitZ()));
+  holders.post(serial, 0, { first, at(120000000, Vec3(1.001, 0, 0)) });
+  holders.follow(simulator, pacer, 1e-3);
+  ASSERT_EQ(simulator.carriers().size(), 1u);
+  const AnchorTrack& track = simulator.carriers()[0];
+  // there at once (at rest at the first pose now), then off towards the second
+  EXPECT_EQ(track.motion(0.1).position, Vec3(1.0, 0, 0));
+  EXPECT_TRUE(track.orientation(0.1).isApprox(first.orientation, 1e-15));
+  EXPECT_EQ(track.last().position, Vec3(1.001, 0, 0));
+  EXPECT_EQ(holders.status()[0].taken, 2u);
+  EXPECT_EQ(holders.status()[0].jumps, 0u);
+  // 2 m in 10 ms: a teleport, put there at once; the particle stays where it is
+  holders.post(serial, 0, { at(130000000, Vec3(3.0, 0, 0)) });
+  holders.follow(simulator, pacer, 1e-3);
+  EXPECT_EQ(simulator.carriers()[0].motion(0.1).position, Vec3(3.0, 0, 0));
+  EXPECT_EQ(holders.status()[0].jumps, 1u);
+  EXPECT_NEAR(holders.status()[0].last_jump, 1.999, 1e-12);
+  EXPECT_FALSE(holders.afterChunk(simulator));  // nothing carried along
+  EXPECT_EQ(Vec3(simulator.state().positions.col(0)), Vec3::Zero());
+}

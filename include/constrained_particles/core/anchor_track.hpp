@@ -93,15 +93,22 @@ public:
   /// Takes the earliest jump: every knot and the hold move by its displacement, returned [m].
   /// Call when the steps reach its time; nextJump() must not be null.
   Vec3 takeJump();
-  /// Forgets every knot and jump: the point rests at `position` until the next append.
+  /// Forgets every knot and jump: the point rests at `position` until the next append (which
+  /// sets off turned as the appended sample).
   void restart(const Vec3& position);
+  /// The same, turned by `orientation` while it rests and where the next append sets off (a
+  /// carried obstacle put at a pose).
+  void restart(const Vec3& position, const Eigen::Quaterniond& orientation);
   /// Forgets the knots and jumps after `now`: the point goes on from where and as fast as it
   /// moves now (coasting to rest), until the next append sets off from there.
   void resync(double now);
   /// p(t), v(t), a(t) [m, m/s, m/s^2] at sim time `time`.
   ImposedMotion motion(double time) const;
-  /// The holder's orientation at `time` (slerp between knots; identity with none).
+  /// The holder's orientation at `time` (slerp between knots; the rest's with none).
   Eigen::Quaterniond orientation(double time) const;
+  /// The holder's angular velocity at `time` [rad/s], world frame: constant between two knots
+  /// (slerp turns at a constant rate: log(q_b q_a^-1) / (t_b - t_a)), 0 outside them.
+  Vec3 angularVelocity(double time) const;
   /// Drops knots no longer needed from `time` on (motion(t >= time) unchanged).
   void dropBefore(double time);
   /// True if `time` is past the newest sample's knot while it was moving: the point coasts.
@@ -161,6 +168,8 @@ private:
   std::deque<Jump> jumps_;
   Vec3 pending_ = Vec3::Zero();  // sum of the jumps not taken: knots are stored before them
   Vec3 hold_;
+  Eigen::Quaterniond hold_orientation_ = Eigen::Quaterniond::Identity();
+  bool hold_turned_ = false;  // restart() was given the orientation: an append sets off from it
   double horizon_ = DEFAULT_HORIZON;
 };
 

@@ -202,11 +202,11 @@ struct BelowSurface
 
 /// The particle contact of `constraints` whose particle lies deepest inside its surface or
 /// obstacle at `positions` (3 x n) [m], by more than CONTACT_START_DEPTH; particles with a zero
-/// entry in `inverse_masses` (held), when given, are skipped. A scene may not start one there
-/// (scenes/scene_file.cpp) nor a teleport put one there (Simulator::setState).
+/// entry in `inverse_masses` (held), when given, are skipped; so are carried shapes' contacts
+/// without context.carriers (where their holder will put them is not known). A scene may not
+/// start one there (scenes/scene_file.cpp) nor a teleport put one there (Simulator::setState).
 inline BelowSurface deepestBelowSurface(const std::vector<Constraint>& constraints,
-                                        const std::vector<Surface>& surfaces,
-                                        const Points& positions,
+                                        const EffectContext& context, const Points& positions,
                                         const std::vector<double>* inverse_masses = nullptr)
 {
   BelowSurface deepest{ nullptr, -1, CONTACT_START_DEPTH };
@@ -216,7 +216,10 @@ inline BelowSurface deepestBelowSurface(const std::vector<Constraint>& constrain
         {
           if constexpr (IsParticleContact<std::decay_t<decltype(contact)>>::value)
           {
-            const double depth = penetration(contact, surfaces, positions);
+            if constexpr (std::is_same_v<std::decay_t<decltype(contact)>, ShapeContact>)
+              if (contact.shape.carried() && !context.carriers)
+                return;
+            const double depth = penetration(contact, context, positions);
             const bool free = !inverse_masses || (*inverse_masses)[contact.particle] > 0.0;
             if (free && depth > deepest.depth)
               deepest = { &constraint, contact.particle, depth };

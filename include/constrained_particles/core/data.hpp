@@ -23,11 +23,14 @@ struct Dopri5Workspace;  // src/core/integrators/dopri5.cpp: Boost.Odeint's step
 /// Constraint rows evaluated at one state.
 struct RowData
 {
-  Eigen::VectorXd value;       ///< C (m): [C] = [m] surface, line, plane; [m^2] link; [rad] angle
-  Eigen::VectorXd jdot_v;      ///< Jdot v (m), [C]/s^2
-  Eigen::VectorXd violation;   ///< metric position error of each row (m) [m]
-  Eigen::VectorXd diagonal;    ///< (J W J^T)_rr, each row's own mobility (m), [C]^2/(kg m^2)
-  Eigen::VectorXd velocity;    ///< Cdot = J v (m), [C]/s
+  Eigen::VectorXd value;      ///< C (m): [C] = [m] surface, line, plane; [m^2] link; [rad] angle
+  Eigen::VectorXd jdot_v;     ///< Jdot v (m), [C]/s^2
+  Eigen::VectorXd violation;  ///< metric position error of each row (m) [m]
+  Eigen::VectorXd diagonal;   ///< (J W J^T)_rr, each row's own mobility (m), [C]^2/(kg m^2)
+  Eigen::VectorXd velocity;   ///< Cdot = J v + dC/dt (m), [C]/s
+  /// dC/dt at fixed positions (m), [C]/s: non-zero only on rows against a moving body (a carried
+  /// shape's contact), 0 on an inactive row
+  Eigen::VectorXd time_rate;
   Eigen::VectorXd bias;        ///< Baumgarte term 2 zeta omega Cdot + omega^2 C (m), [C]/s^2
   std::vector<Vec3> jacobian;  ///< dC/dp blocks (b), [C]/m, row r's from model.rowStart()[r]
   double max_violation = 0.0;  ///< largest violation [m], infinite if any is NaN
@@ -269,6 +272,10 @@ public:
   /// Each tracked record's path (Model::tracked(), t), written between steps by whoever samples
   /// its holder (Simulator::tracks()); each rests at its particle's start until then.
   std::vector<AnchorTrack> tracks;
+  /// The carried shapes' paths, one per Model::carriers() entry, written by whoever samples their
+  /// holders (Simulator::carriers()): the holder frame's origin and orientation in time. Each
+  /// rests at the identity (its shape at its own pose, in the world frame) until then.
+  std::vector<AnchorTrack> carriers;
   /// Each unilateral row's mode and forces (Model::numContacts(); contact.hpp)
   std::vector<ContactState> contacts;
   /// The contact stage's buffers: friction forces [N] and W times them [m/s^2] (3 x n), the

@@ -54,14 +54,17 @@ StepCheckSums stepCheckSums(const Model& model, const State& state, const Points
 double forceNormSum(const Points& forces);
 
 /// Evaluates the diagnostics of a state of the model. Allocates its row workspace. Tracked
-/// records (frame anchors) are measured against `tracks` (Data::tracks; none: not measured).
+/// records (frame anchors) are measured against `tracks` (Data::tracks; none: not measured);
+/// carried shapes are where `carriers` puts them (Data::carriers; none: at their own poses).
 Diagnostics computeDiagnostics(const Model& model, const State& state,
-                               const std::vector<AnchorTrack>* tracks = nullptr);
+                               const std::vector<AnchorTrack>* tracks = nullptr,
+                               const std::vector<AnchorTrack>* carriers = nullptr);
 
 /// As above, evaluating the rows into `rows` (sized for the model: no allocation) and the
 /// rates into `rates` (m, resized once).
 Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& rows,
                                Eigen::VectorXd& rates,
-                               const std::vector<AnchorTrack>* tracks = nullptr);
+                               const std::vector<AnchorTrack>* tracks = nullptr,
+                               const std::vector<AnchorTrack>* carriers = nullptr);
 
 }  // namespace constrained_particles

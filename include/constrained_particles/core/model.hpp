@@ -309,6 +309,16 @@ public:
   {
     return tracked_;
   }
+  /// The carried shapes (Shape::carried()), each once by name, in the order of their tracks
+  /// (Data::carriers, ShapeContact::carrier): first met in scene order.
+  const std::vector<Shape>& carriers() const
+  {
+    return carriers_;
+  }
+  bool hasCarriers() const
+  {
+    return !carriers_.empty();
+  }
   /// The particle each eliminated record holds: e.
   const std::vector<int>& eliminatedParticles() const
   {
@@ -473,18 +483,20 @@ private:
   int chain_surface_rows_ = 0;
   std::vector<int> chain_surface_records_;
   std::vector<UnilateralRecord> unilateral_;
+  std::vector<Shape> carriers_;
   int num_particle_contacts_ = 0;
   PathChoice path_;
 };
 
 /// The frame of particle contact `record` (one of model.unilateral()'s first
-/// numParticleContacts()) at positions p [m] and velocities v [m/s] (3 x n): its kind's
-/// contactFrame(). Stateless.
-ContactFrame contactFrame(const Model& model, const UnilateralRecord& record, const Points& p,
-                          const Points& v);
+/// numParticleContacts()) at positions p [m] and velocities v [m/s] (3 x n), its obstacle where
+/// `context` puts it (time, carriers): its kind's contactFrame(). Stateless.
+ContactFrame contactFrame(const Model& model, const UnilateralRecord& record,
+                          const EffectContext& context, const Points& p, const Points& v);
 
 /// How deep particle contact `record`'s particle is inside what it keeps out of [m] (0 outside).
-double penetration(const Model& model, const UnilateralRecord& record, const Points& p);
+double penetration(const Model& model, const UnilateralRecord& record, const EffectContext& context,
+                   const Points& p);
 
 /// A free particle exactly two rows touch (in a chain, what couples a row to the next): the
 /// particle and its touches by the earlier and the later row.

@@ -27,17 +27,51 @@ enum class ShapeType
   Cylinder,  ///< radius, length: along the local z, flat ends
 };
 
-/// One obstacle, fixed in the world frame.
+/// One obstacle: fixed in the world frame, or carried by a holder outside the core (a tf frame,
+/// a PoseStamped topic) whose path is a track (Data::carriers), its pose then in the holder's.
 struct Shape
 {
   std::string name;  ///< for messages and markers (its key under `shapes` in a scene file)
   ShapeType type = ShapeType::Sphere;
   Vec3 position = Vec3::Zero();  ///< its origin (centre; a plane: a point on it) [m]
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< world from local [1]
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< world (or holder) from local [1]
   double radius = 0.5;                                     ///< sphere, capsule, cylinder [m]
   double length = 1.0;       ///< capsule's segment, cylinder's height [m]
   Vec3 size = Vec3::Ones();  ///< box's full sides [m]
+  /// The tf frame that carries it (position and rotation are then in that frame), or empty
+  std::string frame;
+  /// A geometry_msgs/PoseStamped topic that carries it instead, or empty
+  std::string topic;
+
+  /// True if a holder outside the core moves it.
+  bool carried() const
+  {
+    return !frame.empty() || !topic.empty();
+  }
 };
+
+/// Where a shape is at a time and how its body moves there: its pose (world from local) and the
+/// velocity field of a rigid body, v(p) = velocity + angular_velocity x (p - origin), with the
+/// angular velocity constant over the instant (a holder's track turns at a constant rate between
+/// its samples, AnchorTrack::angularVelocity). A fixed shape: its own pose, at rest.
+struct ShapePose
+{
+  Vec3 origin = Vec3::Zero();                              ///< [m]
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< world from local [1]
+  Vec3 velocity = Vec3::Zero();                            ///< of the origin [m/s]
+  Vec3 acceleration = Vec3::Zero();                        ///< of the origin [m/s^2]
+  Vec3 angular_velocity = Vec3::Zero();                    ///< [rad/s], world frame
+  bool moving = false;                                     ///< any of the three non-zero
+
+  /// The velocity of the body's point at p [m/s].
+  Vec3 velocityAt(const Vec3& p) const
+  {
+    return velocity + angular_velocity.cross(p - origin);
+  }
+};
+
+/// A fixed shape's pose: its own.
+ShapePose fixedPose(const Shape& shape);
 
 /// The signed distance from a point to a shape's surface and its derivatives, in the world frame.
 struct ShapeSample
@@ -58,6 +92,8 @@ constexpr double MIN_CURVATURE_RADIUS = 1e-6;
 /// the normal is taken as the local +z (a sphere's or a capsule's centre, a point on a box's
 /// surface) or the local +x (a cylinder's axis, its side nearest). Stateless; no allocation.
 ShapeSample evaluateShape(const Shape& shape, const Vec3& p);
+/// The same with the shape at `pose` (its own position and rotation ignored).
+ShapeSample evaluateShape(const Shape& shape, const ShapePose& pose, const Vec3& p);
 
 /// World from local for roll, pitch, yaw [rad] (URDF: about fixed x, then y, then z).
 Eigen::Matrix3d rotationFromRpy(const Vec3& rpy);
@@ -70,7 +106,8 @@ std::vector<std::string> shapeTypeNames();
 ShapeType parseShapeType(const std::string& name, const std::string& field);
 
 /// Throws InvalidInput naming `field`.<member> unless every size is in limits::SHAPE_SIZE, the
-/// position in limits::COORDINATE and the rotation orthonormal.
+/// position in limits::COORDINATE, the rotation orthonormal, and at most one of frame and topic
+/// is set (a frame without a leading '/').
 void validateShape(const Shape& shape, const std::string& field);
 
 }  // namespace constrained_particles

@@ -125,6 +125,17 @@ public:
   {
     return data_->tracks;
   }
+  /// The carried shapes' paths (Data::carriers, in Model::carriers() order: each the holder
+  /// frame's origin and orientation), in sim time: written by whoever samples their holders, as
+  /// tracks() are. A shape whose track has no knot rests at its own pose.
+  std::vector<AnchorTrack>& carriers()
+  {
+    return data_->carriers;
+  }
+  const std::vector<AnchorTrack>& carriers() const
+  {
+    return data_->carriers;
+  }
   /// Every track at rest where its point is now (AnchorTrack::restart): the held particles
   /// stopped, the velocities projected onto the constraints again and the energy ledger opened
   /// (the stop is no step's doing). For when the stamps a track's knots stood for are gone (an

@@ -75,8 +75,10 @@ private:
   };
   struct Holder
   {
-    int track = 0;
-    int particle = 0;
+    int track = 0;      // anchors' tracks first, then the carried obstacles' (HolderSession)
+    int particle = 0;   // -1: it carries an obstacle
+    std::string label;  // "frame_anchor on particle 3", "obstacle 'finger'"
+    std::string moved;  // what it moves: "the particle", "the obstacle"
     std::string frame, topic;
     std::string name;  // the holder: its frame, or its topic (holderOf)
     Vec3 offset = Vec3::Zero();

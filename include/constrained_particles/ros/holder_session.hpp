@@ -37,7 +37,8 @@ struct HolderSample
 /// What became of one holder's samples since its model was set (HolderSession::status()).
 struct HolderStatus
 {
-  int particle = 0;             ///< the particle it holds
+  int particle = 0;             ///< the particle it holds; -1: it carries an obstacle
+  std::string shape;            ///< the obstacle it carries (Shape::name), or empty
   std::string holder;           ///< its tf frame, or its topic
   std::uint64_t taken = 0;      ///< samples that became knots of its track
   std::uint64_t late = 0;       ///< arrived after the steps passed their time: not followed
@@ -109,8 +110,12 @@ public:
   {
   }
 
-  /// Thread-safe, not waited for: samples of holder `track` (Model::tracked() order) of the
-  /// model with serial `serial` (Snapshot::tracks_serial). Posted for a model since replaced in
+  /// Thread-safe, not waited for: samples of holder `track` of the model with serial `serial`
+  /// (Snapshot::tracks_serial): the frame anchors' in Model::tracked() order, then the carried
+  /// obstacles' in Model::carriers() order (their samples: the holder frame's origin and
+  /// orientation). A carried obstacle's first sample, and a teleport of its holder, put it there
+  /// at once (its track restarted: what it meets is projected out as an impact); it never
+  /// carries the scene. Posted for a model since replaced in
   /// the same scene (an attach, a detach, a hold let go), they go to the same holder's track in
   /// the new one, if it kept it; otherwise they are dropped.
   void post(std::uint64_t serial, int track, std::vector<HolderSample> samples);
@@ -249,14 +254,19 @@ private:
   /// samples were made with (a re-attach at another offset is another holder).
   struct TrackKey
   {
-    int particle;
+    int particle;  // -1: an obstacle's
     std::string holder;
     Vec3 offset;
+    std::string shape;  // the obstacle's name, or empty
     bool operator==(const TrackKey& other) const
     {
-      return particle == other.particle && holder == other.holder && offset == other.offset;
+      return particle == other.particle && holder == other.holder && offset == other.offset &&
+             shape == other.shape;
     }
   };
+  /// Holder k's track: a frame anchor's (Simulator::tracks()), or after them an obstacle's
+  /// (Simulator::carriers()); nullptr past both.
+  static AnchorTrack* trackOf(Simulator& simulator, int k);
   /// `post`'s track in the newest model (posted_serial_), or false if its holder was not held
   /// through every model since the post's (or one of them is forgotten). Caller holds mutex_.
   bool toNewest(Post& post) const;

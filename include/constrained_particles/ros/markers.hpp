@@ -47,10 +47,11 @@ visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& h
 /// along its normal force (green) and its friction (orange) [N], `scale` [m/N]; a contact that does
 /// not act, or a non-finite force, is a DELETE of its arrows; so are ids in [2 contacts,
 /// previous_count) (a scene with fewer contacts than the last).
-visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& header,
-                                                    const Model& model, const Points& positions,
-                                                    const std::vector<ContactState>& contacts,
-                                                    double scale, int previous_count);
+/// Carried obstacles are where `carriers` (Data::carriers) puts them at `time` [s].
+visualization_msgs::MarkerArray contactForceMarkers(
+    const std_msgs::Header& header, const Model& model, const Points& positions,
+    const std::vector<ContactState>& contacts, double scale, int previous_count,
+    const std::vector<AnchorTrack>* carriers = nullptr, double time = 0.0);
 
 /// The scene's surfaces as one TRIANGLE_LIST mesh (ns "surface", id 0) over the region's x-y
 /// extent, `cells` cells per side (2 triangles each; cells where a formula is undefined left out),
@@ -62,7 +63,9 @@ visualization_msgs::MarkerArray surfaceMarkers(const std_msgs::Header& header, c
 /// The scene's obstacles (shape_contact records' shapes, each once by name), ns "obstacles", one
 /// marker per shape (a capsule: a CYLINDER and two SPHEREs), posed as the shapes are; a plane as
 /// a thin CUBE over the region's extent. DELETEALL first, so a scene change leaves none of the
-/// last scene's. Made once per scene (~obstacles, latched).
+/// last scene's. Made once per scene (~obstacles, latched): a shape carried by a tf frame is
+/// drawn in that frame (header.frame_id its frame, its pose there), so rviz moves it with tf; one
+/// carried by a pose topic is not drawn (not yet followed in rviz; issue 48).
 visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const Model& model,
                                                 const Vec3& region_low, const Vec3& region_high);
 

@@ -31,8 +31,12 @@ struct ObstacleWrench
 /// they first appear) with its load at `positions` (3 x n [m]) and `contacts` (Data::contacts: a
 /// contact off takes nothing). A chain of n particles of mass m resting on a plane loads it with
 /// (0, 0, -n m g). `contacts` shorter than the model's contacts (another scene's): all zero.
+/// Carried shapes are where `carriers` (Data::carriers) puts them at `time` [s], their torque
+/// about their origin there.
 std::vector<ObstacleWrench> obstacleWrenches(const Model& model, const Points& positions,
-                                             const std::vector<ContactState>& contacts);
+                                             const std::vector<ContactState>& contacts,
+                                             const std::vector<AnchorTrack>* carriers = nullptr,
+                                             double time = 0.0);
 
 /// The topic name of obstacle `shape` under ~obstacle_wrench: characters a ROS name may not hold
 /// written '_', e.g. "obstacle_wrench/post".

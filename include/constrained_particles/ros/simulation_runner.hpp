@@ -53,6 +53,8 @@ struct Snapshot
   Eigen::VectorXd multipliers;
   /// Each surface contact's mode and forces at the last evaluation (Data::contacts)
   std::vector<ContactState> contacts;
+  /// The carried shapes' tracks (Data::carriers): where each is at the state's time
+  std::vector<AnchorTrack> carriers;
   Diagnostics diagnostics;  ///< errors and energies of `state`
   EnergyLedger ledger;      ///< the energy account since the last reset, teleport or force change
   /// The integrator overdrew ~energy_budget: fast_projection takes the steps (StepControl::
@@ -231,6 +233,12 @@ public:
   void setCommandClock(std::function<double()> now);
 
 private:
+  /// Frame anchors or carried obstacles follow holders outside the node.
+  bool hasHolders() const
+  {
+    return !simulator_->tracks().empty() || !simulator_->carriers().empty();
+  }
+
   using Clock = std::chrono::steady_clock;
   struct StepRequest
   {

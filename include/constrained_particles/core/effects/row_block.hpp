@@ -11,6 +11,8 @@
 
 namespace constrained_particles
 {
+class AnchorTrack;
+
 /// What row evaluation may read besides the state.
 struct EffectContext
 {
@@ -20,6 +22,9 @@ struct EffectContext
   /// evaluated at trial positions stay in the frame of their reference Jacobian (SHAKE);
   /// nullptr: the positions being evaluated.
   const Points* frame_positions = nullptr;
+  /// The carried shapes' tracks (Data::carriers, Model::carriers() order); nullptr: every shape
+  /// at its own pose, at rest.
+  const std::vector<AnchorTrack>* carriers = nullptr;
 };
 
 /// Where an eliminated kind holds its particle at a time t: exactly, not as rows.
@@ -39,6 +44,10 @@ struct RowBlock
   double* jdot_v;     ///< Jdot v, one per row
   double* violation;  ///< metric position error of each row [m], >= 0
   Vec3* jacobian;     ///< dC/dp_k of row r at jacobian[r * PARTICLES + k]
+  /// dC/dt at fixed positions, one per row, for rows on a moving body (a carried shape's
+  /// contact): Cdot = J v + dC/dt. nullptr where the caller does not read it; kinds whose rows do
+  /// not move leave it untouched (Data keeps it 0).
+  double* time_rate = nullptr;
 };
 
 }  // namespace constrained_particles

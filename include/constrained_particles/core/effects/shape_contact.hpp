@@ -4,6 +4,7 @@
 /// off exactly as a surface contact's. docs/physics.md, "Obstacles".
 #pragma once
 
+#include "constrained_particles/core/anchor_track.hpp"
 #include "constrained_particles/core/effect_fields.hpp"
 #include "constrained_particles/core/effects/row_block.hpp"
 #include "constrained_particles/core/effects/surface_contact.hpp"
@@ -19,6 +20,14 @@ namespace constrained_particles
 /// signed distance, with multiplier lambda_n >= 0 and lambda_n C = 0: one row, J = grad d_S (unit,
 /// so lambda_n is the normal force [N]), Jdot v = v^T (Hessian of d_S) v. Friction and impacts as
 /// a surface contact's (surface_contact.hpp).
+///
+/// A carried shape (Shape::carried(): on a tf frame or a pose topic) moves as its track
+/// (Data::carriers[carrier]) says: origin o(t), rotation R(t), turning at omega (constant between
+/// samples). With w = v - v_o - omega x (p - o) the particle's velocity relative to the body's
+/// point under it, Cdot = n . w (so dC/dt = -n . (v_o + omega x (p - o))) and
+/// Cddot = n . a - n . (a_o + omega x (v - v_o) + omega x w) + w^T H w: the row's "Jdot v" is
+/// the terms after n . a (derived from q = R^T (p - o), d = d_local(q); with omega = 0,
+/// Cddot = n . (a - a_o) + w^T H w).
 struct ShapeContact
 {
   int particle = 0;          ///< particle i
@@ -26,6 +35,9 @@ struct ShapeContact
   double radius = 0.0;       ///< r [m]: the particle's, or the rope's, thickness / 2
   double friction = 0.0;     ///< Coulomb coefficient mu [1]; 0: frictionless
   double restitution = 0.0;  ///< Newton's coefficient e [1]
+  /// Its carried shape's index in Model::carriers() and Data::carriers (Model::compile numbers
+  /// them by name); -1: the shape is fixed. Not a scene field.
+  int carrier = -1;
 
   static constexpr const char* KIND = "shape_contact";
   static constexpr bool ELIMINATED = false;
@@ -55,18 +67,53 @@ inline std::array<int, 1> rowParticles(const ShapeContact& contact)
   return { { contact.particle } };
 }
 
+/// Where the contact's shape is at context.time and how it moves: its own pose at rest if fixed
+/// (or no tracks are given); else its track's frame (origin, orientation, angular velocity) times
+/// the shape's pose in that frame.
+inline ShapePose shapePose(const ShapeContact& contact, const EffectContext& context)
+{
+  if (contact.carrier < 0 || !context.carriers ||
+      static_cast<std::size_t>(contact.carrier) >= context.carriers->size())
+    return fixedPose(contact.shape);
+  const AnchorTrack& track = (*context.carriers)[static_cast<std::size_t>(contact.carrier)];
+  const ImposedMotion frame = track.motion(context.time);
+  const Eigen::Matrix3d turn = track.orientation(context.time).toRotationMatrix();
+  const Vec3 omega = track.angularVelocity(context.time);
+  const Vec3 arm = turn * contact.shape.position;  // the frame's origin to the shape's
+  ShapePose pose;
+  pose.origin = frame.position + arm;
+  pose.rotation = turn * contact.shape.rotation;
+  pose.angular_velocity = omega;
+  pose.velocity = frame.velocity + omega.cross(arm);
+  pose.acceleration = frame.acceleration + omega.cross(omega.cross(arm));
+  pose.moving = !(pose.velocity.isZero(0.0) && pose.acceleration.isZero(0.0) && omega.isZero(0.0));
+  return pose;
+}
+
 /// The contact's frame at positions p [m], velocities v [m/s]: J = the shape's unit normal,
-/// C = distance - r, Jdot v = v^T H v. Stateless.
-inline ContactFrame contactFrame(const ShapeContact& contact,
-                                 const std::vector<Surface>& /*surfaces*/, const Points& positions,
-                                 const Points& velocities)
+/// C = distance - r, and Cddot - J a (v^T H v on a fixed shape; the moving terms above on a
+/// carried one). Stateless.
+inline ContactFrame contactFrame(const ShapeContact& contact, const EffectContext& context,
+                                 const Points& positions, const Points& velocities)
 {
   const Vec3 v = velocities.col(contact.particle);
-  const ShapeSample s = evaluateShape(contact.shape, positions.col(contact.particle));
+  const Vec3 p = positions.col(contact.particle);
+  const ShapePose pose = shapePose(contact, context);
+  const ShapeSample s = evaluateShape(contact.shape, pose, p);
   ContactFrame f;
   f.normal = s.normal;
   f.gap = s.distance - contact.radius;
-  f.curvature_term = v.dot(s.hessian * v);
+  if (!pose.moving)
+  {
+    f.curvature_term = v.dot(s.hessian * v);
+    return f;
+  }
+  f.surface_velocity = pose.velocityAt(p);
+  const Vec3 w = v - f.surface_velocity;
+  const Vec3& omega = pose.angular_velocity;
+  f.curvature_term =
+      w.dot(s.hessian * w) -
+      s.normal.dot(pose.acceleration + omega.cross(v - pose.velocity) + omega.cross(w));
   return f;
 }
 
@@ -79,11 +126,12 @@ inline void evaluateRows(const ShapeContact& contact, const EffectContext& conte
 
 /// Geometric stiffness (stability.hpp): |lambda| times the row Hessian's largest row sum
 /// (its infinity norm) [N/m], added to the particle's entry as the other kinds add theirs.
-inline void addGeometricStiffness(const ShapeContact& contact, const EffectContext& /*context*/,
+inline void addGeometricStiffness(const ShapeContact& contact, const EffectContext& context,
                                   const Points& positions, const double* multipliers,
                                   double* stiffness)
 {
-  const ShapeSample s = evaluateShape(contact.shape, positions.col(contact.particle));
+  const ShapeSample s =
+      evaluateShape(contact.shape, shapePose(contact, context), positions.col(contact.particle));
   stiffness[contact.particle] +=
       std::abs(multipliers[0]) * s.hessian.cwiseAbs().rowwise().sum().maxCoeff();
 }
@@ -96,11 +144,12 @@ inline void violationRates(const ShapeContact& contact, const EffectContext& con
 }
 
 /// How deep inside the shape the particle's ball is, max(0, -C) [m].
-inline double penetration(const ShapeContact& contact, const std::vector<Surface>& /*surfaces*/,
+inline double penetration(const ShapeContact& contact, const EffectContext& context,
                           const Points& positions)
 {
-  return std::max(
-      0.0, contact.radius - evaluateShape(contact.shape, positions.col(contact.particle)).distance);
+  return std::max(0.0, contact.radius - evaluateShape(contact.shape, shapePose(contact, context),
+                                                      positions.col(contact.particle))
+                                            .distance);
 }
 
 /// A point (radius 0) against a box or a cylinder is refused: their edges and rim are sharp, and a

@@ -91,9 +91,25 @@ inline Vec3 tangentialPart(const Vec3& normal, const Vec3& x)
 /// The contact's frame at (x, y): the row's Jacobian (-Z_x, -Z_y, 1) [1], C and Jdot v.
 struct ContactFrame
 {
-  Vec3 normal;                  ///< J of the row, not unit: |f_n| = lambda_n |normal| [N]
-  double gap = 0.0;             ///< C = z - Z [m]
-  double curvature_term = 0.0;  ///< Jdot v [m/s^2]
+  Vec3 normal;       ///< J of the row, not unit: |f_n| = lambda_n |normal| [N]
+  double gap = 0.0;  ///< C = z - Z [m]
+  /// Cddot - J a [m/s^2]: Jdot v, and on a moving obstacle the terms of its motion
+  double curvature_term = 0.0;
+  /// The velocity of the obstacle's point at the particle [m/s] (0 on a fixed one): speeds that
+  /// decide touching, sliding and impacts are relative to it, and the row's dC/dt is
+  /// -normal . surface_velocity
+  Vec3 surface_velocity = Vec3::Zero();
+
+  /// v relative to the obstacle's point under the particle [m/s]
+  Vec3 relative(const Vec3& v) const
+  {
+    return v - surface_velocity;
+  }
+  /// The row's dC/dt at fixed positions [m/s]
+  double timeRate() const
+  {
+    return -normal.dot(surface_velocity);
+  }
 
   /// v's component in the tangent plane [m/s]
   Vec3 tangential(const Vec3& v) const
@@ -108,10 +124,10 @@ struct ContactFrame
 };
 
 /// The frame of `contact` at positions p [m], velocities v [m/s]. Stateless.
-inline ContactFrame contactFrame(const SurfaceContact& contact,
-                                 const std::vector<Surface>& surfaces, const Points& positions,
-                                 const Points& velocities)
+inline ContactFrame contactFrame(const SurfaceContact& contact, const EffectContext& context,
+                                 const Points& positions, const Points& velocities)
 {
+  const std::vector<Surface>& surfaces = context.surfaces;
   const double* p = positions.data() + 3 * contact.particle;
   const double* v = velocities.data() + 3 * contact.particle;
   const SurfaceSample s = evaluateSurface(surfaces[contact.surface], p[0], p[1]);
@@ -128,11 +144,13 @@ template <typename Contact>
 void evaluateContactRow(const Contact& contact, const EffectContext& context,
                         const Points& positions, const Points& velocities, RowBlock out)
 {
-  const ContactFrame f = contactFrame(contact, context.surfaces, positions, velocities);
+  const ContactFrame f = contactFrame(contact, context, positions, velocities);
   out.jacobian[0] = f.normal;
   out.value[0] = f.gap;
   out.jdot_v[0] = f.curvature_term;
   out.violation[0] = std::abs(f.gap);
+  if (out.time_rate)
+    out.time_rate[0] = f.timeRate();
 }
 
 /// A particle contact on or in what it keeps out of: its approach speed max(0, -Cdot) [m/s];
@@ -141,8 +159,10 @@ template <typename Contact>
 void contactViolationRate(const Contact& contact, const EffectContext& context,
                           const Points& positions, const Points& velocities, double* rates)
 {
-  const ContactFrame f = contactFrame(contact, context.surfaces, positions, velocities);
-  rates[0] = f.gap > 0.0 ? 0.0 : std::max(0.0, -f.normal.dot(velocities.col(contact.particle)));
+  const ContactFrame f = contactFrame(contact, context, positions, velocities);
+  rates[0] = f.gap > 0.0
+                 ? 0.0
+                 : std::max(0.0, -f.normal.dot(f.relative(velocities.col(contact.particle))));
 }
 
 /// The row at (p, v) as if active (the contact stage zeroes it when off). Stateless.
@@ -170,11 +190,11 @@ inline void violationRates(const SurfaceContact& contact, const EffectContext& c
 
 /// How far below the surface the particle is, max(0, -C) [m]: a contact's position error
 /// whether its row acts or not.
-inline double penetration(const SurfaceContact& contact, const std::vector<Surface>& surfaces,
+inline double penetration(const SurfaceContact& contact, const EffectContext& context,
                           const Points& positions)
 {
   const Vec3 p = positions.col(contact.particle);
-  return std::max(0.0, evaluateSurface(surfaces[contact.surface], p.x(), p.y()).z - p.z());
+  return std::max(0.0, evaluateSurface(context.surfaces[contact.surface], p.x(), p.y()).z - p.z());
 }
 
 /// @throws InvalidInput naming the bad field
