@@ -166,12 +166,17 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
       const double lambda = data.multipliers[record.row];
       // the particle's other forces: applied and J^T lambda (data.constraint_forces has no
       // friction yet), less this contact's own normal force, which has no tangential part
-      const Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
-      // on a carried shape the slip is relative to the shape's point under the particle
-      const Vec3 v = model.hasCarriers() ? contactFrame(model, record, contextAt(model, data, time),
-                                                        positions, velocities)
-                                               .relative(velocities.col(i))
-                                         : Vec3(velocities.col(i));
+      Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
+      Vec3 v = velocities.col(i);
+      if (model.hasCarriers())
+      {
+        // on a carried shape the slip is relative to the shape's point under the particle, and
+        // a stick must give the particle that point's acceleration: m a_s less its other forces
+        const ContactFrame frame =
+            contactFrame(model, record, contextAt(model, data, time), positions, velocities);
+        v = frame.relative(v);
+        other -= frame.surface_acceleration / w[i];
+      }
       const Vec3 f = frictionForce(record, contact, normal, lambda, v, other);
       change = std::max(change, (f - contact.friction_force).norm());
       largest = std::max(largest, f.norm());

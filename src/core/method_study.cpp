@@ -60,11 +60,21 @@ struct RunOutcome
   bool cancelled = false;
 };
 
+// The live run's carried obstacles, each at rest where it is at `time`, onto `simulator`
+void restCarriers(Simulator& simulator, const std::vector<AnchorTrack>& carriers, double time)
+{
+  for (std::size_t k = 0; k < carriers.size() && k < simulator.carriers().size(); ++k)
+    simulator.carriers()[k].restart(carriers[k].motion(time).position,
+                                    carriers[k].orientation(time));
+}
+
 RunOutcome runOnce(const Scene& scene, const State& start, const StepSettings& settings,
-                   double horizon, const std::atomic<bool>* cancel)
+                   double horizon, const std::vector<AnchorTrack>& carriers,
+                   const std::atomic<bool>* cancel)
 {
   RunOutcome out;
   Simulator simulator(scene, start, settings);
+  restCarriers(simulator, carriers, start.time);
   simulator.restoreState(start);  // the start as it is, at its time: no projection at t = 0
   const long steps = stepsFor(horizon, settings.dt);
   const long sample_every = std::max(1L, steps / SAMPLES_PER_RUN);
@@ -132,8 +142,9 @@ RunOutcome runOnce(const Scene& scene, const State& start, const StepSettings& s
 /// `tolerance` with output steps of at most `output_dt`; false if cancelled.
 /// @throws std::runtime_error if the reference fails a check or leaves the finite
 bool referenceAt(const Scene& scene, const State& start, const StepSettings& base,
-                 const std::vector<double>& end_times, double output_dt, double tolerance,
-                 std::vector<Points>& positions, double& cpu, const std::atomic<bool>* cancel)
+                 const std::vector<AnchorTrack>& carriers, const std::vector<double>& end_times,
+                 double output_dt, double tolerance, std::vector<Points>& positions, double& cpu,
+                 const std::atomic<bool>* cancel)
 {
   StepSettings s = base;
   s.integrator = "dopri5";
@@ -143,6 +154,7 @@ bool referenceAt(const Scene& scene, const State& start, const StepSettings& bas
   s.projection_max_iterations = std::max(s.projection_max_iterations, 50);
   s.dt = std::min(output_dt, std::max(limits::DT.low, end_times.back() - start.time));
   Simulator simulator(scene, start, s);
+  restCarriers(simulator, carriers, start.time);
   simulator.restoreState(start);
   positions.clear();
   cpu = 0.0;
@@ -265,6 +277,7 @@ StudyResult runMethodStudy(const Scene& scene, const State& given_start,
   validateStudyRequest(request);
   // every run starts from the same state on the constraints, at the given state's time
   Simulator projector(scene, given_start, request.base);
+  restCarriers(projector, request.carriers, given_start.time);
   projector.restoreState(given_start);
   projector.setState(given_start);
   const State start = projector.state();
@@ -308,15 +321,15 @@ StudyResult runMethodStudy(const Scene& scene, const State& given_start,
   const double reference_dt =
       projector.model().numContacts() > 0 ? STUDY_CONTACT_REFERENCE_DT : STUDY_REFERENCE_DT;
   report(0, "reference: dopri5 + projection, tol " + formatValue(STUDY_REFERENCE_TOLERANCE));
-  if (!referenceAt(scene, start, request.base, distinct, reference_dt, STUDY_REFERENCE_TOLERANCE,
-                   reference, reference_cpu, cancel))
+  if (!referenceAt(scene, start, request.base, request.carriers, distinct, reference_dt,
+                   STUDY_REFERENCE_TOLERANCE, reference, reference_cpu, cancel))
   {
     result.cancelled = true;
     return result;
   }
   report(1, "reference check: dopri5 + projection, tol " +
                 formatValue(10 * STUDY_REFERENCE_TOLERANCE));
-  if (!referenceAt(scene, start, request.base, distinct, 0.5 * reference_dt,
+  if (!referenceAt(scene, start, request.base, request.carriers, distinct, 0.5 * reference_dt,
                    10 * STUDY_REFERENCE_TOLERANCE, check, check_cpu, cancel))
   {
     result.cancelled = true;
@@ -337,7 +350,7 @@ StudyResult runMethodStudy(const Scene& scene, const State& given_start,
     s.dt = m.dt;
     if (findIntegrator(m.integrator).adaptive)
       s.adaptive_tolerance = m.tolerance;
-    RunOutcome first = runOnce(scene, start, s, result.horizon, cancel);
+    RunOutcome first = runOnce(scene, start, s, result.horizon, request.carriers, cancel);
     if (first.cancelled)
     {
       result.cancelled = true;
@@ -356,7 +369,8 @@ StudyResult runMethodStudy(const Scene& scene, const State& given_start,
         std::vector<double> cpu{ first.cpu };
         for (int r = 0; r < 2; ++r)
         {
-          const RunOutcome again = runOnce(scene, start, s, result.horizon, cancel);
+          const RunOutcome again =
+              runOnce(scene, start, s, result.horizon, request.carriers, cancel);
           if (again.cancelled)
           {
             result.cancelled = true;

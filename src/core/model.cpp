@@ -534,6 +534,8 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
       continue;
     }
     // a carried shape's contacts share its track, Data::carriers[carrier]: numbered by name
+    if (auto* contact = std::get_if<ShapeContact>(&model.scene_.constraints[k]); contact)
+      contact->carrier = -1;  // a fixed shape's, whatever the record held
     if (auto* contact = std::get_if<ShapeContact>(&model.scene_.constraints[k]);
         contact && contact->shape.carried())
     {

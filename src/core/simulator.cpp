@@ -604,8 +604,9 @@ Simulator::StepPlan Simulator::planStep(StepStatistics& total)
   }
   if (estimate)
   {
-    const double omega = estimateMaxFrequency(model, data.multipliers, x.positions, x.time,
-                                              control.stiffness, data.perturbations);
+    const double omega =
+        estimateMaxFrequency(model, data.multipliers, x.positions, x.time, control.stiffness,
+                             data.perturbations, &data.carriers);
     total.max_frequency = std::max(total.max_frequency, omega);
     const int wanted = stabilitySubsteps(omega, settings_.dt, integrator_->stability_limit,
                                          MAX_STABILITY_SUBSTEPS);
@@ -827,6 +828,11 @@ StepStatistics Simulator::step(int count)
 
 void Simulator::reset()
 {
+  // the obstacles' paths were in the old run's time too: each rests where it is now, its
+  // holder's next pose followed from there
+  const double now = data_->state.time;
+  for (AnchorTrack& track : data_->carriers)
+    track.restart(track.motion(now).position, track.orientation(now));
   data_->setState(initial_state_);
   separateContacts(*model_, *data_);
   // the holders' paths were in the old run's time: each rests where its particle starts again
@@ -934,11 +940,13 @@ void Simulator::setForces(const std::vector<Force>& forces)
 
 void Simulator::restTracks()
 {
-  if (data_->tracks.empty())
+  if (data_->tracks.empty() && data_->carriers.empty())
     return;
   const double now = data_->state.time;
   for (AnchorTrack& track : data_->tracks)
     track.restart(track.motion(now).position);
+  for (AnchorTrack& track : data_->carriers)  // an obstacle rests as it is placed and turned now
+    track.restart(track.motion(now).position, track.orientation(now));
   separateContacts(*model_, *data_);  // a teleport of the held particles: chosen again
   imposeEliminated(*model_, *data_, now, &data_->state.positions, &data_->state.velocities);
   projectVelocities(*model_, *data_, now, data_->state.positions, data_->state.velocities, false,

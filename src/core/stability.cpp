@@ -13,10 +13,11 @@ namespace constrained_particles
 {
 double estimateMaxFrequency(const Model& model, const Eigen::VectorXd& multipliers,
                             const Points& positions, double time, Eigen::VectorXd& stiffness,
-                            const std::vector<Force>& perturbations)
+                            const std::vector<Force>& perturbations,
+                            const std::vector<AnchorTrack>* carriers)
 {
   const Scene& scene = model.scene();
-  const EffectContext context{ scene.surfaces, time };
+  const EffectContext context{ scene.surfaces, time, nullptr, carriers };
   stiffness.setZero(model.numParticles());
   // kind by kind through the model's tables (no variant dispatch per record: at 10 particles
   // that dispatch was half the estimate's cost); a particle's terms are summed by kind

@@ -139,6 +139,7 @@ CompareMethodsServer::Job CompareMethodsServer::jobFor(const CompareMethodsGoal&
   job.request.horizon = goal.horizon;
   job.request.error_target = goal.error_target;
   job.request.base = snap->parameters.step;
+  job.request.carriers = snap->carriers;  // the obstacles where they are, at rest
   requireInRange("methods", static_cast<double>(goal.methods.size()), limits::STUDY_METHODS);
   for (std::size_t k = 0; k < goal.methods.size(); ++k)
     job.request.methods.push_back(fromMsg(goal.methods[k], k));

@@ -357,9 +357,10 @@ void FrameAnchors::update(const Snapshot& snap)
       holder.name = shape.frame.empty() ? shape.topic : shape.frame;
       holder.label = "obstacle '" + shape.name + "'";
       holder.moved = "the obstacle";
+      const std::size_t k = static_cast<std::size_t>(holder.track);
       for (Holder& was : old)
         if (was.particle < 0 && was.label == holder.label && was.frame == holder.frame &&
-            was.topic == holder.topic)
+            was.topic == holder.topic && k < snap.holders.size() && snap.holders[k].taken > 0)
           holder.s = std::move(was.s);
       holders_.push_back(std::move(holder));
     }

@@ -271,12 +271,16 @@ void HolderSession::take(int k, const HolderSample& sample, AnchorTrack& track, 
   const bool jump = holder.replace || distance > limits_.max_jump ||
                     (interval > 0.0 && distance > limits_.max_speed * interval);
   const double ahead = std::max(lead, MIN_SPACING);
-  if (status.particle < 0 && (jump || !holder.has_previous))
+  if (status.particle < 0 && (jump || status.taken == 0))
   {
-    // an obstacle's first pose, or its holder's teleport: it is there at once (a sweep from
-    // where it rested would strike whatever lies between); it carries no scene along
+    // an obstacle's first pose (of the scene, or of a new clock epoch), or its holder's
+    // teleport: it is there at once (a sweep from where it rested would strike whatever lies
+    // between); it carries no scene along. After a resync its next pose is followed from where
+    // it is, as a holder's is
     track.restart(sample.position, sample.orientation);
-    if (holder.has_previous && !holder.replace)
+    if (holder.replace)
+      ++status.replaced;
+    else if (status.taken > 0)
     {
       ++status.jumps;
       status.last_jump = distance;
@@ -413,10 +417,6 @@ void HolderSession::rest(Simulator& simulator, bool new_epoch)
   for (HolderStatus& status : status_)
     status.coasting = false;
   simulator.restTracks();
-  // an obstacle rests where and as it is turned now, until its next pose
-  const double now = simulator.state().time;
-  for (AnchorTrack& track : simulator.carriers())
-    track.restart(track.motion(now).position, track.orientation(now));
 }
 
 void HolderSession::resync(Simulator& simulator)

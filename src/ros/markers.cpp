@@ -193,7 +193,13 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
   {
     visualization_msgs::Marker m = makeMarker(header, "obstacles", id++, type);
     if (!shape.frame.empty())
-      m.header.frame_id = shape.frame;  // its pose is in its frame: rviz carries it with tf
+    {
+      // its pose is in its frame, and rviz moves it with tf's newest pose of it (frame_locked;
+      // stamp 0: a latched marker a late subscriber takes is still placed)
+      m.header.frame_id = shape.frame;
+      m.header.stamp = ros::Time(0);
+      m.frame_locked = true;
+    }
     m.pose.position = tf2::toMsg(Eigen::Vector3d(centre));
     m.pose.orientation = tf2::toMsg(Eigen::Quaterniond(shape.rotation));  // tf2_eigen converts
     m.scale.x = scale.x();
@@ -218,7 +224,8 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
       case ShapeType::Plane:
       {
         // a thin slab under the plane, centred below the region's centre, as wide as the region
-        const Vec3 middle = 0.5 * (low + high);
+        // (a carried plane's region is not known in its frame: centred at its origin there)
+        const Vec3 middle = shape.frame.empty() ? Vec3(0.5 * (low + high)) : shape.position;
         const Vec3 foot = middle - axis * axis.dot(middle - shape.position);
         const double width = 2.0 * (high - low).norm();
         add(shape, visualization_msgs::Marker::CUBE, foot - 0.005 * axis, Vec3(width, width, 0.01));

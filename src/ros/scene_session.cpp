@@ -5,7 +5,9 @@
 namespace constrained_particles
 {
 SceneSession::SceneSession(const NodeParameters& parameters, const SceneDescription& scene)
-  : max_particles_(parameters.max_particles), scene_directory_(parameters.scene_directory)
+  : max_particles_(parameters.max_particles)
+  , scene_directory_(parameters.scene_directory)
+  , inputs_{ parameters.robot_description }
 {
   chosen_step_.values = parameters.step;
   chosen_step_.given = parameters.step_given;
@@ -24,7 +26,7 @@ SceneSession::Candidate SceneSession::forReset(const std::string& scenario,
   if (scenario.empty())
     return build(*scene_, current);
   const SceneDescription description =
-      loadSceneFile(resolveScene(scenario, scene_directory_, "scenario"));
+      loadSceneFile(resolveScene(scenario, scene_directory_, "scenario"), inputs_);
   return build(description, settingsFor(description));
 }
 

@@ -69,8 +69,11 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
                        "so that the node reads the /clock it follows");
   if (parameters_.publish_clock)
     requireClockFree(false);
+  // robot_description as robot_state_publisher reads it: in the node's namespace, not private
+  ros::NodeHandle().getParam("robot_description", parameters_.robot_description);
   SceneDescription scene =
-      loadSceneFile(resolveScene(parameters_.scenario, parameters_.scene_directory, "~scenario"));
+      loadSceneFile(resolveScene(parameters_.scenario, parameters_.scene_directory, "~scenario"),
+                    SceneInputs{ parameters_.robot_description });
   for (const std::string& warning : parameters_.overrides.applyTo(scene))
     ROS_WARN("simulator: %s", warning.c_str());
   runner_ = std::make_unique<SimulationRunner>(parameters_, scene);

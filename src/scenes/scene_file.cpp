@@ -2,6 +2,8 @@
 // checked through the field descriptors of the core, so its names and ranges are the core's.
 #include "constrained_particles/scenes/scene_file.hpp"
 
+#include "constrained_particles/scenes/robot_shapes.hpp"
+
 #include "constrained_particles/core/integrators.hpp"
 
 #include <Eigen/Geometry>
@@ -467,7 +469,8 @@ void placeOnSurface(const Surface& surface, Vec3& position, Vec3& velocity)
   velocity.z() = s.zx * velocity.x() + s.zy * velocity.y();
 }
 
-SceneDescription parseSceneNodes(const std::string& yaml, const std::string& source)
+SceneDescription parseSceneNodes(const std::string& yaml, const std::string& source,
+                                 const SceneInputs& inputs)
 {
   YAML::Node root;
   try
@@ -483,8 +486,8 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
   if (!root.IsMap())
     throw InvalidInput(source, "must hold a map with the keys of a scene (see docs/scenes.md)");
   checkKeys(top, root,
-            { "name", "description", "surfaces", "shapes", "particles", "chains", "forces",
-              "constraints", "solver", "region" },
+            { "name", "description", "surfaces", "shapes", "robot_links", "particles", "chains",
+              "forces", "constraints", "solver", "region" },
             "a scene");
   SceneDescription d;
   d.source = source;
@@ -519,6 +522,32 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
         if (earlier.name == name)
           fail(top / "shapes" / name, entry.first, "appears twice among the shapes");
       d.shapes.push_back(parseShape(top / "shapes" / name, entry.second, name));
+    }
+  }
+  // the robot's own links (URDF collision geometry), each carried by its link's tf frame
+  if (const YAML::Node links = root["robot_links"])
+  {
+    const Where where = top / "robot_links";
+    requireSequence(where, links, "names of links of the robot in robot_description");
+    std::vector<std::string> names;
+    for (std::size_t k = 0; k < links.size(); ++k)
+      names.push_back(readString(where[k], links[k]));
+    std::vector<Shape> robot;
+    try
+    {
+      robot = robotLinkShapes(inputs.robot_description, names, "robot_links");
+    }
+    catch (const InvalidInput& e)
+    {
+      const std::string message = e.what();
+      fail(where, links, message.substr(e.field().size() + 1));
+    }
+    for (Shape& shape : robot)
+    {
+      for (const Shape& earlier : d.shapes)
+        if (earlier.name == shape.name)
+          fail(where, links, "makes shape '" + shape.name + "', a name under shapes already");
+      d.shapes.push_back(std::move(shape));
     }
   }
 
@@ -720,12 +749,13 @@ long SceneDescription::numParticles() const
   return n;
 }
 
-SceneDescription parseScene(const std::string& yaml, const std::string& source)
+SceneDescription parseScene(const std::string& yaml, const std::string& source,
+                            const SceneInputs& inputs)
 {
   // anything yaml-cpp throws past the checks above (odd keys, deep nesting) is still bad input
   try
   {
-    return parseSceneNodes(yaml, source);
+    return parseSceneNodes(yaml, source, inputs);
   }
   catch (const YAML::Exception& e)
   {
@@ -734,7 +764,7 @@ SceneDescription parseScene(const std::string& yaml, const std::string& source)
   }
 }
 
-SceneDescription loadSceneFile(const std::string& path)
+SceneDescription loadSceneFile(const std::string& path, const SceneInputs& inputs)
 {
   std::ifstream file(path, std::ios::binary | std::ios::ate);
   if (!file)
@@ -747,7 +777,7 @@ SceneDescription loadSceneFile(const std::string& path)
   file.seekg(0);
   std::stringstream text;
   text << file.rdbuf();
-  SceneDescription d = parseScene(text.str(), path);
+  SceneDescription d = parseScene(text.str(), path, inputs);
   if (d.name.empty())
   {
     const std::size_t slash = path.find_last_of('/');

@@ -8,13 +8,17 @@
 
 #include "constrained_particles/core/diagnostics.hpp"
 #include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/scenes/robot_shapes.hpp"
+#include "constrained_particles/scenes/scene_file.hpp"
 
 #include "stages.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <functional>
+#include <sstream>
 
 using namespace constrained_particles;
 using constrained_particles::testing::G;
@@ -198,4 +202,155 @@ TEST(CarriedShapes, SweptSphereSendsAParticleOffAtOnePlusETimesItsSpeed)
       EXPECT_NEAR(sim.state().velocities.col(0).tail(2).norm(), 0.0, 1e-9);
       EXPECT_LT(deepest, 1e-8) << e << " " << dt;
     }
+}
+
+// A floor with friction mu accelerating sideways at a: under mu g the particle on it sticks and
+// goes with it (friction m a, no drift against the floor); over mu g it slides, accelerated by
+// friction alone at mu g (Coulomb, the slip relative to the floor).
+TEST(CarriedShapes, AcceleratingFloorCarriesAParticleByFrictionUpToMuG)
+{
+  const double mu = 0.5, mass = 2.0;
+  for (const double a : { 2.0, 7.0 })
+  {
+    const auto path = [a](double t) { return Vec3(0.5 * a * t * t, 0.0, 0.0); };
+    Scene scene;
+    scene.masses = { mass };
+    scene.forces = { GravityForce{} };
+    scene.constraints = { ShapeContact{ 0, carried(ShapeType::Plane, "cart"), 0.0, mu } };
+    const State start =
+        constrained_particles::testing::stateOf(Points::Zero(3, 1), Points::Zero(3, 1));
+    Simulator sim(scene, start, settingsOf(1e-3));
+    sim.carriers()[0] = trackOf(path, still, 0.0, 2.0, 0.1);
+    for (int k = 0; k < 1000; ++k)
+      ASSERT_EQ(sim.step().failed_check, StepCheck::None) << a << " " << k;
+    const double t = sim.state().time;
+    const bool sticks = a < mu * G;
+    const double expected = sticks ? a : mu * G;  // the particle's acceleration
+    EXPECT_NEAR(sim.state().velocities(0, 0), expected * t, 1e-9) << a;
+    EXPECT_NEAR(sim.state().positions(0, 0), 0.5 * expected * t * t, 1e-9) << a;
+    EXPECT_NEAR(sim.state().positions(2, 0), 0.0, 1e-12) << a;
+    EXPECT_EQ(sim.data().contacts[0].mode, sticks ? ContactMode::Sticking : ContactMode::Sliding);
+    EXPECT_NEAR(sim.data().contacts[0].friction_force.x(), mass * expected, 1e-9) << a;
+    EXPECT_EQ(sim.data().control.unconverged_friction, 0);
+  }
+}
+
+namespace
+{
+std::string testRobot()
+{
+  std::ifstream file(TEST_ROBOT_URDF);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+// The InvalidInput a scene's parse throws (its field and reason, joined), or "" if none
+std::string refusal(const std::string& yaml, const std::string& urdf)
+{
+  try
+  {
+    parseScene(yaml + "particles: [{mass: 1.0, position: [0.0, 0.0, 5.0]}]\n", "robot.yaml",
+               SceneInputs{ urdf });
+  }
+  catch (const InvalidInput& e)
+  {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+// robot_links: each collision element of a named link is a shape on the link's tf frame, posed
+// at its <origin> there, of its type and size; several are named <link>_<k>.
+TEST(RobotLinks, CollisionElementsBecomeShapesOnTheLinksFrames)
+{
+  const std::vector<Shape> shapes =
+      robotLinkShapes(testRobot(), { "forearm", "gripper", "base_link" }, "robot_links");
+  ASSERT_EQ(shapes.size(), 4u);
+  const Shape& forearm = shapes[0];
+  EXPECT_EQ(forearm.name, "forearm");
+  EXPECT_EQ(forearm.frame, "forearm");
+  EXPECT_EQ(forearm.type, ShapeType::Box);
+  EXPECT_EQ(forearm.size, Vec3(0.6, 0.3, 0.1));
+  EXPECT_EQ(forearm.position, Vec3(0.1, 0.0, -0.05));
+  EXPECT_LT((forearm.rotation - rotationFromRpy(Vec3(0.0, 0.0, 0.2))).norm(), 1e-12);
+  EXPECT_EQ(shapes[1].name, "gripper_0");
+  EXPECT_EQ(shapes[1].type, ShapeType::Sphere);
+  EXPECT_EQ(shapes[1].radius, 0.02);
+  EXPECT_EQ(shapes[1].position, Vec3(0.0, 0.05, 0.0));
+  EXPECT_EQ(shapes[2].name, "gripper_1");
+  EXPECT_EQ(shapes[2].type, ShapeType::Cylinder);
+  EXPECT_EQ(shapes[2].length, 0.04);
+  EXPECT_LT((shapes[2].rotation.col(2) - Vec3(0.0, -1.0, 0.0)).norm(), 1e-12);  // rolled 90 deg
+  EXPECT_EQ(shapes[3].name, "base_link");
+  EXPECT_EQ(shapes[3].type, ShapeType::Cylinder);
+}
+
+// Refusals name robot_links and say why: no description, a link not in it, a mesh, twice.
+TEST(RobotLinks, RefusalsNameTheFieldAndWhy)
+{
+  const std::string urdf = testRobot();
+  auto expectRefused =
+      [&](const std::string& links, const std::string& description, const std::string& words)
+  {
+    const std::string what = refusal("robot_links: " + links + "\n", description);
+    EXPECT_NE(what.find("robot_links"), std::string::npos) << what;
+    EXPECT_NE(what.find(words), std::string::npos) << what;
+  };
+  expectRefused("[forearm]", "", "robot_description");
+  expectRefused("[elbow]", urdf, "'elbow' is not a link of robot 'test_arm'");
+  expectRefused("[camera]", urdf, "mesh");
+  expectRefused("[forearm, forearm]", urdf, "named twice");
+  expectRefused("[forearm]", "<robot", "not a URDF");
+  EXPECT_EQ(refusal("robot_links: [forearm]\n", urdf), "");
+  // a shape of the same name under shapes
+  const std::string what =
+      refusal("shapes: {forearm: {type: sphere}}\nrobot_links: [forearm]\n", urdf);
+  EXPECT_NE(what.find("a name under shapes already"), std::string::npos) << what;
+}
+
+// A rope dropped 5 mm onto the test robot's forearm (its frame 0.5 m up and turned 0.6 rad,
+// as tf would have it; the rope along the box's long side, 0.8 rad) comes to rest on its top: never
+// inside it, its particles at the top plus their radius, the box carrying its whole weight.
+TEST(RobotLinks, RopeComesToRestOnARobotLink)
+{
+  const std::string yaml = R"(
+robot_links: [forearm]
+chains:
+  - {particles: 5, link_length: 0.08, particle_mass: 0.05,
+     start: [-0.0289395, -0.0583128, 0.515], direction: [0.696707, 0.717356, 0.0],
+     obstacles: [forearm], radius: 0.01, restitution: 0.0}
+forces:
+  - {type: gravity, acceleration: [0.0, 0.0, -9.81]}
+)";
+  const BuiltScene built = buildScene(parseScene(yaml, "rope.yaml", SceneInputs{ testRobot() }));
+  Simulator sim(built.scene, built.initial_state, settingsOf(1e-3));
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(0.6, Vec3::UnitZ()));
+  const Vec3 link(0.0, 0.0, 0.5);
+  sim.carriers()[0].restart(link, turn);
+  // the box's top in the world: the link's z plus the collision's -0.05 plus half its 0.1
+  const double top = 0.5 - 0.05 + 0.05;
+  Shape box = sim.model().carriers()[0];
+  ShapePose pose;
+  pose.origin = link + turn * box.position;
+  pose.rotation = turn.toRotationMatrix() * box.rotation;
+  double deepest = 0.0;
+  for (int k = 0; k < 1500; ++k)
+  {
+    ASSERT_EQ(sim.step().failed_check, StepCheck::None) << k;
+    for (int i = 0; i < sim.model().numParticles(); ++i)
+      deepest =
+          std::max(deepest, 0.01 - evaluateShape(box, pose, sim.state().positions.col(i)).distance);
+  }
+  EXPECT_LT(deepest, 1e-9);
+  double weight = 0.0, normal = 0.0;
+  for (int i = 0; i < sim.model().numParticles(); ++i)
+  {
+    EXPECT_NEAR(sim.state().positions(2, i), top + 0.01, 1e-9) << i;
+    EXPECT_LT(sim.state().velocities.col(i).norm(), 1e-9) << i;
+    weight += 0.05 * 9.81;
+    normal += sim.data().contacts[i].normal_force;
+  }
+  EXPECT_NEAR(normal, weight, 1e-9 * weight);
 }

@@ -8,6 +8,7 @@
 /// the thread), cancellable within a run.
 #pragma once
 
+#include "constrained_particles/core/anchor_track.hpp"
 #include "constrained_particles/core/limits.hpp"
 #include "constrained_particles/core/scene.hpp"
 #include "constrained_particles/core/settings.hpp"
@@ -62,6 +63,9 @@ struct StudyRequest
   /// Everything else a run takes from here (sub-steps, projection and Baumgarte settings): the
   /// settings the user runs with.
   StepSettings base;
+  /// The carried obstacles' tracks (Simulator::carriers()): each run's obstacles rest where
+  /// these have them at the start (their holders' later motion is not known to a study).
+  std::vector<AnchorTrack> carriers;
 };
 
 /// @throws InvalidInput naming the field ("horizon", "error_target", "methods",

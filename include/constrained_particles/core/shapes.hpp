@@ -12,6 +12,8 @@
 
 #include "constrained_particles/core/types.hpp"
 
+#include <Eigen/Geometry>
+
 #include <string>
 #include <vector>
 

@@ -139,7 +139,7 @@ public:
   /// Every track at rest where its point is now (AnchorTrack::restart): the held particles
   /// stopped, the velocities projected onto the constraints again and the energy ledger opened
   /// (the stop is no step's doing). For when the stamps a track's knots stood for are gone (an
-  /// unpause, a clock that went back, a teleport).
+  /// unpause, a clock that went back, a teleport). Carried obstacles rest too, where they are.
   void restTracks();
   const State& initialState() const
   {

@@ -28,10 +28,11 @@ constexpr double STABILITY_SAFETY = 0.9;
 /// `positions` and `time` with the row multipliers `multipliers` (m, then eliminated reactions,
 /// as Data::multipliers holds them), with the springs among the model's forces and among
 /// `perturbations` (Data::perturbations). `stiffness` is a workspace, resized to n. No
-/// allocation once sized.
+/// allocation once sized. Carried obstacles are where `carriers` (Data::carriers) has them.
 double estimateMaxFrequency(const Model& model, const Eigen::VectorXd& multipliers,
                             const Points& positions, double time, Eigen::VectorXd& stiffness,
-                            const std::vector<Force>& perturbations = {});
+                            const std::vector<Force>& perturbations = {},
+                            const std::vector<AnchorTrack>* carriers = nullptr);
 
 /// The fewest sub-steps, a power of two, that keep omega dt / substeps <= STABILITY_SAFETY
 /// stability_limit, capped at max_substeps (>= 1). omega [rad/s], dt [s].

@@ -38,8 +38,11 @@ struct NodeParameters
 {
   std::string scenario = "chain";  ///< scene name in scene_directory, or a scene file path
   std::string scene_directory;     ///< where scene names are looked up (package config/scenes)
-  SceneOverrides overrides;        ///< start-up changes to the scene
-  StepSettings step;               ///< dt [s], integrator, stabilisation, tolerances
+  /// The robot's URDF, for scenes' `robot_links`: the `robot_description` parameter (in the
+  /// node's namespace, as robot_state_publisher reads it; not a ~ parameter), read at start-up
+  std::string robot_description;
+  SceneOverrides overrides;  ///< start-up changes to the scene
+  StepSettings step;         ///< dt [s], integrator, stabilisation, tolerances
   /// Names of the StepSettings fields set as parameters: those win over the start-up scene's
   /// own `solver` settings.
   std::vector<std::string> step_given;

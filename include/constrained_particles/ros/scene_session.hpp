@@ -97,6 +97,7 @@ private:
 
   int max_particles_;
   std::string scene_directory_;
+  SceneInputs inputs_;      // the robot description scenes' robot_links read
   SolverSpec chosen_step_;  // the user's step settings: over every scene's own
   std::shared_ptr<const SceneDescription> scene_;
   std::uint64_t serial_ = 0;  // none adopted yet

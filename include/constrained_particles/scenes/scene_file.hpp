@@ -186,15 +186,24 @@ struct BuiltScene
   State initial_state;
 };
 
+/// What a scene file may draw on from outside it.
+struct SceneInputs
+{
+  /// The robot's URDF (the node's robot_description parameter), for `robot_links`; empty: none
+  std::string robot_description;
+};
+
 /// Parses a scene from YAML text.
 /// @param source file name used in messages
+/// @param inputs what `robot_links` reads the robot from
 /// @throws InvalidInput whose field is "<source>:<line>: <key path>" and whose reason says what
 /// is wrong and what is valid; unknown keys are refused
-SceneDescription parseScene(const std::string& yaml, const std::string& source);
+SceneDescription parseScene(const std::string& yaml, const std::string& source,
+                            const SceneInputs& inputs = {});
 
 /// Reads and parses a scene file. @throws InvalidInput as parseScene, or if it cannot be read or
 /// is larger than limits::SCENE_FILE_BYTES
-SceneDescription loadSceneFile(const std::string& path);
+SceneDescription loadSceneFile(const std::string& path, const SceneInputs& inputs = {});
 
 /// The scene and initial state a description stands for: chains expanded, particles on surfaces
 /// placed at z = Z(x, y) with their velocity lifted into the tangent plane, unset fields (pins at

@@ -111,9 +111,8 @@ inline ContactFrame contactFrame(const ShapeContact& contact, const EffectContex
   f.surface_velocity = pose.velocityAt(p);
   const Vec3 w = v - f.surface_velocity;
   const Vec3& omega = pose.angular_velocity;
-  f.curvature_term =
-      w.dot(s.hessian * w) -
-      s.normal.dot(pose.acceleration + omega.cross(v - pose.velocity) + omega.cross(w));
+  f.surface_acceleration = pose.acceleration + omega.cross(v - pose.velocity) + omega.cross(w);
+  f.curvature_term = w.dot(s.hessian * w) - s.normal.dot(f.surface_acceleration);
   return f;
 }
 

@@ -99,6 +99,10 @@ struct ContactFrame
   /// decide touching, sliding and impacts are relative to it, and the row's dC/dt is
   /// -normal . surface_velocity
   Vec3 surface_velocity = Vec3::Zero();
+  /// What the particle must accelerate by to stay on the obstacle's point, less its normal part
+  /// there [m/s^2]: a_o + omega x (v - v_o) + omega x w (0 on a fixed obstacle); a sticking
+  /// contact's friction supplies its tangential part
+  Vec3 surface_acceleration = Vec3::Zero();
 
   /// v relative to the obstacle's point under the particle [m/s]
   Vec3 relative(const Vec3& v) const
