@@ -993,6 +993,51 @@ ProjectionReport Simulator::setConstraints(const std::vector<Constraint>& constr
   return report;
 }
 
+ProjectionReport Simulator::setSurfaces(const std::vector<Surface>& surfaces)
+{
+  if (surfaces.size() != model_->scene().surfaces.size())
+    throw InvalidInput("surfaces", "has " + std::to_string(surfaces.size()) +
+                                       " height fields, the scene " +
+                                       std::to_string(model_->scene().surfaces.size()) +
+                                       ": a change replaces each, it adds or removes none");
+  Scene scene = model_->scene();
+  scene.surfaces = surfaces;
+  auto [model, data] = recompile(scene, *model_, *data_, paths_);
+  data->tracks = data_->tracks;  // the world outside the scene goes on
+  data->carriers = data_->carriers;
+  // with the new model, before anything is replaced: a refusal changes nothing
+  State moved = data_->state;
+  ProjectionReport report = projectState(*model, *data, settings_, moved, "surfaces",
+                                         "the state cannot be projected onto the new surfaces");
+  data->setState(moved);
+  separateContacts(*model, *data);
+  // a contact now under its surface: switched on and projected, its approach taken out
+  // (resolveImpacts at rest: no bounce below BOUNCE_SPEED)
+  data->free_accelerations.setZero();
+  State lifted = data->state;
+  resolveImpacts(*model, *data, settings_, lifted);
+  if (!isFinite(lifted))
+    throw InvalidInput("surfaces",
+                       "lifting the particles onto them produced a non-finite "
+                       "state; nothing changed");
+  separateContacts(*model, *data);
+  data->setState(lifted);
+  report.max_displacement = (lifted.positions - data_->state.positions).colwise().norm().maxCoeff();
+  report.max_velocity_change =
+      (lifted.velocities - data_->state.velocities).colwise().norm().maxCoeff();
+  const std::vector<double> loads = hold_loads_;
+  data_.reset();  // the old data refers to the old model: it goes first
+  model_ = std::move(model);
+  data_ = std::move(data);
+  readSceneKind();
+  hold_loads_ = loads;
+  diagnostic_rows_.resize(*model_);
+  diagnostic_rates_.setZero(model_->numRows());
+  forgetControl(*data_);
+  openLedger();  // a new potential (a surface moved under a particle on it) and new powers
+  return report;
+}
+
 void Simulator::setPerturbations(const std::vector<Force>& perturbations)
 {
   for (std::size_t k = 0; k < perturbations.size(); ++k)

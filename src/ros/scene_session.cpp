@@ -80,7 +80,7 @@ void SceneSession::adopt(const SceneDescription& description, const State& initi
   ++serial_;
 }
 
-void SceneSession::adoptForces(const SceneDescription& description)
+void SceneSession::adoptChange(const SceneDescription& description)
 {
   scene_ = std::make_shared<const SceneDescription>(description);
   ++serial_;

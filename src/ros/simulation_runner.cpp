@@ -129,8 +129,26 @@ RunnerReply SimulationRunner::changeScene(const std::function<SceneSession::Cand
 
 RunnerReply SimulationRunner::setSurface(const std::string& type,
                                          const std::vector<double>& coefficients,
-                                         const std::string& expression)
+                                         const std::string& expression, bool keep_state)
 {
+  if (keep_state)
+    return queue_.submit(
+        [this, type, coefficients, expression]
+        {
+          const SceneSession::Candidate candidate =
+              session_.forSurface(type, coefficients, expression, parameters_.step);
+          const ProjectionReport report = simulator_->setSurfaces(candidate.built.scene.surfaces);
+          session_.adoptChange(candidate.description);
+          afterChange(true);  // the shadow's scene is not this one any more
+          interruptStep("~set_surface");
+          RunnerReply reply = acceptedReply(
+              "surface set to '" + type +
+              "', the state kept: projection moved particles by up to " +
+              formatValue(report.max_displacement) + " m and changed velocities by up to " +
+              formatValue(report.max_velocity_change) + " m/s");
+          reply.max_displacement = report.max_displacement;
+          return reply;
+        });
   return changeScene(
       [this, type, coefficients, expression]
       { return session_.forSurface(type, coefficients, expression, parameters_.step); },
@@ -235,7 +253,7 @@ RunnerReply SimulationRunner::reconfigure(
       [this, edit]
       {
         NodeParameters candidate = parameters_;
-        // held: adoptForces below replaces the session's scene
+        // held: adoptChange below replaces the session's scene
         const std::shared_ptr<const SceneDescription> held = session_.scene();
         const SceneDescription& scene = *held;
         edit(candidate, scene);
@@ -255,7 +273,7 @@ RunnerReply SimulationRunner::reconfigure(
             simulator_->setStepSettings(parameters_.step);
             throw;
           }
-          session_.adoptForces(*changed);
+          session_.adoptChange(*changed);
           model_copy_ = std::make_shared<const Model>(simulator_->model());
         }
         // a step setting changed here is the user's choice from now on, for every scene

@@ -366,7 +366,10 @@ bool SimulatorNode::listScenesCallback(ListScenes::Request&, ListScenes::Respons
 
 bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface::Response& response)
 {
-  answer(response, runner_->setSurface(request.type, request.coefficients, request.expression));
+  const RunnerReply reply = runner_->setSurface(request.type, request.coefficients,
+                                                request.expression, request.keep_state);
+  answer(response, reply);
+  response.max_displacement = reply.max_displacement;
   if (response.success)
     publishNewScene();
   return true;

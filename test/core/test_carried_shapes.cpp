@@ -354,3 +354,40 @@ forces:
   }
   EXPECT_NEAR(normal, weight, 1e-9 * weight);
 }
+
+// setSurfaces: a rope resting on a plane surface, the plane raised 1 cm under it: every
+// particle lifted onto it (the report says 0.01 m), the time going on, at rest on the new plane;
+// a count of surfaces other than the scene's is refused with nothing changed.
+TEST(SetSurfaces, GroundRaisedUnderARestingRopeLiftsItOntoIt)
+{
+  Scene scene;
+  const int n = 6;
+  scene.masses.assign(n, 0.1);
+  scene.surfaces = { makeSurface(SurfaceType::Plane, { 0.0, 0.0, 0.0 }, "surface") };
+  scene.forces = { GravityForce{} };
+  for (int i = 0; i + 1 < n; ++i)
+    scene.constraints.push_back(LinkConstraint{ i, i + 1, 0.1 });
+  for (int i = 0; i < n; ++i)
+    scene.constraints.push_back(SurfaceContact{ i, 0 });
+  State start;
+  start.positions.setZero(3, n);
+  start.velocities.setZero(3, n);
+  for (int i = 0; i < n; ++i)
+    start.positions(0, i) = 0.1 * i;
+  Simulator sim(scene, start, settingsOf(1e-3));
+  sim.step(200);
+  EXPECT_THROW(sim.setSurfaces({}), InvalidInput);
+  EXPECT_EQ(sim.model().scene().surfaces[0].coefficients[2], 0.0);  // nothing changed
+  const ProjectionReport report =
+      sim.setSurfaces({ makeSurface(SurfaceType::Plane, { 0.0, 0.0, 0.01 }, "surface") });
+  EXPECT_NEAR(report.max_displacement, 0.01, 1e-12);
+  EXPECT_NEAR(sim.state().time, 0.2, 1e-12);
+  for (int i = 0; i < n; ++i)
+    EXPECT_NEAR(sim.state().positions(2, i), 0.01, 1e-12) << i;
+  sim.step(300);
+  for (int i = 0; i < n; ++i)
+  {
+    EXPECT_NEAR(sim.state().positions(2, i), 0.01, 1e-9) << i;
+    EXPECT_LT(sim.state().velocities.col(i).norm(), 1e-9) << i;
+  }
+}

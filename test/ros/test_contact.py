@@ -11,7 +11,7 @@ import rostest
 from topic_recorder import Recorder
 from wall_clock import WallClockWaits
 from constrained_particles.msg import SimState
-from constrained_particles.srv import Reset, Step
+from constrained_particles.srv import Reset, SetSurface, Step
 from std_srvs.srv import Empty
 from geometry_msgs.msg import WrenchStamped
 from visualization_msgs.msg import Marker, MarkerArray
@@ -134,6 +134,46 @@ class ContactTest(WallClockWaits, unittest.TestCase):
                           if len(m.markers) == 3), None), "~obstacles with both shapes")
         types = sorted(m.type for m in drawn.markers[1:])
         self.assertEqual(types, sorted([Marker.CYLINDER, Marker.CUBE]))
+
+    def test_surface_changed_under_the_resting_chain_keeps_the_state(self):
+        """~set_surface keep_state (issue 48, item 5): the bowl under surface_chain_contact made
+        steeper after 3 s: no reset (the time goes on), the reply says how far the particles
+        were lifted, every particle on or above the new bowl then and over 2 s more."""
+        set_surface = rospy.ServiceProxy(f"{NODE}/set_surface", SetSurface)
+        before = self.run_scene("surface_chain_contact", bowl, 3.0, link=0.5)
+        steeper = lambda x, y: 0.75 * (x * x + y * y)
+        self.assertGreater(max(steeper(p.x, p.y) - p.z for p in before.positions), 1e-3)
+        since = time.monotonic()
+        reply = set_surface(type="bowl", coefficients=[1.5, 1.5], expression="", keep_state=True)
+        self.assertTrue(reply.success, reply.message)
+        # the state at the same time, on the new bowl, moved by what the reply says
+        after = self.wait_until(
+            lambda: next((s for s in self.states.since(since)
+                          if abs(s.sim_time - before.sim_time) < 1e-9), None),
+            "~state at the change's time")
+        moved = max(math.dist((a.x, a.y, a.z), (b.x, b.y, b.z))
+                    for a, b in zip(before.positions, after.positions))
+        self.assertGreater(moved, 1e-3)
+        self.assertAlmostEqual(reply.max_displacement, moved, delta=1e-9)
+        for i, p in enumerate(after.positions):
+            self.assertGreaterEqual(p.z - steeper(p.x, p.y), -TOLERANCE, f"particle {i}")
+        for chunk in range(20):
+            step = self.step(100)
+            self.assertTrue(step.success, step.message)
+            # the time went on from 3 s: kept, not reset
+            self.assertAlmostEqual(step.sim_time, 3.0 + 0.1 * (chunk + 1), delta=1e-9)
+            since = time.monotonic()
+            state = self.wait_until(
+                lambda: next((s for s in self.states.since(since - 1.0)
+                              if abs(s.sim_time - step.sim_time) < 1e-9), None),
+                f"~state at t = {step.sim_time}")
+            self.assertNotEqual(state.status, SimState.STATUS_FAULT, state.status_message)
+            for i, p in enumerate(state.positions):
+                self.assertGreaterEqual(p.z - steeper(p.x, p.y), -TOLERANCE,
+                                        f"particle {i} below the new bowl at t = {state.sim_time}")
+        bad = set_surface(type="bowl", coefficients=[-1.0], expression="", keep_state=True)
+        self.assertFalse(bad.success)
+        self.assertIn("coefficients", bad.message)
 
 
 if __name__ == "__main__":

@@ -209,7 +209,8 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
                     coefficients = [rng.uniform(0.0, 1.0) for _ in range(count)]
                     if kind_name == "gaussian" and count >= 2:
                         coefficients[1] = rng.uniform(0.2, 2.0)  # width > 0
-                    r = self.set_surface(kind_name, coefficients, "")
+                    r = self.set_surface(type=kind_name, coefficients=coefficients, expression="",
+                                         keep_state=rng.random() < 0.5)
                     tally.record("set_surface", scene in with_surface and not contact_refusal(
                         scene, True, r), r.success, r.message)
                     if r.success:
@@ -217,7 +218,8 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
                 elif choice < 0.5:
                     formula = rng.choice(["0.3*sin(2*x)*cos(y)", "x^2/4 + y^2/4", "0.1*x - 0.2*y",
                                           "tanh(x)*0.2", "exp(-(x^2+y^2))"])
-                    r = self.set_surface("expression", [], formula)
+                    r = self.set_surface(type="expression", coefficients=[], expression=formula,
+                                         keep_state=rng.random() < 0.5)
                     tally.record("set_surface", scene in with_surface and not contact_refusal(
                         scene, True, r), r.success, r.message)
                     if r.success:
@@ -232,7 +234,7 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
                         ("expression", [], "(" * 2000), ("expression", [1.0], "x"),
                         ("expression", [], "foo(x)"), ("expression", [], "x +* y"),
                         ("expression", [], "1/0*x" + "\0"), ("waves", [1.0] * 100, "")])
-                    r = self.set_surface(*bad)
+                    r = self.set_surface(*bad, rng.random() < 0.5)
                     tally.record("set_surface", False, r.success, r.message)
             elif kind < 0.52:  # ~set_state
                 if rng.random() < 0.15 and paused:

@@ -175,7 +175,7 @@ TEST(SceneSession, GravityAndDampingChangeOnlyWhenTheyDiffer)
   ASSERT_TRUE(moon);
   EXPECT_EQ(sceneGravity(*moon), Vec3(0, 0, -1.62));
   EXPECT_EQ(sceneDamping(*moon), 0.5);
-  session.adoptForces(*moon);
+  session.adoptChange(*moon);
   EXPECT_EQ(session.serial(), 2u);
   EXPECT_EQ(sceneGravity(*session.scene()), Vec3(0, 0, -1.62));
 }

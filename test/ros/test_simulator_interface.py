@@ -233,13 +233,13 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
         self.assert_unchanged(before)
         self.assertTrue(self.reset("chain").success)
         before = self.fresh_state()
-        self.assert_refused(self.set_surface("bowl", [1.0], ""), "no surface")
+        self.assert_refused(self.set_surface(type="bowl", coefficients=[1.0], expression=""), "no surface")
         self.assert_unchanged(before)
 
     # --- ~set_surface ---
 
     def test_set_surface(self):
-        response = self.set_surface("waves", [0.3, 2.0, 1.0], "")
+        response = self.set_surface(type="waves", coefficients=[0.3, 2.0, 1.0], expression="")
         self.assertTrue(response.success, response.message)
         state = self.fresh_state()
         x, y, z = positions_of(state)[0]
@@ -252,20 +252,20 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
                 ("bowl", [-1.0], "coefficients[0]"),
                 ("gaussian", [1.0, 0.0], "coefficients[1] (width)"),
                 ("plane", [1.0, 2.0, 3.0, 4.0], "coefficients")):
-            self.assert_refused(self.set_surface(kind, coefficients, ""), field)
+            self.assert_refused(self.set_surface(type=kind, coefficients=coefficients, expression=""), field)
             self.assert_unchanged(before)
 
     def test_set_surface_expression(self):
-        response = self.set_surface("expression", [], "0.3*sin(2*x)*cos(y)")
+        response = self.set_surface(type="expression", coefficients=[], expression="0.3*sin(2*x)*cos(y)")
         self.assertTrue(response.success, response.message)
         x, y, z = positions_of(self.fresh_state())[0]
         self.assertAlmostEqual(z, 0.3 * math.sin(2.0 * x) * math.cos(y), places=9)
         before = self.fresh_state()
-        refused = self.set_surface("expression", [], "0.3*sin(2*x")
+        refused = self.set_surface(type="expression", coefficients=[], expression="0.3*sin(2*x")
         self.assert_refused(refused, "expression")
         self.assertIn("position 12", refused.message)
         self.assert_unchanged(before)
-        self.assert_refused(self.set_surface("bowl", [1.0], "x*y"), "expression")
+        self.assert_refused(self.set_surface(type="bowl", coefficients=[1.0], expression="x*y"), "expression")
         self.assert_unchanged(before)
 
     # --- ~set_chain ---

@@ -143,7 +143,7 @@ class ViewsTest(WallClockWaits, unittest.TestCase):
     def test_late_subscribers_get_the_current_scene(self):
         # changed while nobody listens to ~surface or ~view
         self.assertTrue(self.reset("bead").success)
-        self.assertTrue(self.set_surface("plane", [0.1, -0.2, 0.3], "").success)
+        self.assertTrue(self.set_surface(type="plane", coefficients=[0.1, -0.2, 0.3], expression="").success)
         surface = Recorder(f"{NODE}/surface", MarkerArray, keep=5)
         view = Recorder(f"{NODE}/view", SceneView, keep=5)
         try:
@@ -235,7 +235,7 @@ class ViewsTest(WallClockWaits, unittest.TestCase):
 
     def test_apply_force_on_a_bead_on_a_plane_matches_the_closed_form(self):
         self.assertTrue(self.reset("bead").success)
-        self.assertTrue(self.set_surface("plane", [0.0, 0.0, 0.0], "").success)
+        self.assertTrue(self.set_surface(type="plane", coefficients=[0.0, 0.0, 0.0], expression="").success)
         start = self.fresh_state(predicate=lambda s: s.scenario == "bead" and s.steps == 0)
         p0, v0 = start.positions[0], start.velocities[0]
         self.assertAlmostEqual(p0.z, 0.0, places=12)

@@ -83,6 +83,16 @@ public:
   /// @throws InvalidInput naming the bad constraint or the failed projection; nothing changes
   ProjectionReport setConstraints(const std::vector<Constraint>& constraints);
 
+  /// Replaces the scene's height fields (as many as it has), keeping the state, forces,
+  /// perturbations and holders' tracks: the ground changes under a resting rope. The state is
+  /// projected onto the constraints on the new surfaces (a bead on one moves onto it), then each
+  /// particle a surface contact keeps above its new surface but now below it is lifted onto it
+  /// (an inelastic impact: its velocity into the surface goes); the report's max_displacement
+  /// [m] and max_velocity_change [m/s] say by how much. The energy ledger is opened anew.
+  /// @throws InvalidInput naming "surfaces" (another count) or the failed projection; nothing
+  /// changes
+  ProjectionReport setSurfaces(const std::vector<Surface>& surfaces);
+
   /// Replaces the forces applied from outside the model (Data::perturbations: a push, a grabbed
   /// particle's target spring), evaluated from the next step on beside the model's own and
   /// counted with them; empty = none. Cheap: no recompilation. A conservative scene's energy

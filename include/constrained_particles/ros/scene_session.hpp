@@ -66,8 +66,9 @@ public:
   /// Makes `description` current, with its region of interest from `initial_state`; one more
   /// serial (frames and markers are published again).
   void adopt(const SceneDescription& description, const State& initial_state);
-  /// Makes `description` (the current scene with other forces) current; the region stays.
-  void adoptForces(const SceneDescription& description);
+  /// Makes `description` (the current scene changed in place: other forces, another surface)
+  /// current; the region stays.
+  void adoptChange(const SceneDescription& description);
   /// A reconfigure moved the step settings from `before` to `after`: each field it changed is
   /// the user's choice from now on, for every scene.
   void chooseStep(const StepSettings& before, const StepSettings& after);

@@ -159,9 +159,11 @@ public:
   /// ~scene_directory or a file path), with its own solver settings under the user's.
   RunnerReply reset(const std::string& scenario);
   /// ~set_surface: the current scene's first surface replaced (SceneSession::forSurface), then a
-  /// reset to it; refused naming the field, with nothing changed.
+  /// reset to it, or (`keep_state`) the state going on on it (Simulator::setSurfaces: the reply's
+  /// max_displacement the projection's largest move); refused naming the field, with nothing
+  /// changed.
   RunnerReply setSurface(const std::string& type, const std::vector<double>& coefficients,
-                         const std::string& expression);
+                         const std::string& expression, bool keep_state = false);
   /// ~set_chain: every chain of the current scene changed (SceneSession::forChain), then a reset
   /// to it; refused naming the field and its range, with nothing changed.
   RunnerReply setChain(const ChainChange& change);
