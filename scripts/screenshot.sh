@@ -12,6 +12,7 @@
 #                         during the last 3 s before the shot, still held when it is taken
 #   CP_SCREENSHOT_BESIDE  a command run from the repository beside the simulator, from its start
 #                         until the shot, e.g. "python3 scripts/hand.py" (hold_the_rope's hand)
+#   CP_SCREENSHOT_ROBOT   a URDF file for robot_description (simulator.launch's robot:=)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 if [[ $# -lt 1 || $# -gt 2 ]]; then
@@ -25,6 +26,7 @@ WAIT="${CP_SCREENSHOT_WAIT:-6}"
 PARAMS="${CP_SCREENSHOT_PARAMS:-}"
 DRAG="${CP_SCREENSHOT_DRAG:-}"
 BESIDE="${CP_SCREENSHOT_BESIDE:-}"
+ROBOT="${CP_SCREENSHOT_ROBOT:-}"
 WITH_RVIZ=1 bash "$ROOT/scripts/install_deps.sh"
 bash "$ROOT/scripts/build.sh" >/dev/null
 set +u
@@ -69,6 +71,7 @@ export DISPLAY=":$DISPLAY_NUMBER"
 sleep 1
 ARGS=(scenario:="$SCENARIO" rviz:=true rviz_args:="--hide-panels")
 [[ -n "$PARAMS" ]] && ARGS+=(params:="$PARAMS")
+[[ -n "$ROBOT" ]] && ARGS+=(robot:="$ROBOT")
 setsid roslaunch -p "$PORT" constrained_particles simulator.launch "${ARGS[@]}" \
   >"$LOGS/launch.log" 2>&1 &
 LAUNCH_PID=$!

@@ -898,6 +898,15 @@ void Simulator::restoreState(const State& state)
 void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
 {
   Compiled compiled = compile(scene, initial_state, settings_, method, paths_);
+  // the world outside the scene goes on: an obstacle carried in both rests where it is now
+  const double now = data_->state.time;
+  for (std::size_t k = 0; k < compiled.model->carriers().size(); ++k)
+    for (std::size_t old = 0; old < model_->carriers().size(); ++old)
+      if (model_->carriers()[old].name == compiled.model->carriers()[k].name)
+      {
+        const AnchorTrack& was = data_->carriers[old];
+        compiled.data->carriers[k].restart(was.motion(now).position, was.orientation(now));
+      }
   data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(compiled.model);
   data_ = std::move(compiled.data);

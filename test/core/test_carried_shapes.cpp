@@ -391,3 +391,27 @@ TEST(SetSurfaces, GroundRaisedUnderARestingRopeLiftsItOntoIt)
     EXPECT_LT(sim.state().velocities.col(i).norm(), 1e-9) << i;
   }
 }
+
+// A new scene (a ~reset) with an obstacle of the same name carried: it stays where its holder
+// has it (the world outside the scene goes on), at rest until the holder's next pose.
+TEST(CarriedShapes, NewSceneKeepsACarriedObstacleWhereItIs)
+{
+  Scene scene;
+  scene.masses = { 1.0 };
+  scene.constraints = { ShapeContact{ 0, carried(ShapeType::Sphere, "hand"), 0.0 } };
+  const State start =
+      constrained_particles::testing::stateOf(Points::Zero(3, 1), Points::Zero(3, 1));
+  Simulator sim(scene, start, settingsOf(1e-3));
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(0.4, Vec3::UnitX()));
+  sim.carriers()[0].restart(Vec3(2.0, 0.0, 0.0), turn);
+  sim.step(10);
+  sim.setScene(scene, start);
+  EXPECT_EQ(sim.state().time, 0.0);
+  EXPECT_EQ(sim.carriers()[0].motion(0.0).position, Vec3(2.0, 0.0, 0.0));
+  EXPECT_TRUE(sim.carriers()[0].orientation(0.0).isApprox(turn, 1e-15));
+  // another obstacle's name: it starts at its own pose
+  scene.constraints = { ShapeContact{ 0, carried(ShapeType::Sphere, "hand"), 0.0 } };
+  std::get<ShapeContact>(scene.constraints[0]).shape.name = "other";
+  sim.setScene(scene, start);
+  EXPECT_EQ(sim.carriers()[0].motion(0.0).position, Vec3::Zero());
+}

@@ -61,7 +61,9 @@ public:
   /// contacts untouched
   ProjectionReport setState(const State& state);
 
-  /// Replaces the scene and initial state, and resets. @throws InvalidInput; nothing changes
+  /// Replaces the scene and initial state, and resets. A carried obstacle of the same name in
+  /// both rests where it is now (its holder's world goes on). @throws InvalidInput; nothing
+  /// changes
   void setScene(const Scene& scene, const State& initial_state,
                 SolveMethod method = SolveMethod::Automatic);
 
