@@ -1,0 +1,283 @@
+/// @file scene_changes.cpp
+/// @brief The Simulator's scene changes between steps: reset, teleports, a new scene, new step
+/// settings, forces, constraints, surfaces and perturbations, each keeping what the change does
+/// not touch (simulator.cpp takes the steps).
+#include "constrained_particles/core/simulator.hpp"
+
+#include "contact.hpp"
+#include "simulator_support.hpp"
+#include "stabilization.hpp"
+#include "stages.hpp"
+
+#include "constrained_particles/core/constraints.hpp"
+#include "constrained_particles/core/diagnostics.hpp"
+#include "constrained_particles/core/forces.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <utility>
+
+namespace constrained_particles
+{
+namespace
+{
+// The running scene changed in place (its forces, its constraints): a model of `scene` and its
+// data, with `data`'s state and perturbations (they come from outside the scene) carried over.
+std::pair<std::unique_ptr<Model>, std::unique_ptr<Data>> recompile(const Scene& scene,
+                                                                   const Model& model,
+                                                                   const Data& data,
+                                                                   StagePaths paths)
+{
+  auto compiled = std::make_unique<Model>(Model::compile(scene, model.solveMethod(), paths));
+  auto fresh = std::make_unique<Data>(*compiled);
+  fresh->state = data.state;
+  fresh->perturbations = data.perturbations;
+  return { std::move(compiled), std::move(fresh) };
+}
+
+}  // namespace
+
+void Simulator::reset()
+{
+  // the obstacles' paths were in the old run's time too: each rests where it is now, its
+  // holder's next pose followed from there
+  const double now = data_->state.time;
+  for (AnchorTrack& track : data_->carriers)
+    track.restart(track.motion(now).position, track.orientation(now));
+  data_->setState(initial_state_);
+  separateContacts(*model_, *data_);
+  // the holders' paths were in the old run's time: each rests where its particle starts again
+  restartTracks(*model_, *data_, initial_state_.positions);
+  data_->state.time = 0.0;
+  data_->state.steps = 0;
+  data_->statistics = StepStatistics{};
+  forgetControl(*data_);
+  openLedger();
+}
+
+ProjectionReport Simulator::setState(const State& state)
+{
+  model_->validateState(state, "");
+  State projected = state;
+  projected.time = data_->state.time;
+  projected.steps = data_->state.steps;
+  // a teleport: the contacts touching before say nothing of where it goes (the next step's start
+  // chooses); kept if it is refused
+  const std::vector<ContactState> contacts = data_->contacts;
+  separateContacts(*model_, *data_);
+  ProjectionReport report;
+  try
+  {
+    report = projectState(*model_, *data_, settings_, projected, "positions",
+                          "cannot be projected onto the constraints");
+    // below a contact's surface it is refused, as a scene starting there is: the next step would
+    // take the jump as an impact as deep as it
+    const BelowSurface below = deepestBelowSurface(
+        model_->scene().constraints,
+        EffectContext{ model_->scene().surfaces, projected.time, nullptr, &data_->carriers },
+        projected.positions, &model_->inverseMasses());
+    if (below.contact)
+      throw InvalidInput("positions[" + std::to_string(below.particle) + "]",
+                         "would put particle " + std::to_string(below.particle) + " " +
+                             formatValue(below.depth) + " m " + contactTargetText(*below.contact) +
+                             " (after projecting onto the constraints), which its contact keeps "
+                             "it out of; place it on or above the surface, outside the obstacle");
+  }
+  catch (const InvalidInput&)
+  {
+    data_->contacts = contacts;
+    data_->control.start_contacts = contacts;
+    writeContactRows(*model_, *data_);
+    throw;
+  }
+  report.max_displacement = (projected.positions - state.positions).colwise().norm().maxCoeff();
+  data_->setState(projected);
+  forgetControl(*data_);
+  openLedger();  // a teleport: the energy it brought or took is no step's
+  return report;
+}
+
+void Simulator::restoreState(const State& state)
+{
+  model_->validateState(state);
+  data_->setState(state);
+  separateContacts(*model_, *data_);
+  forgetControl(*data_);
+  openLedger();
+}
+
+void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
+{
+  Compiled compiled = compile(scene, initial_state, settings_, method, paths_);
+  // the world outside the scene goes on: an obstacle carried in both rests where it is now
+  const double now = data_->state.time;
+  for (std::size_t k = 0; k < compiled.model->carriers().size(); ++k)
+    for (std::size_t old = 0; old < model_->carriers().size(); ++old)
+      if (model_->carriers()[old].name == compiled.model->carriers()[k].name)
+      {
+        const AnchorTrack& was = data_->carriers[old];
+        compiled.data->carriers[k].restart(was.motion(now).position, was.orientation(now));
+      }
+  data_.reset();  // the old data refers to the old model: it goes first
+  model_ = std::move(compiled.model);
+  data_ = std::move(compiled.data);
+  initial_state_ = compiled.initial_state;
+  readSceneKind();
+  diagnostic_rows_.resize(*model_);
+  diagnostic_rates_.setZero(model_->numRows());
+  reset();
+}
+
+void Simulator::setStepSettings(const StepSettings& settings)
+{
+  validateStepSettings(settings);
+  // other settings may keep the budget; the same ones (a reconfigure of the node's own) not
+  if (!(settings == settings_))
+    data_->control.budget_fallback = false;
+  integrator_ = &findIntegrator(settings.integrator);
+  settings_ = settings;
+  substep_settings_ = settings;
+  data_->control.multipliers_current = false;  // another integrator may have left none
+  data_->control.end_energies_current = false;
+  data_->noteStateChange();  // the kept factorisation may not serve the new settings' stages
+}
+
+void Simulator::setForces(const std::vector<Force>& forces)
+{
+  Scene scene = model_->scene();
+  scene.forces = forces;
+  auto [model, data] = recompile(scene, *model_, *data_, paths_);
+  data->tracks = data_->tracks;  // the holders' paths come from outside the scene too
+  data->carriers = data_->carriers;
+  data_.reset();  // the old data refers to the old model: it goes first
+  model_ = std::move(model);
+  data_ = std::move(data);
+  const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
+  readSceneKind();
+  hold_loads_ = loads;
+  openLedger();  // new forces: a new potential and new powers
+}
+
+void Simulator::restTracks()
+{
+  if (data_->tracks.empty() && data_->carriers.empty())
+    return;
+  const double now = data_->state.time;
+  for (AnchorTrack& track : data_->tracks)
+    track.restart(track.motion(now).position);
+  for (AnchorTrack& track : data_->carriers)  // an obstacle rests as it is placed and turned now
+    track.restart(track.motion(now).position, track.orientation(now));
+  separateContacts(*model_, *data_);  // a teleport of the held particles: chosen again
+  imposeEliminated(*model_, *data_, now, &data_->state.positions, &data_->state.velocities);
+  projectVelocities(*model_, *data_, now, data_->state.positions, data_->state.velocities, false,
+                    true);
+  data_->noteStateChange();
+  forgetControl(*data_);
+  openLedger();
+}
+
+ProjectionReport Simulator::setConstraints(const std::vector<Constraint>& constraints)
+{
+  Scene scene = model_->scene();
+  scene.constraints = constraints;
+  auto [model, data] = recompile(scene, *model_, *data_, paths_);
+  // tracks by the particle they hold (each particle has at most one holder)
+  restartTracks(*model, *data, data_->state.positions);
+  for (std::size_t k = 0; k < data->tracks.size(); ++k)
+  {
+    const int particle = eliminatedParticle(model->scene().constraints[model->tracked()[k]]);
+    for (std::size_t old = 0; old < data_->tracks.size(); ++old)
+      if (eliminatedParticle(model_->scene().constraints[model_->tracked()[old]]) == particle)
+        data->tracks[k] = data_->tracks[old];
+  }
+  // carried shapes by name: the world outside the scene goes on
+  for (std::size_t k = 0; k < model->carriers().size(); ++k)
+    for (std::size_t old = 0; old < model_->carriers().size(); ++old)
+      if (model_->carriers()[old].name == model->carriers()[k].name)
+        data->carriers[k] = data_->carriers[old];
+  // project with the new model before anything is replaced: a refusal changes nothing
+  State projected = data_->state;
+  ProjectionReport report = projectState(*model, *data, settings_, projected, "constraints",
+                                         "the state cannot be projected onto them");
+  report.max_displacement =
+      (projected.positions - data_->state.positions).colwise().norm().maxCoeff();
+  data->setState(projected);
+  data_.reset();  // the old data refers to the old model: it goes first
+  model_ = std::move(model);
+  data_ = std::move(data);
+  readSceneKind();
+  diagnostic_rows_.resize(*model_);
+  diagnostic_rates_.setZero(model_->numRows());
+  forgetControl(*data_);
+  openLedger();  // a new holder does work, a freed particle no longer
+  return report;
+}
+
+ProjectionReport Simulator::setSurfaces(const std::vector<Surface>& surfaces)
+{
+  if (surfaces.size() != model_->scene().surfaces.size())
+    throw InvalidInput("surfaces", "has " + std::to_string(surfaces.size()) +
+                                       " height fields, the scene " +
+                                       std::to_string(model_->scene().surfaces.size()) +
+                                       ": a change replaces each, it adds or removes none");
+  Scene scene = model_->scene();
+  scene.surfaces = surfaces;
+  auto [model, data] = recompile(scene, *model_, *data_, paths_);
+  data->tracks = data_->tracks;  // the world outside the scene goes on
+  data->carriers = data_->carriers;
+  // with the new model, before anything is replaced: a refusal changes nothing
+  State moved = data_->state;
+  ProjectionReport report = projectState(*model, *data, settings_, moved, "surfaces",
+                                         "the state cannot be projected onto the new surfaces");
+  data->setState(moved);
+  separateContacts(*model, *data);
+  // a contact now under its surface: switched on and projected, its approach taken out
+  // (resolveImpacts at rest: no bounce below BOUNCE_SPEED)
+  data->free_accelerations.setZero();
+  State lifted = data->state;
+  resolveImpacts(*model, *data, settings_, lifted);
+  if (!isFinite(lifted))
+    throw InvalidInput("surfaces",
+                       "lifting the particles onto them produced a non-finite "
+                       "state; nothing changed");
+  separateContacts(*model, *data);
+  data->setState(lifted);
+  report.max_displacement = (lifted.positions - data_->state.positions).colwise().norm().maxCoeff();
+  report.max_velocity_change =
+      (lifted.velocities - data_->state.velocities).colwise().norm().maxCoeff();
+  const std::vector<double> loads = hold_loads_;
+  data_.reset();  // the old data refers to the old model: it goes first
+  model_ = std::move(model);
+  data_ = std::move(data);
+  readSceneKind();
+  hold_loads_ = loads;
+  diagnostic_rows_.resize(*model_);
+  diagnostic_rates_.setZero(model_->numRows());
+  forgetControl(*data_);
+  openLedger();  // a new potential (a surface moved under a particle on it) and new powers
+  return report;
+}
+
+void Simulator::setPerturbations(const std::vector<Force>& perturbations)
+{
+  for (std::size_t k = 0; k < perturbations.size(); ++k)
+    validateForce(perturbations[k], model_->numParticles(),
+                  "perturbations[" + std::to_string(k) + "]");
+  data_->perturbations = perturbations;
+  // the forces the next step starts from are no longer those of the last step
+  data_->control.multipliers_current = false;
+  data_->control.end_energies_current = false;
+  const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
+  readSceneKind();
+  hold_loads_ = loads;
+  // the next step's work is booked from the new forces' power at its start, and the account is
+  // measured against what they could move too (a drag on a chain at rest: |f| times its extent)
+  EnergyLedger& ledger = data_->ledger;
+  ledgerPowers(*model_, *data_, data_->state, ledger.power_in, ledger.power_dissipated);
+  ledger.power_in += drivenPower();
+  ledger.scale = std::max(ledger.scale, ledgerScale(*model_, *data_));
+}
+
+}  // namespace constrained_particles
