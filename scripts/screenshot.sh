@@ -49,12 +49,18 @@ DRAG_PID=""
 BESIDE_PID=""
 # stops what we started, by its process group (setsid below): SIGINT as Ctrl-C would, then
 # SIGTERM, then SIGKILL, each after a wall-clock wait (a background job may ignore SIGINT)
+# The whole group is waited for, not only its leader: a non-interactive shell's background jobs
+# ignore SIGINT and outlive it. `|| true`: the leader's status after a signal (130) would end
+# this EXIT trap under set -e before the launch is stopped (it left roslaunch and rviz running).
 stop_group() {
   local pid="$1"
   for sig in INT TERM KILL; do
     kill "-$sig" -- "-$pid" 2>/dev/null || return 0
     for _ in $(seq 100); do
-      kill -0 "$pid" 2>/dev/null || { wait "$pid" 2>/dev/null; return 0; }
+      if ! kill -0 "$pid" 2>/dev/null; then
+        wait "$pid" 2>/dev/null || true  # reaped: a zombie leader would keep the group alive
+        kill -0 -- "-$pid" 2>/dev/null || return 0
+      fi
       sleep 0.1
     done
   done
@@ -63,7 +69,7 @@ cleanup() {
   [[ -n "$DRAG_PID" ]] && stop_group "$DRAG_PID"
   [[ -n "$BESIDE_PID" ]] && stop_group "$BESIDE_PID"
   [[ -n "$LAUNCH_PID" ]] && stop_group "$LAUNCH_PID"
-  kill "$XVFB_PID" 2>/dev/null && wait "$XVFB_PID" 2>/dev/null
+  kill "$XVFB_PID" 2>/dev/null && { wait "$XVFB_PID" 2>/dev/null || true; }
   rm -rf "$LOGS"
 }
 trap cleanup EXIT
