@@ -146,17 +146,19 @@ class ContactTest(WallClockWaits, unittest.TestCase):
         since = time.monotonic()
         reply = set_surface(type="bowl", coefficients=[1.5, 1.5], expression="", keep_state=True)
         self.assertTrue(reply.success, reply.message)
-        # the state at the same time, on the new bowl, moved by what the reply says
+        # the state at the same time on the new bowl (paused, the state before the change may
+        # still be published, and arrive, after the reply: it lies below the new bowl), moved by
+        # what the reply says
+        def on_new_bowl(s):
+            return abs(s.sim_time - before.sim_time) < 1e-9 and all(
+                p.z - steeper(p.x, p.y) >= -TOLERANCE for p in s.positions)
         after = self.wait_until(
-            lambda: next((s for s in self.states.since(since)
-                          if abs(s.sim_time - before.sim_time) < 1e-9), None),
-            "~state at the change's time")
+            lambda: next((s for s in self.states.since(since) if on_new_bowl(s)), None),
+            "~state at the change's time on the new bowl")
         moved = max(math.dist((a.x, a.y, a.z), (b.x, b.y, b.z))
                     for a, b in zip(before.positions, after.positions))
         self.assertGreater(moved, 1e-3)
         self.assertAlmostEqual(reply.max_displacement, moved, delta=1e-9)
-        for i, p in enumerate(after.positions):
-            self.assertGreaterEqual(p.z - steeper(p.x, p.y), -TOLERANCE, f"particle {i}")
         for chunk in range(20):
             step = self.step(100)
             self.assertTrue(step.success, step.message)
