@@ -178,6 +178,12 @@ void AnchorTrack::restart(const Vec3& position, const Eigen::Quaterniond& orient
   hold_turned_ = true;
 }
 
+void AnchorTrack::restAt(const AnchorTrack& from, double time)
+{
+  const Vec3 position = from.motion(time).position;  // read before a restart of from itself
+  restart(position, from.orientation(time));
+}
+
 ImposedMotion AnchorTrack::motion(double time) const
 {
   if (knots_.empty())

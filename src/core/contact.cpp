@@ -33,12 +33,6 @@ struct Touch
 {
   double gap, opening;
 };
-// The obstacles where they are at `time`: carried shapes on their tracks (Data::carriers)
-EffectContext contextAt(const Model& model, const Data& data, double time)
-{
-  return EffectContext{ model.scene().surfaces, time, nullptr, &data.carriers };
-}
-
 Touch touchOf(const Model& model, const UnilateralRecord& record, const EffectContext& context,
               const Points& positions, const Points& velocities)
 {
@@ -147,6 +141,20 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
   // J^T)^-1 J W f with the factorisation already made; iterated to a fixed point (staggered)
   const int m = model.numRows();
   const auto& w = model.inverseMasses();
+  if (model.hasCarriers())
+  {
+    // on a carried shape the slip is relative to the shape's point under the particle, and a
+    // stick must give the particle that point's acceleration: both fixed over the iteration
+    const EffectContext context = contextAt(model, data, time);
+    for (std::size_t k = 0; k < contacts; ++k)
+      if (acts(data.contacts[k]) && table[k].friction > 0.0)
+      {
+        const ContactFrame frame = contactFrame(model, table[k], context, positions, velocities);
+        data.contact_relative_velocities.col(k) =
+            frame.relative(velocities.col(table[k].particles[0]));
+        data.contact_surface_accelerations.col(k) = frame.surface_acceleration;
+      }
+  }
   data.frictionless_multipliers = data.multipliers.head(m);
   bool converged = false;
   double last_change = 0.0, last_scale = 0.0;
@@ -168,14 +176,10 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
       // friction yet), less this contact's own normal force, which has no tangential part
       Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
       Vec3 v = velocities.col(i);
-      if (model.hasCarriers())
+      if (model.hasCarriers())  // m a_s less its other forces: what a stick must give
       {
-        // on a carried shape the slip is relative to the shape's point under the particle, and
-        // a stick must give the particle that point's acceleration: m a_s less its other forces
-        const ContactFrame frame =
-            contactFrame(model, record, contextAt(model, data, time), positions, velocities);
-        v = frame.relative(v);
-        other -= frame.surface_acceleration / w[i];
+        v = data.contact_relative_velocities.col(k);
+        other -= data.contact_surface_accelerations.col(k) / w[i];
       }
       const Vec3 f = frictionForce(record, contact, normal, lambda, v, other);
       change = std::max(change, (f - contact.friction_force).norm());
@@ -470,7 +474,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
     // motion leaves (semi-implicit Euler's drift, dt^2 a where the motion's is dt^2 a / 2, lands
     // a bead leaving a dome inside it until z = R / 2): its particle is lifted out, positions
     // only, and keeps its velocity; an impulse there would hold it on
-    bool lift = false;
+    bool lift = false, below = false;  // below: a contact off is under its surface
     for (std::size_t k = 0; k < contacts; ++k)
     {
       ContactState& contact = data.contacts[k];
@@ -478,6 +482,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       if (acts(contact) || !(model.inverseMasses()[i] > 0.0))
         continue;
       const ContactFrame frame = contactFrame(model, rows[k], context, x.positions, x.velocities);
+      below = below || frame.gap < -settings.projection_tolerance;
       if (frame.gap < -settings.projection_tolerance &&
           frame.normalSpeed(frame.relative(x.velocities.col(i))) > 0.0)
       {
@@ -513,7 +518,8 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
         data.contacts[k].mode = ContactMode::Sliding;
         impact = true;
       }
-    for (std::size_t k = 0; k < contacts; ++k)
+    // nothing below and nothing lifted: no contact impact to look for (each frame evaluated once)
+    for (std::size_t k = 0; (lift || below) && k < contacts; ++k)
     {
       ContactState& contact = data.contacts[k];
       const UnilateralRecord& record = rows[k];

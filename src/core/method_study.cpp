@@ -64,8 +64,7 @@ struct RunOutcome
 void restCarriers(Simulator& simulator, const std::vector<AnchorTrack>& carriers, double time)
 {
   for (std::size_t k = 0; k < carriers.size() && k < simulator.carriers().size(); ++k)
-    simulator.carriers()[k].restart(carriers[k].motion(time).position,
-                                    carriers[k].orientation(time));
+    simulator.carriers()[k].restAt(carriers[k], time);
 }
 
 RunOutcome runOnce(const Scene& scene, const State& start, const StepSettings& settings,

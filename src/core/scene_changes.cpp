@@ -45,7 +45,7 @@ void Simulator::reset()
   // holder's next pose followed from there
   const double now = data_->state.time;
   for (AnchorTrack& track : data_->carriers)
-    track.restart(track.motion(now).position, track.orientation(now));
+    track.restAt(now);
   data_->setState(initial_state_);
   separateContacts(*model_, *data_);
   // the holders' paths were in the old run's time: each rests where its particle starts again
@@ -74,10 +74,9 @@ ProjectionReport Simulator::setState(const State& state)
                           "cannot be projected onto the constraints");
     // below a contact's surface it is refused, as a scene starting there is: the next step would
     // take the jump as an impact as deep as it
-    const BelowSurface below = deepestBelowSurface(
-        model_->scene().constraints,
-        EffectContext{ model_->scene().surfaces, projected.time, nullptr, &data_->carriers },
-        projected.positions, &model_->inverseMasses());
+    const BelowSurface below =
+        deepestBelowSurface(model_->scene().constraints, contextAt(*model_, *data_, projected.time),
+                            projected.positions, &model_->inverseMasses());
     if (below.contact)
       throw InvalidInput("positions[" + std::to_string(below.particle) + "]",
                          "would put particle " + std::to_string(below.particle) + " " +
@@ -112,14 +111,7 @@ void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMe
 {
   Compiled compiled = compile(scene, initial_state, settings_, method, paths_);
   // the world outside the scene goes on: an obstacle carried in both rests where it is now
-  const double now = data_->state.time;
-  for (std::size_t k = 0; k < compiled.model->carriers().size(); ++k)
-    for (std::size_t old = 0; old < model_->carriers().size(); ++old)
-      if (model_->carriers()[old].name == compiled.model->carriers()[k].name)
-      {
-        const AnchorTrack& was = data_->carriers[old];
-        compiled.data->carriers[k].restart(was.motion(now).position, was.orientation(now));
-      }
+  carryCarriers(*model_, *data_, *compiled.model, *compiled.data, true);
   data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(compiled.model);
   data_ = std::move(compiled.data);
@@ -168,7 +160,7 @@ void Simulator::restTracks()
   for (AnchorTrack& track : data_->tracks)
     track.restart(track.motion(now).position);
   for (AnchorTrack& track : data_->carriers)  // an obstacle rests as it is placed and turned now
-    track.restart(track.motion(now).position, track.orientation(now));
+    track.restAt(now);
   separateContacts(*model_, *data_);  // a teleport of the held particles: chosen again
   imposeEliminated(*model_, *data_, now, &data_->state.positions, &data_->state.velocities);
   projectVelocities(*model_, *data_, now, data_->state.positions, data_->state.velocities, false,
@@ -193,10 +185,7 @@ ProjectionReport Simulator::setConstraints(const std::vector<Constraint>& constr
         data->tracks[k] = data_->tracks[old];
   }
   // carried shapes by name: the world outside the scene goes on
-  for (std::size_t k = 0; k < model->carriers().size(); ++k)
-    for (std::size_t old = 0; old < model_->carriers().size(); ++old)
-      if (model_->carriers()[old].name == model->carriers()[k].name)
-        data->carriers[k] = data_->carriers[old];
+  carryCarriers(*model_, *data_, *model, *data, false);
   // project with the new model before anything is replaced: a refusal changes nothing
   State projected = data_->state;
   ProjectionReport report = projectState(*model, *data, settings_, projected, "constraints",

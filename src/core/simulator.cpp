@@ -102,7 +102,7 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
   // friction, at its last stage's value (contact.hpp; the step start's under velocity Verlet and
   // fast projection; a contact off holds none): it only dissipates, against the slip
   const auto& contacts = model.unilateral();
-  const EffectContext context{ model.scene().surfaces, x.time, nullptr, &data.carriers };
+  const EffectContext context = contextAt(model, data, x.time);
   for (int k = 0; k < model.numParticleContacts(); ++k)
   {
     const ContactState& contact = data.contacts[k];
@@ -151,6 +151,20 @@ void restartTracks(const Model& model, Data& data, const Points& positions)
   for (std::size_t k = 0; k < data.tracks.size(); ++k)
     data.tracks[k].restart(
         positions.col(eliminatedParticle(model.scene().constraints[model.tracked()[k]])));
+}
+
+void carryCarriers(const Model& from_model, const Data& from, const Model& to_model, Data& to,
+                   bool rest)
+{
+  for (std::size_t k = 0; k < to_model.carriers().size(); ++k)
+    for (std::size_t old = 0; old < from_model.carriers().size(); ++old)
+      if (from_model.carriers()[old].name == to_model.carriers()[k].name)
+      {
+        if (rest)
+          to.carriers[k].restAt(from.carriers[old], from.state.time);
+        else
+          to.carriers[k] = from.carriers[old];
+      }
 }
 
 // Projects `state` (positions, then velocities) onto `model`'s constraints at its time.

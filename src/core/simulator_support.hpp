@@ -28,6 +28,12 @@ void forgetControl(Data& data);
 /// Every tracked record (a frame anchor) at rest where its particle is in `positions`, no knot.
 void restartTracks(const Model& model, Data& data, const Points& positions);
 
+/// Each carried shape of `to_model` that `from_model` carries too (matched by name) takes the old
+/// one's track (`rest` false: its motion goes on) or rests where the old one is at the old
+/// state's time (`rest` true: a new scene's run).
+void carryCarriers(const Model& from_model, const Data& from, const Model& to_model, Data& to,
+                   bool rest);
+
 /// Projects `state` (positions, then velocities) onto `model`'s constraints at its time.
 /// @throws InvalidInput naming `field`, saying `what` failed; `state` is then half projected
 ProjectionReport projectState(const Model& model, Data& data, const StepSettings& settings,

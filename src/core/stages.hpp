@@ -19,6 +19,13 @@
 
 namespace constrained_particles
 {
+/// The obstacles where they are at `time` [s]: the scene's surfaces and the carried shapes on
+/// their tracks (Data::carriers), for the contact rows evaluated outside the stages.
+inline EffectContext contextAt(const Model& model, const Data& data, double time)
+{
+  return EffectContext{ model.scene().surfaces, time, nullptr, &data.carriers };
+}
+
 /// Evaluates every row record at (p, v) and time t into `rows`: C, J, Jdot v, the metric
 /// violations and their max, and (if `diagonals`) each row's diagonal entry of J W J^T. Counts
 /// each record in `counters` if given. `frame_positions`, `carriers`: see EffectContext.

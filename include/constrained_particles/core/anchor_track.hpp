@@ -99,6 +99,13 @@ public:
   /// The same, turned by `orientation` while it rests and where the next append sets off (a
   /// carried obstacle put at a pose).
   void restart(const Vec3& position, const Eigen::Quaterniond& orientation);
+  /// restart() at the pose `from` has at `time` [s] (placed and turned): a carried obstacle at
+  /// rest where it is (from = *this) or where another run's is.
+  void restAt(const AnchorTrack& from, double time);
+  void restAt(double time)
+  {
+    restAt(*this, time);
+  }
   /// Forgets the knots and jumps after `now`: the point goes on from where and as fast as it
   /// moves now (coasting to rest), until the next append sets off from there.
   void resync(double now);

@@ -282,6 +282,10 @@ public:
   /// frictionless multipliers and a solve's right-hand side (m); empty without contacts
   Points friction_forces, friction_accelerations;
   Eigen::VectorXd frictionless_multipliers, contact_rhs;
+  /// With carried shapes, per particle contact (3 x Model::numParticleContacts(), else empty):
+  /// its particle's velocity relative to the obstacle's point under it [m/s] and that point's
+  /// acceleration [m/s^2] at the contact stage's state, evaluated once per stage
+  Points contact_relative_velocities, contact_surface_accelerations;
   Eigen::VectorXd multipliers;  ///< lambda (m), then each eliminated reaction [N] (3 e)
   /// Right-hand side, then solution, of a solve (m); the fused projections solve in place in
   /// it and fused.velocity_rhs, so after one it holds the last check's forward-substituted C
