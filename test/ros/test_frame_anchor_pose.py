@@ -10,7 +10,7 @@ import tf2_ros
 from constrained_particles.msg import SimState
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TransformStamped
-from topic_recorder import Recorder, diagnostic_value
+from topic_recorder import Recorder, diagnostic_value, publish_for
 from wall_clock import WallClockWaits
 
 NODE = "/simulator"
@@ -49,15 +49,7 @@ class FrameAnchorPoseTest(WallClockWaits, unittest.TestCase):
 
     def hold(self, frame, x, y, z, seconds, bad=()):
         """Publishes the pose at 30 Hz for `seconds` (and the `bad` messages once, halfway)."""
-        end = time.monotonic() + seconds
-        sent_bad = False
-        while time.monotonic() < end:
-            self.poses.publish(pose(frame, x, y, z))
-            if not sent_bad and time.monotonic() > end - seconds / 2:
-                for msg in bad:
-                    self.poses.publish(msg)
-                sent_bad = True
-            time.sleep(1.0 / 30.0)
+        publish_for(self.poses, lambda: pose(frame, x, y, z), seconds, bad=bad)
 
     def at_rest_at(self, point, since):
         states = self.states.since(since)

@@ -39,3 +39,17 @@ def diagnostic_value(recorder, since, key_prefix):
                 if kv.key.startswith(key_prefix):
                     return kv.value
     return None
+
+
+def publish_for(publisher, make, seconds, rate=30.0, bad=()):
+    """Publishes make() on `publisher` at `rate` [Hz] for `seconds` of wall time, and each
+    message of `bad` once, halfway (the holder tests' stream with bad input in it)."""
+    end = time.monotonic() + seconds
+    sent_bad = False
+    while time.monotonic() < end:
+        publisher.publish(make())
+        if not sent_bad and time.monotonic() > end - seconds / 2:
+            for message in bad:
+                publisher.publish(message)
+            sent_bad = True
+        time.sleep(1.0 / rate)
