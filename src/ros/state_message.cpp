@@ -130,6 +130,19 @@ void fillHolders(const Snapshot& snap, SimState& msg)
       msg.holder_teleports.push_back(counted ? static_cast<std::uint32_t>(snap.holders[k].jumps)
                                              : 0u);
     }
+  // the carried shapes' holders come after the anchors' in the snapshot's holder statuses
+  for (std::size_t c = 0; c < model.carriers().size(); ++c)
+  {
+    const Shape& shape = model.carriers()[c];
+    const std::size_t k = model.tracked().size() + c;
+    const bool counted = k < snap.holders.size();
+    msg.carried_obstacles.push_back(shape.name);
+    msg.obstacle_holders.push_back(shape.frame.empty() ? shape.topic : shape.frame);
+    msg.obstacle_overruns.push_back(counted ? static_cast<std::uint32_t>(snap.holders[k].overruns)
+                                            : 0u);
+    msg.obstacle_teleports.push_back(counted ? static_cast<std::uint32_t>(snap.holders[k].jumps)
+                                             : 0u);
+  }
 }
 
 void fillReleases(const Snapshot& snap, SimState& msg)

@@ -80,6 +80,11 @@ class ObstaclePoseTest(WallClockWaits, unittest.TestCase):
             "the two bad poses counted", poll=0.1)
         self.assertIn("teleports 0", status)
         self.check_resting(started, "after the bad poses")
+        state = self.states.latest()
+        self.assertEqual(list(state.carried_obstacles), ["paddle"])
+        self.assertEqual(list(state.obstacle_holders), ["/paddle_pose"])
+        self.assertEqual(list(state.obstacle_teleports), [0])
+        self.assertEqual(list(state.holders), [])  # no particle is held
         # a flood: 5,000 poses as fast as they go, then the 30 Hz stream again
         started = time.monotonic()
         for _ in range(5000):
