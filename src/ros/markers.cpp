@@ -180,8 +180,18 @@ visualization_msgs::MarkerArray surfaceMarkers(const std_msgs::Header& header, c
   return array;
 }
 
+bool topicCarriedShapes(const Model& model)
+{
+  for (const Shape& shape : model.carriers())
+    if (shape.frame.empty() && !shape.topic.empty())
+      return true;
+  return false;
+}
+
 visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const Model& model,
-                                                const Vec3& low, const Vec3& high)
+                                                const Vec3& low, const Vec3& high,
+                                                const std::vector<AnchorTrack>* carriers,
+                                                double time)
 {
   visualization_msgs::MarkerArray array;
   visualization_msgs::Marker clear = makeMarker(header, "obstacles", 0, 0);
@@ -189,6 +199,9 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
   array.markers.push_back(clear);
   std::vector<std::string> drawn;
   int id = 0;
+  // a pose-topic shape's holder frame in header's: where its track has it at `time`
+  Vec3 holder_origin = Vec3::Zero();
+  Eigen::Matrix3d holder_turn = Eigen::Matrix3d::Identity();
   auto add = [&](const Shape& shape, int type, const Vec3& centre, const Vec3& scale)
   {
     visualization_msgs::Marker m = makeMarker(header, "obstacles", id++, type);
@@ -200,8 +213,12 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
       m.header.stamp = ros::Time(0);
       m.frame_locked = true;
     }
-    m.pose.position = tf2::toMsg(Eigen::Vector3d(centre));
-    m.pose.orientation = tf2::toMsg(Eigen::Quaterniond(shape.rotation));  // tf2_eigen converts
+    const Vec3 at = holder_origin + holder_turn * centre;
+    const Eigen::Matrix3d turn = holder_turn * shape.rotation;
+    if (!at.allFinite() || !turn.allFinite())
+      return;  // nothing non-finite reaches rviz
+    m.pose.position = tf2::toMsg(Eigen::Vector3d(at));
+    m.pose.orientation = tf2::toMsg(Eigen::Quaterniond(turn));  // tf2_eigen converts
     m.scale.x = scale.x();
     m.scale.y = scale.y();
     m.scale.z = scale.z();
@@ -215,8 +232,18 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
       continue;
     drawn.push_back(contact->shape.name);
     const Shape& shape = contact->shape;
+    holder_origin.setZero();
+    holder_turn.setIdentity();
     if (shape.frame.empty() && !shape.topic.empty())
-      continue;  // on a pose topic: no frame rviz could carry it in
+    {
+      // on a pose topic: no frame rviz could carry it in, so drawn where its track has it
+      if (!carriers || contact->carrier < 0 ||
+          static_cast<std::size_t>(contact->carrier) >= carriers->size())
+        continue;
+      const AnchorTrack& track = (*carriers)[static_cast<std::size_t>(contact->carrier)];
+      holder_origin = track.motion(time).position;
+      holder_turn = track.orientation(time).toRotationMatrix();
+    }
     const Vec3 axis = shape.rotation.col(2);
     const double d = 2.0 * shape.radius;
     switch (shape.type)

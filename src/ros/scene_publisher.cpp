@@ -47,6 +47,15 @@ void ScenePublisher::publish(const Snapshot& snap, const std_msgs::Header& heade
   }
   if (particles_.getNumSubscribers() > 0)
     publishParticles(snap, header);
+  if (topicCarriedShapes(*snap.model) && obstacles_.getNumSubscribers() > 0)
+  {
+    // a shape on a pose topic moves with its track: drawn again where it is now (the same ids,
+    // so no DELETEALL: each replaces its last)
+    visualization_msgs::MarkerArray moved = obstacleMarkers(
+        header, *snap.model, snap.region.low, snap.region.high, &snap.carriers, snap.state.time);
+    moved.markers.erase(moved.markers.begin());
+    obstacles_.publish(moved);
+  }
   publishAccuracy(snap, header);
 }
 
@@ -91,7 +100,8 @@ void ScenePublisher::publishSceneOnce(const Snapshot& snap, const ros::Time& sta
   const RegionSpec& region = snap.region;
   surface_.publish(
       surfaceMarkers(header, *snap.model, region.low, region.high, parameters_.mesh_cells));
-  obstacles_.publish(obstacleMarkers(header, *snap.model, region.low, region.high));
+  obstacles_.publish(obstacleMarkers(header, *snap.model, region.low, region.high, &snap.carriers,
+                                     snap.state.time));
   SceneView view;
   view.header = header;
   view.scenario = snap.scene->name;

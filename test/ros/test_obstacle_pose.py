@@ -10,6 +10,7 @@ import rostest
 from constrained_particles.msg import SimState
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, WrenchStamped
+from visualization_msgs.msg import Marker, MarkerArray
 from topic_recorder import Recorder, diagnostic_value, publish_for
 from wall_clock import WallClockWaits
 
@@ -41,12 +42,21 @@ class ObstaclePoseTest(WallClockWaits, unittest.TestCase):
         cls.diagnostics = Recorder("/diagnostics", DiagnosticArray, keep=20)
         cls.wrenches = Recorder(f"{NODE}/obstacle_wrench/paddle", WrenchStamped, keep=2000)
         cls.poses = rospy.Publisher("/paddle_pose", PoseStamped, queue_size=100)
+        cls.obstacles = Recorder(f"{NODE}/obstacles", MarkerArray, keep=200)
         rospy.wait_for_service(f"{NODE}/reset", timeout=60.0)
 
-    def publish_for(self, seconds, bad=()):
-        """The paddle's pose (at the origin, level) at 30 Hz for `seconds`, and each of `bad`
+    def publish_for(self, seconds, bad=(), z=0.0):
+        """The paddle's pose (at height z, level) at 30 Hz for `seconds`, and each of `bad`
         once, halfway."""
-        publish_for(self.poses, pose, seconds, bad=bad)
+        publish_for(self.poses, lambda: pose(z=z), seconds, bad=bad)
+
+    def paddle_marker(self, since):
+        """The newest ~obstacles CUBE since `since` (the paddle), or None."""
+        for array in reversed(self.obstacles.since(since)):
+            for marker in array.markers:
+                if marker.ns == "obstacles" and marker.type == Marker.CUBE:
+                    return marker
+        return None
 
     def check_resting(self, since, what):
         """Every state since `since` finite and running, the particles on the paddle's top, and
@@ -95,6 +105,22 @@ class ObstaclePoseTest(WallClockWaits, unittest.TestCase):
             lambda: (lambda v: v if v and v.startswith("following") else None)(
                 diagnostic_value(self.diagnostics, time.monotonic() - 1.0, ROW)),
             "the paddle still followed", poll=0.1))
+        # drawn in rviz where its topic puts it: in the fixed frame, at its pose now
+        marker = self.paddle_marker(started)
+        self.assertIsNotNone(marker, "~obstacles draws the paddle")
+        self.assertEqual(marker.header.frame_id, "world")
+        self.assertAlmostEqual(marker.pose.position.z, 0.0, delta=1e-9)
+        # raised 5 cm: the marker goes with it, every value finite
+        started = time.monotonic()
+        self.publish_for(2.0, z=0.05)
+        marker = self.wait_until(
+            lambda: (lambda m: m if m and abs(m.pose.position.z - 0.05) < 1e-9 else None)(
+                self.paddle_marker(started)), "the paddle's marker raised with it", poll=0.1)
+        for array in self.obstacles.since(started):
+            for m in array.markers:
+                p, q = m.pose.position, m.pose.orientation
+                self.assertTrue(all(math.isfinite(c) for c in (p.x, p.y, p.z, q.x, q.y, q.z, q.w)))
+        self.assertEqual(self.states.latest().status, SimState.STATUS_RUNNING)
 
 
 if __name__ == "__main__":

@@ -65,9 +65,17 @@ visualization_msgs::MarkerArray surfaceMarkers(const std_msgs::Header& header, c
 /// a thin CUBE over the region's extent. DELETEALL first, so a scene change leaves none of the
 /// last scene's. Made once per scene (~obstacles, latched): a shape carried by a tf frame is
 /// drawn in that frame (header.frame_id its frame, its pose there), so rviz moves it with tf; one
-/// carried by a pose topic is not drawn (not yet followed in rviz; issue 48).
+/// carried by a pose topic is drawn in header's frame where its track (`carriers`, one per
+/// Model::carriers()) puts it at `time` [s], or not at all without them (the node publishes
+/// again with each state while a scene has such shapes: topicCarriedShapes()).
 visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const Model& model,
-                                                const Vec3& region_low, const Vec3& region_high);
+                                                const Vec3& region_low, const Vec3& region_high,
+                                                const std::vector<AnchorTrack>* carriers = nullptr,
+                                                double time = 0.0);
+
+/// Whether the model has a shape carried by a pose topic (drawn where its track puts it, so
+/// ~obstacles goes out again with each state).
+bool topicCarriedShapes(const Model& model);
 
 /// Scene markers: particles (SPHERE_LIST, ns "particles") and links (LINE_LIST, ns "links"; a
 /// DELETE when there are none).
