@@ -191,7 +191,7 @@ bool topicCarriedShapes(const Model& model)
 visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const Model& model,
                                                 const Vec3& low, const Vec3& high,
                                                 const std::vector<AnchorTrack>* carriers,
-                                                double time)
+                                                double time, bool topic_carried_only)
 {
   visualization_msgs::MarkerArray array;
   visualization_msgs::Marker clear = makeMarker(header, "obstacles", 0, 0);
@@ -204,7 +204,10 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
   Eigen::Matrix3d holder_turn = Eigen::Matrix3d::Identity();
   auto add = [&](const Shape& shape, int type, const Vec3& centre, const Vec3& scale)
   {
-    visualization_msgs::Marker m = makeMarker(header, "obstacles", id++, type);
+    const int marker_id = id++;  // counted for every shape: the ids stay those of the whole set
+    if (topic_carried_only && !(shape.frame.empty() && !shape.topic.empty()))
+      return;
+    visualization_msgs::Marker m = makeMarker(header, "obstacles", marker_id, type);
     if (!shape.frame.empty())
     {
       // its pose is in its frame, and rviz moves it with tf's newest pose of it (frame_locked;
@@ -251,8 +254,8 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
       case ShapeType::Plane:
       {
         // a thin slab under the plane, centred below the region's centre, as wide as the region
-        // (a carried plane's region is not known in its frame: centred at its origin there)
-        const Vec3 middle = shape.frame.empty() ? Vec3(0.5 * (low + high)) : shape.position;
+        // (a carried plane's region is not known in its holder's frame: centred at its origin)
+        const Vec3 middle = shape.carried() ? shape.position : Vec3(0.5 * (low + high));
         const Vec3 foot = middle - axis * axis.dot(middle - shape.position);
         const double width = 2.0 * (high - low).norm();
         add(shape, visualization_msgs::Marker::CUBE, foot - 0.005 * axis, Vec3(width, width, 0.01));

@@ -49,10 +49,11 @@ void ScenePublisher::publish(const Snapshot& snap, const std_msgs::Header& heade
     publishParticles(snap, header);
   if (topicCarriedShapes(*snap.model) && obstacles_.getNumSubscribers() > 0)
   {
-    // a shape on a pose topic moves with its track: drawn again where it is now (the same ids,
-    // so no DELETEALL: each replaces its last)
-    visualization_msgs::MarkerArray moved = obstacleMarkers(
-        header, *snap.model, snap.region.low, snap.region.high, &snap.carriers, snap.state.time);
+    // a shape on a pose topic moves with its track: drawn again where it is now, alone (the same
+    // ids, so no DELETEALL: each replaces its last)
+    visualization_msgs::MarkerArray moved =
+        obstacleMarkers(header, *snap.model, snap.region.low, snap.region.high, &snap.carriers,
+                        snap.state.time, true);
     moved.markers.erase(moved.markers.begin());
     obstacles_.publish(moved);
   }

@@ -101,25 +101,20 @@ class ObstaclePoseTest(WallClockWaits, unittest.TestCase):
             self.poses.publish(pose())
         self.publish_for(2.0)
         self.check_resting(started, "after the flood")
+        # the stream goes on while waiting: a pause over ~1 s would read as its publisher stopped
         self.assertIsNotNone(self.wait_until(
-            lambda: (lambda v: v if v and v.startswith("following") else None)(
-                diagnostic_value(self.diagnostics, time.monotonic() - 1.0, ROW)),
-            "the paddle still followed", poll=0.1))
-        # drawn in rviz where its topic puts it: in the fixed frame, at its pose now
-        marker = self.paddle_marker(started)
-        self.assertIsNotNone(marker, "~obstacles draws the paddle")
-        self.assertEqual(marker.header.frame_id, "world")
-        self.assertAlmostEqual(marker.pose.position.z, 0.0, delta=1e-9)
-        # raised 5 cm: the marker goes with it, every value finite
+            lambda: (self.poses.publish(pose()),
+                     (lambda v: v if v and v.startswith("following") else None)(
+                         diagnostic_value(self.diagnostics, time.monotonic() - 1.0, ROW)))[1],
+            "the paddle still followed", poll=0.05))
+        # drawn in rviz where its topic puts it: raised 5 cm, the marker goes with it, in the
+        # fixed frame (its pose as written is the origin: only a moved marker shows the track)
         started = time.monotonic()
         self.publish_for(2.0, z=0.05)
         marker = self.wait_until(
             lambda: (lambda m: m if m and abs(m.pose.position.z - 0.05) < 1e-9 else None)(
                 self.paddle_marker(started)), "the paddle's marker raised with it", poll=0.1)
-        for array in self.obstacles.since(started):
-            for m in array.markers:
-                p, q = m.pose.position, m.pose.orientation
-                self.assertTrue(all(math.isfinite(c) for c in (p.x, p.y, p.z, q.x, q.y, q.z, q.w)))
+        self.assertEqual(marker.header.frame_id, "world")
         self.assertEqual(self.states.latest().status, SimState.STATUS_RUNNING)
 
 

@@ -67,11 +67,13 @@ visualization_msgs::MarkerArray surfaceMarkers(const std_msgs::Header& header, c
 /// drawn in that frame (header.frame_id its frame, its pose there), so rviz moves it with tf; one
 /// carried by a pose topic is drawn in header's frame where its track (`carriers`, one per
 /// Model::carriers()) puts it at `time` [s], or not at all without them (the node publishes
-/// again with each state while a scene has such shapes: topicCarriedShapes()).
+/// again at each publish tick while a scene has such shapes: topicCarriedShapes()).
+/// `topic_carried_only`: those shapes' markers alone (ids as in the whole set), after the
+/// DELETEALL.
 visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const Model& model,
                                                 const Vec3& region_low, const Vec3& region_high,
                                                 const std::vector<AnchorTrack>* carriers = nullptr,
-                                                double time = 0.0);
+                                                double time = 0.0, bool topic_carried_only = false);
 
 /// Whether the model has a shape carried by a pose topic (drawn where its track puts it, so
 /// ~obstacles goes out again with each state).
