@@ -112,13 +112,8 @@ void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMe
   Compiled compiled = compile(scene, initial_state, settings_, method, paths_);
   // the world outside the scene goes on: an obstacle carried in both rests where it is now
   carryCarriers(*model_, *data_, *compiled.model, *compiled.data, true);
-  data_.reset();  // the old data refers to the old model: it goes first
-  model_ = std::move(compiled.model);
-  data_ = std::move(compiled.data);
+  install(std::move(compiled.model), std::move(compiled.data));
   initial_state_ = compiled.initial_state;
-  readSceneKind();
-  diagnostic_rows_.resize(*model_);
-  diagnostic_rates_.setZero(model_->numRows());
   reset();
 }
 
@@ -143,11 +138,8 @@ void Simulator::setForces(const std::vector<Force>& forces)
   auto [model, data] = recompile(scene, *model_, *data_, paths_);
   data->tracks = data_->tracks;  // the holders' paths come from outside the scene too
   data->carriers = data_->carriers;
-  data_.reset();  // the old data refers to the old model: it goes first
-  model_ = std::move(model);
-  data_ = std::move(data);
   const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
-  readSceneKind();
+  install(std::move(model), std::move(data));
   hold_loads_ = loads;
   openLedger();  // new forces: a new potential and new powers
 }
@@ -193,12 +185,7 @@ ProjectionReport Simulator::setConstraints(const std::vector<Constraint>& constr
   report.max_displacement =
       (projected.positions - data_->state.positions).colwise().norm().maxCoeff();
   data->setState(projected);
-  data_.reset();  // the old data refers to the old model: it goes first
-  model_ = std::move(model);
-  data_ = std::move(data);
-  readSceneKind();
-  diagnostic_rows_.resize(*model_);
-  diagnostic_rates_.setZero(model_->numRows());
+  install(std::move(model), std::move(data));
   forgetControl(*data_);
   openLedger();  // a new holder does work, a freed particle no longer
   return report;
@@ -236,14 +223,9 @@ ProjectionReport Simulator::setSurfaces(const std::vector<Surface>& surfaces)
   report.max_displacement = (lifted.positions - data_->state.positions).colwise().norm().maxCoeff();
   report.max_velocity_change =
       (lifted.velocities - data_->state.velocities).colwise().norm().maxCoeff();
-  const std::vector<double> loads = hold_loads_;
-  data_.reset();  // the old data refers to the old model: it goes first
-  model_ = std::move(model);
-  data_ = std::move(data);
-  readSceneKind();
+  const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
+  install(std::move(model), std::move(data));
   hold_loads_ = loads;
-  diagnostic_rows_.resize(*model_);
-  diagnostic_rates_.setZero(model_->numRows());
   forgetControl(*data_);
   openLedger();  // a new potential (a surface moved under a particle on it) and new powers
   return report;

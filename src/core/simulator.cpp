@@ -256,18 +256,23 @@ Simulator::Simulator(const Scene& scene, const State& initial_state, const StepS
   : paths_(paths)
 {
   Compiled compiled = compile(scene, initial_state, settings, method, paths_);
-  data_.reset();  // the old data refers to the old model: it goes first
-  model_ = std::move(compiled.model);
-  data_ = std::move(compiled.data);
-  initial_state_ = compiled.initial_state;
   settings_ = settings;
   substep_settings_ = settings;
   integrator_ = &findIntegrator(settings.integrator);
   stiff_ = &findIntegrator(STIFF_FALLBACK);
+  install(std::move(compiled.model), std::move(compiled.data));
+  initial_state_ = compiled.initial_state;
+  reset();
+}
+
+void Simulator::install(std::unique_ptr<Model> model, std::unique_ptr<Data> data)
+{
+  data_.reset();  // the old data refers to the old model: it goes first
+  model_ = std::move(model);
+  data_ = std::move(data);
   readSceneKind();
   diagnostic_rows_.resize(*model_);
   diagnostic_rates_.setZero(model_->numRows());
-  reset();
 }
 
 StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, bool accept_singular)

@@ -131,12 +131,13 @@ RunnerReply SimulationRunner::setSurface(const std::string& type,
                                          const std::vector<double>& coefficients,
                                          const std::string& expression, bool keep_state)
 {
+  const auto make = [this, type, coefficients, expression]
+  { return session_.forSurface(type, coefficients, expression, parameters_.step); };
   if (keep_state)
     return queue_.submit(
-        [this, type, coefficients, expression]
+        [this, make, type]
         {
-          const SceneSession::Candidate candidate =
-              session_.forSurface(type, coefficients, expression, parameters_.step);
+          const SceneSession::Candidate candidate = make();
           const ProjectionReport report = simulator_->setSurfaces(candidate.built.scene.surfaces);
           session_.adoptChange(candidate.description);
           afterChange(true);  // the shadow's scene is not this one any more
@@ -149,10 +150,7 @@ RunnerReply SimulationRunner::setSurface(const std::string& type,
           reply.max_displacement = report.max_displacement;
           return reply;
         });
-  return changeScene(
-      [this, type, coefficients, expression]
-      { return session_.forSurface(type, coefficients, expression, parameters_.step); },
-      "surface set to '" + type + "'");
+  return changeScene(make, "surface set to '" + type + "'");
 }
 
 RunnerReply SimulationRunner::setChain(const ChainChange& change)

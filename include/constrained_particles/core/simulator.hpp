@@ -204,6 +204,10 @@ private:
   /// change).
   void readSceneKind();
 
+  /// Makes `model` and `data` the simulator's (the old data, which refers to the old model, goes
+  /// first), reads the scene's kind and sizes the diagnostics' workspaces to its rows.
+  void install(std::unique_ptr<Model> model, std::unique_ptr<Data> data);
+
   /// Opens the energy ledger at the current state (t0).
   void openLedger();
   /// The driven anchors' power at the current state with the forces acting now [W] (a forward
