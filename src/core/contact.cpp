@@ -28,25 +28,44 @@ void switchOff(ContactState& contact)
 }
 
 // Where a unilateral row stands: its metric gap [m] (C >= 0's distance: a contact's height over
-// its surface, a slack link's length less its span) and the rate it opens [m/s]
+// its surface, a slack link's length less its span, a segment's distance less its radius), the
+// rate it opens [m/s], and whether it may act there (a segment's nearest point strictly inside)
 struct Touch
 {
   double gap, opening;
+  bool can_act = true;
 };
+const SegmentContact& segmentOf(const Model& model, const UnilateralRecord& record)
+{
+  return std::get<std::vector<KindRecord<SegmentContact>>>(model.kindTables())[record.table].record;
+}
+
 Touch touchOf(const Model& model, const UnilateralRecord& record, const EffectContext& context,
               const Points& positions, const Points& velocities)
 {
-  if (!record.link)
+  switch (record.kind)
   {
-    const ContactFrame frame = contactFrame(model, record, context, positions, velocities);
-    return { frame.gap, frame.normalSpeed(frame.relative(velocities.col(record.particles[0]))) };
+    case UnilateralKind::ParticleContact:
+    {
+      const ContactFrame frame = contactFrame(model, record, context, positions, velocities);
+      return { frame.gap, frame.normalSpeed(frame.relative(velocities.col(record.particles[0]))) };
+    }
+    case UnilateralKind::SlackLink:
+    {
+      const SlackLink& link =
+          std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables())[record.table].record;
+      const Vec3 d = positions.col(link.first) - positions.col(link.second);
+      const double span = d.norm();
+      const Vec3 relative = velocities.col(link.first) - velocities.col(link.second);
+      return { link.length - span, span > 0.0 ? -d.dot(relative) / span : 0.0 };
+    }
+    case UnilateralKind::SegmentContact:
+      break;
   }
-  const SlackLink& link =
-      std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables())[record.table].record;
-  const Vec3 d = positions.col(link.first) - positions.col(link.second);
-  const double span = d.norm();
-  const Vec3 relative = velocities.col(link.first) - velocities.col(link.second);
-  return { link.length - span, span > 0.0 ? -d.dot(relative) / span : 0.0 };
+  const SegmentContact& contact = segmentOf(model, record);
+  const SegmentFrame s = segmentFrame(contact, context, positions, velocities);
+  const Vec3 v = s.pointVelocity(velocities.col(contact.first), velocities.col(contact.second));
+  return { s.frame.gap, s.frame.normal.dot(s.frame.relative(v)), s.between };
 }
 
 // A pin, an anchor or an attachment holds every particle the row touches: it has no free block
@@ -93,9 +112,13 @@ void recordNormalForces(const Model& model, Data& data)
   for (std::size_t k = 0; k < rows.size(); ++k)
   {
     ContactState& contact = data.contacts[k];
-    contact.normal_force =
-        acts(contact) ? data.multipliers[rows[k].row] * data.rows.jacobian[rows[k].block].norm()
-                      : 0.0;
+    // J's normal: a particle contact's block, a slack link's -d (so lambda |d| is its tension),
+    // a segment's two blocks summed ((1 - s) n + s n, n unit)
+    const Vec3 normal =
+        rows[k].kind == UnilateralKind::SegmentContact
+            ? Vec3(data.rows.jacobian[rows[k].block] + data.rows.jacobian[rows[k].block + 1])
+            : data.rows.jacobian[rows[k].block];
+    contact.normal_force = acts(contact) ? data.multipliers[rows[k].row] * normal.norm() : 0.0;
     if (!acts(contact) || rows[k].friction == 0.0)
       contact.friction_force.setZero();
   }
@@ -250,14 +273,15 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   const std::size_t contacts = static_cast<std::size_t>(model.numParticleContacts());
   const EffectContext context = contextAt(model, data, x.time);
   // a slack link acts while taut: its span within the gap of its length, neither slackening nor
-  // stretching (a stretch is a jerk, resolveImpacts)
+  // stretching (a stretch is a jerk, resolveImpacts); a segment while it touches, neither
+  // leaving nor approaching, its nearest point strictly inside it
   for (std::size_t k = contacts; k < rows.size(); ++k)
   {
     const Touch touch = touchOf(model, rows[k], context, x.positions, x.velocities);
-    data.contacts[k].mode =
-        !held(model, rows[k]) && touch.gap <= gap && std::abs(touch.opening) <= CONTACT_SPEED
-            ? ContactMode::Sliding
-            : ContactMode::Separated;
+    data.contacts[k].mode = !held(model, rows[k]) && touch.can_act && touch.gap <= gap &&
+                                    std::abs(touch.opening) <= CONTACT_SPEED
+                                ? ContactMode::Sliding
+                                : ContactMode::Separated;
   }
   for (std::size_t k = 0; k < contacts; ++k)
   {
@@ -365,14 +389,15 @@ double impactFraction(const Model& model, Data& data, const Points& p0, const Po
   for (std::size_t k = 0; k < rows.size(); ++k)
   {
     const Touch touch = touchOf(model, rows[k], at_end, x.positions, x.velocities);
-    // a contact in but moving out is no impact (resolveImpacts lifts it): no time to meet
+    // a contact in but moving out is no impact (resolveImpacts lifts it): no time to meet; a
+    // segment in at an end is its particle's contact's
     if (acts(data.contacts[k]) || held(model, rows[k]) || !(touch.gap < -tolerance) ||
-        (!rows[k].link && touch.opening > 0.0))
+        !touch.can_act || (rows[k].kind != UnilateralKind::SlackLink && touch.opening > 0.0))
       continue;
     if (!copied)
       p = x.positions;  // the other particles' columns are not read: rows touch their own
     copied = true;
-    const int count = rows[k].link ? 2 : 1;
+    const int count = rows[k].kind == UnilateralKind::ParticleContact ? 1 : 2;
     // the row's gap with its particles at fraction s along their Hermite paths
     auto gapAt = [&](double s)
     {
@@ -491,6 +516,23 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
         lift = true;
       }
     }
+    // a segment likewise (one pressed to an end is its particle's contact's)
+    for (std::size_t k = contacts; k < rows.size(); ++k)
+    {
+      ContactState& contact = data.contacts[k];
+      if (rows[k].kind != UnilateralKind::SegmentContact || acts(contact) || held(model, rows[k]))
+        continue;
+      const Touch touch = touchOf(model, rows[k], context, x.positions, x.velocities);
+      if (!touch.can_act || !(touch.gap < -settings.projection_tolerance))
+        continue;
+      below = true;
+      if (touch.opening > 0.0)
+      {
+        contact.mode = ContactMode::Sliding;
+        contact.lifting = true;
+        lift = true;
+      }
+    }
     if (lift)
     {
       if (std::isnan(before))
@@ -509,15 +551,31 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
     }
     restitution.setZero();
     bool impact = false, bounce = false;
-    // a slack link stretched past its length: it jerks taut (inelastic, with the rows)
+    // a slack link stretched past its length: it jerks taut (inelastic, with the rows); a
+    // segment in its obstacle: an impact, as a particle contact's below
     for (std::size_t k = contacts; k < rows.size(); ++k)
-      if (!acts(data.contacts[k]) && !held(model, rows[k]) &&
-          touchOf(model, rows[k], context, x.positions, x.velocities).gap <
-              -settings.projection_tolerance)
+    {
+      if (acts(data.contacts[k]) || held(model, rows[k]))
+        continue;
+      const Touch touch = touchOf(model, rows[k], context, x.positions, x.velocities);
+      if (!touch.can_act || !(touch.gap < -settings.projection_tolerance))
+        continue;
+      data.contacts[k].mode = ContactMode::Sliding;
+      impact = true;
+      if (rows[k].kind != UnilateralKind::SegmentContact || !(rows[k].restitution > 0.0))
+        continue;
+      const SegmentContact& segment = segmentOf(model, rows[k]);
+      const SegmentFrame frame = segmentFrame(segment, context, x.positions, x.velocities);
+      const Vec3 free = frame.pointVelocity(data.free_accelerations.col(segment.first),
+                                            data.free_accelerations.col(segment.second));
+      const double resting =
+          std::max(BOUNCE_SPEED, 2.0 * settings.dt * std::abs(frame.frame.normal.dot(free)));
+      if (-touch.opening > resting)
       {
-        data.contacts[k].mode = ContactMode::Sliding;
-        impact = true;
+        restitution[rows[k].row] = -rows[k].restitution * touch.opening;  // J v + dC/dt, n unit
+        bounce = true;
       }
+    }
     // nothing below and nothing lifted: no contact impact to look for (each frame evaluated once)
     for (std::size_t k = 0; (lift || below) && k < contacts; ++k)
     {
@@ -560,7 +618,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       // (of these rows at these positions), and v += W J^T x
       data.solver().solveInPlace(restitution);
       addInverseMassJacobianTranspose(model, data.rows, restitution, 1.0, x.velocities);
-      for (std::size_t k = 0; k < contacts; ++k)  // only contacts bounce
+      for (std::size_t k = 0; k < contacts; ++k)  // only contacts (and segments) bounce
       {
         if (!acts(data.contacts[k]))
           continue;
@@ -569,6 +627,10 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
             CONTACT_SPEED)
           switchOff(data.contacts[k]);  // leaving
       }
+      for (std::size_t k = contacts; k < rows.size(); ++k)
+        if (rows[k].kind == UnilateralKind::SegmentContact && acts(data.contacts[k]) &&
+            touchOf(model, rows[k], context, x.positions, x.velocities).opening > CONTACT_SPEED)
+          switchOff(data.contacts[k]);
       writeContactRows(model, data);
     }
     data.noteStateChange();

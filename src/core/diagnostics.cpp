@@ -140,6 +140,10 @@ Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& 
   for (int k = 0; k < model.numParticleContacts(); ++k)
     d.max_position_error = worseError(d.max_position_error,
                                       penetration(model, unilateral[k], context, state.positions));
+  // a link's capsule's, how far inside its obstacle it is
+  for (const auto& segment : std::get<std::vector<KindRecord<SegmentContact>>>(model.kindTables()))
+    d.max_position_error =
+        worseError(d.max_position_error, penetration(segment.record, context, state.positions));
   // a slack link's, how far over its length it is, taut or slack
   for (const auto& link : std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables()))
     d.max_position_error =

@@ -145,18 +145,25 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
       model.eliminated_particles_.push_back(i);
       continue;
     }
-    // a carried shape's contacts share its track, Data::carriers[carrier]: numbered by name
-    if (auto* contact = std::get_if<ShapeContact>(&model.scene_.constraints[k]); contact)
-      contact->carrier = -1;  // a fixed shape's, whatever the record held
-    if (auto* contact = std::get_if<ShapeContact>(&model.scene_.constraints[k]);
-        contact && contact->shape.carried())
-    {
-      auto same = [contact](const Shape& s) { return s.name == contact->shape.name; };
-      const auto found = std::find_if(model.carriers_.begin(), model.carriers_.end(), same);
-      contact->carrier = static_cast<int>(found - model.carriers_.begin());
-      if (found == model.carriers_.end())
-        model.carriers_.push_back(contact->shape);
-    }
+    // a carried shape's contacts (particle and segment) share its track,
+    // Data::carriers[carrier]: numbered by name
+    std::visit(
+        [&model](auto& record)
+        {
+          using Kind = std::decay_t<decltype(record)>;
+          if constexpr (std::is_same_v<Kind, ShapeContact> || std::is_same_v<Kind, SegmentContact>)
+          {
+            record.carrier = -1;  // a fixed shape's, whatever the record held
+            if (!record.shape.carried())
+              return;
+            auto same = [&record](const Shape& s) { return s.name == record.shape.name; };
+            const auto found = std::find_if(model.carriers_.begin(), model.carriers_.end(), same);
+            record.carrier = static_cast<int>(found - model.carriers_.begin());
+            if (found == model.carriers_.end())
+              model.carriers_.push_back(record.shape);
+          }
+        },
+        model.scene_.constraints[k]);
     int particles[MAX_ROW_PARTICLES];
     const int count = rowParticles(c, particles);
     RowRecord record{ static_cast<int>(k), model.numRows(), rowCount(c), model.numBlocks(), count };
@@ -202,7 +209,8 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     }
 
   const bool tridiagonal = isTridiagonal(model);
-  // the particle contacts first, kind by kind in registry order, then the slack links
+  // the particle contacts first, kind by kind in registry order, then the slack links, then the
+  // segment contacts
   std::apply(
       [&](const auto&... tables)
       {
@@ -216,7 +224,7 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
                                     table[k].first_block,
                                     static_cast<int>(k),
                                     table[k].constraint,
-                                    false,
+                                    UnilateralKind::ParticleContact,
                                     { table[k].record.particle, table[k].record.particle },
                                     table[k].record.friction,
                                     table[k].record.restitution });
@@ -232,8 +240,19 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
                           slack_table[k].first_block,
                           static_cast<int>(k),
                           slack_table[k].constraint,
-                          true,
+                          UnilateralKind::SlackLink,
                           { slack_table[k].record.first, slack_table[k].record.second } });
+  const auto& segment_table = std::get<std::vector<KindRecord<SegmentContact>>>(model.kind_tables_);
+  for (std::size_t k = 0; k < segment_table.size(); ++k)
+    model.unilateral_.push_back(
+        UnilateralRecord{ segment_table[k].first_row,
+                          segment_table[k].first_block,
+                          static_cast<int>(k),
+                          segment_table[k].constraint,
+                          UnilateralKind::SegmentContact,
+                          { segment_table[k].record.first, segment_table[k].record.second },
+                          0.0,
+                          segment_table[k].record.restitution });
   // two contacts of one particle with one obstacle: identical rows, J W J^T singular (sorted by
   // particle, each particle's few contacts compared: O(n log n))
   const auto& shape_table = std::get<std::vector<KindRecord<ShapeContact>>>(model.kind_tables_);

@@ -156,6 +156,47 @@ ShapeSample evaluateShape(const Shape& shape, const ShapePose& pose, const Vec3&
   return world;
 }
 
+SegmentSample nearestOnSegment(const Shape& shape, const ShapePose& pose, const Vec3& a,
+                               const Vec3& b, double low, double high)
+{
+  const Vec3 e = b - a;
+  const double length = e.norm();
+  auto at = [&](double s)
+  {
+    SegmentSample x;
+    x.fraction = s;
+    x.sample = evaluateShape(shape, pose, Vec3(a + s * e));
+    return x;
+  };
+  // d/ds at either bound pointing inwards (or flat): the minimum is at that bound
+  SegmentSample lower = at(low);
+  double slope_low = lower.sample.normal.dot(e);
+  if (!(slope_low < 0.0))
+    return lower;
+  SegmentSample upper = at(high);
+  double slope_high = upper.sample.normal.dot(e);
+  if (!(slope_high > 0.0))
+    return upper;
+  // d/ds < 0 at low, > 0 at high: Newton's steps inside the bracket, else its middle
+  double s = low - slope_low * (high - low) / (slope_high - slope_low);
+  SegmentSample x = at(s);
+  for (int iteration = 0; iteration < 200; ++iteration)
+  {
+    const double slope = x.sample.normal.dot(e);
+    if (std::abs(slope) <= 4.0 * std::numeric_limits<double>::epsilon() * length)
+      break;
+    (slope < 0.0 ? low : high) = s;
+    if (high - low <= 4.0 * std::numeric_limits<double>::epsilon())
+      break;
+    const double curvature = e.dot(x.sample.hessian * e);
+    const double newton = curvature > 0.0 ? s - slope / curvature : NAN;
+    s = newton > low && newton < high ? newton : 0.5 * (low + high);
+    x = at(s);
+  }
+  x.between = e.dot(x.sample.hessian * e) > 1e-9 * length;
+  return x;
+}
+
 Eigen::Matrix3d rotationFromRpy(const Vec3& rpy)
 {
   return (Eigen::AngleAxisd(rpy.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(rpy.y(), Vec3::UnitY()) *

@@ -119,6 +119,17 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
     dissipated -= contact.friction_force.dot(frame.relative(v));
     in += force.dot(frame.surface_velocity);
   }
+  // a segment's normal force on a moving obstacle likewise (frictionless)
+  for (int k = model.numParticleContacts(); model.hasCarriers() && k < model.numContacts(); ++k)
+  {
+    if (contacts[k].kind != UnilateralKind::SegmentContact ||
+        data.contacts[k].mode == ContactMode::Separated)
+      continue;
+    const auto& table = std::get<std::vector<KindRecord<SegmentContact>>>(model.kindTables());
+    const SegmentFrame s =
+        segmentFrame(table[contacts[k].table].record, context, x.positions, x.velocities);
+    in += data.contacts[k].normal_force * s.frame.normal.dot(s.frame.surface_velocity);
+  }
 }
 
 // energyScale() at the current state with the forces acting now, the model's and the

@@ -281,6 +281,9 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
       if (!d.chains.back().contact.empty())
         surfaceIndex(at / "contact", chains[k]["contact"], d.surfaces);
       const ChainSpec& chain = d.chains.back();
+      if (chain.capsules && chain.obstacles.empty())
+        fail(at / "capsules", chains[k]["capsules"],
+             "= true with no obstacles: name the shapes its links keep out of under obstacles");
       for (std::size_t o = 0; o < chain.obstacles.size(); ++o)
       {
         const Shape& shape =
@@ -571,6 +574,15 @@ BuiltScene buildScene(const SceneDescription& d)
             if (!((i == first && chain.pin_first) || (i == next - 1 && chain.pin_last)))
               scene.constraints.push_back(
                   ShapeContact{ i, shape, chain.radius, chain.friction, chain.restitution });
+    // and each link, as a capsule (a plane's nearest point on a link is always an end)
+    if (chain.capsules)
+      for (const std::string& name : chain.obstacles)
+        for (const Shape& shape : d.shapes)
+          if (shape.name == name && shape.type != ShapeType::Plane)
+            for (int i = first; i + 1 < next; ++i)
+              if (!(i == first && chain.pin_first && i + 1 == next - 1 && chain.pin_last))
+                scene.constraints.push_back(
+                    SegmentContact{ i, i + 1, shape, chain.radius, chain.restitution });
     if (chain.pin_first)
       scene.constraints.push_back(PinConstraint{ first, start });
     if (chain.pin_last)

@@ -49,6 +49,22 @@ private:
   std::mt19937 engine_;
 };
 
+/// A shape of `type` at `position`, turned by `rpy` [rad], named by its type, of the tests' sizes:
+/// radius 0.3, length 0.8, box sides (0.4, 0.6, 0.8) [m].
+inline Shape shapeOf(ShapeType type, const Vec3& position = Vec3::Zero(),
+                     const Vec3& rpy = Vec3::Zero())
+{
+  Shape shape;
+  shape.name = shapeTypeName(type);
+  shape.type = type;
+  shape.position = position;
+  shape.rotation = rotationFromRpy(rpy);
+  shape.radius = 0.3;
+  shape.length = 0.8;
+  shape.size = Vec3(0.4, 0.6, 0.8);
+  return shape;
+}
+
 /// Standard gravity [m/s^2].
 constexpr double G = 9.81;
 

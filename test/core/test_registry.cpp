@@ -151,6 +151,23 @@ Kind randomCase(Random& random, Points& p, Points& v)
     v.col(i) = random.vector(2.0);
   }
   Kind record = randomRecord<Kind>(random);
+  if constexpr (std::is_same_v<Kind, SegmentContact>)
+  {
+    // a segment inside a box or a cylinder has its least distance where two faces' distances
+    // meet, a kink of C (segment_contact.hpp): its particles are placed again until it is outside
+    auto inside = [&]
+    {
+      return nearestOnSegment(record.shape, fixedPose(record.shape), p.col(record.first),
+                              p.col(record.second), SEGMENT_END_FRACTION,
+                              1.0 - SEGMENT_END_FRACTION)
+                 .sample.distance <= 0.0;
+    };
+    while (inside())
+    {
+      p.col(record.first) = random.vector(1.5);
+      p.col(record.second) = random.vector(1.5);
+    }
+  }
   Points start = p, start_v = v;
   fillFromStart(record, surfaces(), start, start_v);
   validateConstraint(Constraint(record), PARTICLES, 1, "record");

@@ -17,22 +17,10 @@
 
 using namespace constrained_particles;
 using constrained_particles::testing::G;
+using constrained_particles::testing::shapeOf;
 
 namespace
 {
-Shape shapeOf(ShapeType type, const Vec3& position = Vec3::Zero(), const Vec3& rpy = Vec3::Zero())
-{
-  Shape shape;
-  shape.name = shapeTypeName(type);
-  shape.type = type;
-  shape.position = position;
-  shape.rotation = rotationFromRpy(rpy);
-  shape.radius = 0.3;
-  shape.length = 0.8;
-  shape.size = Vec3(0.4, 0.6, 0.8);
-  return shape;
-}
-
 // central differences of the distance (gradient) and of the gradient (Hessian) at p
 void expectDerivativesMatchDifferences(const Shape& shape, const Vec3& p, const std::string& where)
 {

@@ -19,6 +19,7 @@
 #include "constrained_particles/core/effects/pin_constraint.hpp"
 #include "constrained_particles/core/effects/point_on_line.hpp"
 #include "constrained_particles/core/effects/point_on_plane.hpp"
+#include "constrained_particles/core/effects/segment_contact.hpp"
 #include "constrained_particles/core/effects/shape_contact.hpp"
 #include "constrained_particles/core/effects/slack_link.hpp"
 #include "constrained_particles/core/effects/surface_constraint.hpp"
@@ -33,7 +34,7 @@ namespace constrained_particles
 using Constraint = std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
                                 PointOnLineConstraint, PointOnPlaneConstraint,
                                 MovingAnchorConstraint, CollinearConstraint, FrameAnchorConstraint,
-                                SurfaceContact, SlackLink, ShapeContact>;
+                                SurfaceContact, SlackLink, ShapeContact, SegmentContact>;
 
 /// Number of constraint kinds.
 constexpr int NUM_CONSTRAINT_KINDS = static_cast<int>(std::variant_size_v<Constraint>);

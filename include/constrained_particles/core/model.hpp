@@ -197,16 +197,24 @@ struct EliminatedBlock
   int eliminated;  ///< index in eliminated() of the record holding its particle
 };
 
-/// One row the contact stage switches on and off (Model::unilateral()): a particle contact's
-/// (a kind with PARTICLE_CONTACT: surface_contact, shape_contact) or a slack link's.
+/// What a row the contact stage switches is.
+enum class UnilateralKind
+{
+  ParticleContact,  ///< a kind with PARTICLE_CONTACT (surface_contact, shape_contact)
+  SlackLink,        ///< slack_link: taut or slack
+  SegmentContact,   ///< segment_contact: a link's capsule against an obstacle
+};
+
+/// One row the contact stage switches on and off (Model::unilateral()): a particle contact's,
+/// a slack link's or a segment contact's.
 struct UnilateralRecord
 {
-  int row = 0;             ///< its row
-  int block = 0;           ///< its first Jacobian block
-  int table = 0;           ///< its index in its kind's table
-  int constraint = 0;      ///< its index in Scene::constraints
-  bool link = false;       ///< a SlackLink (else a particle contact)
-  int particles[2] = {};   ///< the particles it touches (a contact's twice)
+  int row = 0;         ///< its row
+  int block = 0;       ///< its first Jacobian block
+  int table = 0;       ///< its index in its kind's table
+  int constraint = 0;  ///< its index in Scene::constraints
+  UnilateralKind kind = UnilateralKind::ParticleContact;
+  int particles[2] = {};   ///< the particles it touches (a particle contact's twice)
   double friction = 0.0;   ///< a contact's Coulomb mu [1] (a link's 0)
   double restitution = 0;  ///< a contact's Newton e [1] (a link's 0)
 };
@@ -428,10 +436,10 @@ public:
     return chain_unlinked_;
   }
   /// Number of rows that switch on and off (contact.hpp): the particle contacts (each
-  /// PARTICLE_CONTACT kind in registry order), then the SlackLink records, each kind in its
-  /// table's order, as Data::contacts holds them. A scene with
-  /// any takes the generic stages and the tree solve (automatic, where particles and rows form a
-  /// forest), the sparse or the dense one; tridiagonal and single are refused.
+  /// PARTICLE_CONTACT kind in registry order), then the SlackLink records, then the
+  /// SegmentContact records, each kind in its table's order, as Data::contacts holds them. A scene
+  /// with any takes the generic stages and the tree solve (automatic, where particles and rows form
+  /// a forest), the sparse or the dense one; tridiagonal and single are refused.
   int numContacts() const
   {
     return static_cast<int>(unilateral_.size());

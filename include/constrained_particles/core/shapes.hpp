@@ -97,6 +97,26 @@ ShapeSample evaluateShape(const Shape& shape, const Vec3& p);
 /// The same with the shape at `pose` (its own position and rotation ignored).
 ShapeSample evaluateShape(const Shape& shape, const ShapePose& pose, const Vec3& p);
 
+/// The point of a segment nearest a shape: least signed distance along it.
+struct SegmentSample
+{
+  double fraction = 0.0;  ///< s: the point is a + s (b - a) [1]
+  ShapeSample sample;     ///< the shape's distance and its derivatives there
+  /// s minimises the distance between the bounds (d/ds = 0 there), not at one: it moves with the
+  /// segment, and the distance is strictly convex along the segment there (not flat)
+  bool between = false;
+};
+
+/// The point of segment a-b [m] (world) nearest `shape` at `pose`, s within [low, high] (0 <=
+/// low < high <= 1): a shape's signed distance is convex (each is convex), so along the segment
+/// it has one minimum, found where d/ds = n . (b - a) changes sign, by Newton's steps on
+/// d2/ds2 = (b - a)^T H (b - a) kept inside a bracket (bisection where they leave it), to
+/// rounding. `between` is false where the minimum is at a bound or the distance is flat along the
+/// segment there ((b - a)^T H (b - a) <= 1e-9 |b - a|: a segment lying along a face or a capsule's
+/// side). Stateless; no allocation.
+SegmentSample nearestOnSegment(const Shape& shape, const ShapePose& pose, const Vec3& a,
+                               const Vec3& b, double low, double high);
+
 /// World from local for roll, pitch, yaw [rad] (URDF: about fixed x, then y, then z).
 Eigen::Matrix3d rotationFromRpy(const Vec3& rpy);
 

@@ -54,6 +54,7 @@ struct ChainSpec
   bool slack = false;        ///< links that go slack: at most link_length, pulling only taut
   std::vector<std::string> obstacles;  ///< shapes every particle stays out of (shape_contact)
   double radius = 0.0;                 ///< the chain's radius against its obstacles [m]
+  bool capsules = false;  ///< its links too keep out of the obstacles (segment_contact)
 
   static constexpr auto fields()
   {
@@ -88,7 +89,10 @@ struct ChainSpec
               "names of shapes every particle stays out of (a shape_contact each, with the "
               "chain's friction and restitution)"),
         field("radius", &ChainSpec::radius, FieldKind::Number, &limits::PARTICLE_RADIUS,
-              "the chain's radius against its obstacles (half the rope's thickness)"));
+              "the chain's radius against its obstacles (half the rope's thickness)"),
+        field("capsules", &ChainSpec::capsules, FieldKind::Flag, nullptr,
+              "its links are capsules of that radius: each keeps out of every obstacle but a "
+              "plane (a segment_contact each, frictionless), so no link cuts an edge"));
   }
 };
 

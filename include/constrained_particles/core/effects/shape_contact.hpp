@@ -67,27 +67,33 @@ inline std::array<int, 1> rowParticles(const ShapeContact& contact)
   return { { contact.particle } };
 }
 
-/// Where the contact's shape is at context.time and how it moves: its own pose at rest if fixed
-/// (or no tracks are given); else its track's frame (origin, orientation, angular velocity) times
-/// the shape's pose in that frame.
-inline ShapePose shapePose(const ShapeContact& contact, const EffectContext& context)
+/// Where `shape` is at context.time and how it moves: its own pose at rest if fixed (`carrier`
+/// -1, or no tracks are given); else track `carrier`'s frame (origin, orientation, angular
+/// velocity) times the shape's pose in that frame.
+inline ShapePose shapePose(const Shape& shape, int carrier, const EffectContext& context)
 {
-  if (contact.carrier < 0 || !context.carriers ||
-      static_cast<std::size_t>(contact.carrier) >= context.carriers->size())
-    return fixedPose(contact.shape);
-  const AnchorTrack& track = (*context.carriers)[static_cast<std::size_t>(contact.carrier)];
+  if (carrier < 0 || !context.carriers ||
+      static_cast<std::size_t>(carrier) >= context.carriers->size())
+    return fixedPose(shape);
+  const AnchorTrack& track = (*context.carriers)[static_cast<std::size_t>(carrier)];
   const ImposedMotion frame = track.motion(context.time);
   const Eigen::Matrix3d turn = track.orientation(context.time).toRotationMatrix();
   const Vec3 omega = track.angularVelocity(context.time);
-  const Vec3 arm = turn * contact.shape.position;  // the frame's origin to the shape's
+  const Vec3 arm = turn * shape.position;  // the frame's origin to the shape's
   ShapePose pose;
   pose.origin = frame.position + arm;
-  pose.rotation = turn * contact.shape.rotation;
+  pose.rotation = turn * shape.rotation;
   pose.angular_velocity = omega;
   pose.velocity = frame.velocity + omega.cross(arm);
   pose.acceleration = frame.acceleration + omega.cross(omega.cross(arm));
   pose.moving = !(pose.velocity.isZero(0.0) && pose.acceleration.isZero(0.0) && omega.isZero(0.0));
   return pose;
+}
+
+/// Where the contact's shape is at context.time and how it moves.
+inline ShapePose shapePose(const ShapeContact& contact, const EffectContext& context)
+{
+  return shapePose(contact.shape, contact.carrier, context);
 }
 
 /// The contact's frame at positions p [m], velocities v [m/s]: J = the shape's unit normal,
