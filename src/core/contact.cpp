@@ -33,7 +33,8 @@ void switchOff(ContactState& contact)
 struct Touch
 {
   double gap, opening;
-  bool can_act = true;
+  bool can_act = true;  ///< may switch on where it touches (a segment: s* inside and curved)
+  bool at_end = false;  ///< a segment whose nearest point is at a bound: its particle's contact's
 };
 const SegmentContact& segmentOf(const Model& model, const UnilateralRecord& record)
 {
@@ -65,7 +66,7 @@ Touch touchOf(const Model& model, const UnilateralRecord& record, const EffectCo
   const SegmentContact& contact = segmentOf(model, record);
   const SegmentFrame s = segmentFrame(contact, context, positions, velocities);
   const Vec3 v = s.pointVelocity(velocities.col(contact.first), velocities.col(contact.second));
-  return { s.frame.gap, s.frame.normal.dot(s.frame.relative(v)), s.between };
+  return { s.frame.gap, s.frame.normal.dot(s.frame.relative(v)), s.between, s.at_bound };
 }
 
 // A pin, an anchor or an attachment holds every particle the row touches: it has no free block
@@ -392,7 +393,7 @@ double impactFraction(const Model& model, Data& data, const Points& p0, const Po
     // a contact in but moving out is no impact (resolveImpacts lifts it): no time to meet; a
     // segment in at an end is its particle's contact's
     if (acts(data.contacts[k]) || held(model, rows[k]) || !(touch.gap < -tolerance) ||
-        !touch.can_act || (rows[k].kind != UnilateralKind::SlackLink && touch.opening > 0.0))
+        touch.at_end || (rows[k].kind != UnilateralKind::SlackLink && touch.opening > 0.0))
       continue;
     if (!copied)
       p = x.positions;  // the other particles' columns are not read: rows touch their own
@@ -450,6 +451,16 @@ double releaseFraction(const Model& model, Data& data, const std::vector<Contact
       const int i = rows[k].particles[0];
       candidate = frame.normal.dot(data.free_accelerations.col(i)) + frame.curvature_term > 0.0;
     }
+  // a segment likewise, its point's free acceleration (1 - s*) a_i + s* a_j
+  for (int k = model.numParticleContacts(); k < model.numContacts() && !candidate; ++k)
+    if (rows[k].kind == UnilateralKind::SegmentContact && acts(data.contacts[k]))
+    {
+      const SegmentContact& segment = segmentOf(model, rows[k]);
+      const SegmentFrame s = segmentFrame(segment, context, x.positions, x.velocities);
+      const Vec3 free = s.pointVelocity(data.free_accelerations.col(segment.first),
+                                        data.free_accelerations.col(segment.second));
+      candidate = s.frame.normal.dot(free) + s.frame.curvature_term > 0.0;
+    }
   if (!candidate)
     return NAN;
   // the multipliers at x: a forward stage there, in the stage buffers (the integrator is done)
@@ -458,12 +469,15 @@ double releaseFraction(const Model& model, Data& data, const std::vector<Contact
   forward(model, data, settings, x.time, data.stages.p_stage, data.stages.v_stage,
           data.stages.a_stage);
   double earliest = NAN;
-  for (int k = 0; k < model.numParticleContacts(); ++k)
+  for (int k = 0; k < model.numContacts(); ++k)
   {
-    if (!acts(data.contacts[k]))
+    if (!acts(data.contacts[k]) || rows[k].kind == UnilateralKind::SlackLink)
       continue;
+    // [N]: a particle contact's J is its normal, a segment's n unit
     const double end =
-        data.multipliers[rows[k].row] * data.rows.jacobian[rows[k].block].norm();  // [N]
+        data.multipliers[rows[k].row] * (rows[k].kind == UnilateralKind::SegmentContact
+                                             ? 1.0
+                                             : data.rows.jacobian[rows[k].block].norm());
     if (!(end < 0.0))
       continue;
     const double start = std::max(at_start[k].normal_force, 0.0);
@@ -523,7 +537,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       if (rows[k].kind != UnilateralKind::SegmentContact || acts(contact) || held(model, rows[k]))
         continue;
       const Touch touch = touchOf(model, rows[k], context, x.positions, x.velocities);
-      if (!touch.can_act || !(touch.gap < -settings.projection_tolerance))
+      if (touch.at_end || !(touch.gap < -settings.projection_tolerance))
         continue;
       below = true;
       if (touch.opening > 0.0)
@@ -558,7 +572,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       if (acts(data.contacts[k]) || held(model, rows[k]))
         continue;
       const Touch touch = touchOf(model, rows[k], context, x.positions, x.velocities);
-      if (!touch.can_act || !(touch.gap < -settings.projection_tolerance))
+      if (touch.at_end || !(touch.gap < -settings.projection_tolerance))
         continue;
       data.contacts[k].mode = ContactMode::Sliding;
       impact = true;

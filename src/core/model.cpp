@@ -283,6 +283,30 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
       }
     first = last;
   }
+  // two capsules of one link against one obstacle: identical rows (sorted by link: O(n log n))
+  std::vector<std::size_t> links(segment_table.size());
+  for (std::size_t k = 0; k < links.size(); ++k)
+    links[k] = k;
+  auto linkOf = [&](std::size_t k)
+  {
+    const SegmentContact& c = segment_table[k].record;
+    return std::make_pair(std::min(c.first, c.second), std::max(c.first, c.second));
+  };
+  std::stable_sort(links.begin(), links.end(),
+                   [&](std::size_t a, std::size_t b) { return linkOf(a) < linkOf(b); });
+  for (std::size_t k = 1; k < links.size(); ++k)
+    for (std::size_t earlier = k; earlier-- > 0 && linkOf(links[earlier]) == linkOf(links[k]);)
+    {
+      const auto& a = segment_table[links[earlier]];
+      const auto& b = segment_table[links[k]];
+      if (a.record.shape.name == b.record.shape.name)
+        throw InvalidInput(
+            "constraints[" + std::to_string(std::max(a.constraint, b.constraint)) + "].shape",
+            "= " + b.record.shape.name + " keeps the link " + std::to_string(b.record.first) + "-" +
+                std::to_string(b.record.second) + " out already (constraints[" +
+                std::to_string(std::min(a.constraint, b.constraint)) +
+                "]): a second segment_contact with it is redundant");
+    }
   for (const auto& contact : std::get<std::vector<KindRecord<SurfaceContact>>>(model.kind_tables_))
   {
     for (const auto& row : std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kind_tables_))
@@ -308,8 +332,8 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
            method != SolveMethod::Sparse && method != SolveMethod::Dense)
     throw InvalidInput("solve_method",
                        std::string("= ") + solveMethodName(method) +
-                           ", but the scene has contact or slack_link rows, which "
-                           "switch on and off; use automatic, tree, sparse or dense");
+                           ", but the scene has contact, segment_contact or slack_link rows, "
+                           "which switch on and off; use automatic, tree, sparse or dense");
   else if (method == SolveMethod::Automatic)
   {
     if (model.numRows() == 1)

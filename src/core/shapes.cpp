@@ -193,7 +193,8 @@ SegmentSample nearestOnSegment(const Shape& shape, const ShapePose& pose, const 
     s = newton > low && newton < high ? newton : 0.5 * (low + high);
     x = at(s);
   }
-  x.between = e.dot(x.sample.hessian * e) > 1e-9 * length;
+  x.at_bound = false;
+  x.between = e.dot(x.sample.hessian * e) > 1e-6 * length;
   return x;
 }
 

@@ -3,6 +3,7 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <algorithm>
+#include <tuple>
 #include <cmath>
 
 namespace constrained_particles
@@ -54,6 +55,8 @@ double particleSize(const Model& model)
   for (const Constraint& c : model.scene().constraints)
     if (const auto* contact = std::get_if<ShapeContact>(&c))
       thickest = std::max(thickest, 2.0 * contact->radius);
+    else if (const auto* segment = std::get_if<SegmentContact>(&c))
+      thickest = std::max(thickest, 2.0 * segment->radius);
   return thickest > 0.0 ? thickest : 0.3 * (shortest > 0.0 ? shortest : 0.5);
 }
 
@@ -112,7 +115,36 @@ visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& head
       array.markers.push_back(m);
     }
   }
-  for (int id = 2 * static_cast<int>(count); id < previous_count; ++id)
+  // a link's capsule: its normal force at its point nearest the obstacle (frictionless), ids 2k
+  const auto& segments = std::get<std::vector<KindRecord<SegmentContact>>>(model.kindTables());
+  int next_id = 2 * static_cast<int>(count);
+  for (std::size_t k = count; k < table.size() && k < contacts.size(); ++k)
+  {
+    if (table[k].kind != UnilateralKind::SegmentContact)
+      continue;
+    const SegmentContact& segment = segments[table[k].table].record;
+    const SegmentFrame frame = segmentFrame(segment, context, positions, positions);
+    const Eigen::Vector3d start = (1.0 - frame.fraction) * positions.col(segment.first) +
+                                  frame.fraction * positions.col(segment.second);
+    const Eigen::Vector3d end = start + scale * contacts[k].normal_force * frame.frame.normal;
+    const int id = 2 * static_cast<int>(k);
+    for (; next_id < id; ++next_id)  // slack links before it: none
+      array.markers.push_back(deleteMarker(header, CONTACT_FORCE_NAMESPACE, next_id));
+    next_id = id + 1;
+    if (contacts[k].mode == ContactMode::Separated || !end.allFinite() || !start.allFinite())
+    {
+      array.markers.push_back(deleteMarker(header, CONTACT_FORCE_NAMESPACE, id));
+      continue;
+    }
+    visualization_msgs::Marker m =
+        makeMarker(header, CONTACT_FORCE_NAMESPACE, id, visualization_msgs::Marker::ARROW);
+    m.points = { tf2::toMsg(start), tf2::toMsg(end) };
+    m.scale.x = 0.015;  // shaft diameter [m]
+    m.scale.y = 0.03;   // head diameter [m]
+    m.color = color(0.1f, 0.8f, 0.2f, 1.0f);
+    array.markers.push_back(m);
+  }
+  for (int id = next_id; id < previous_count; ++id)
     array.markers.push_back(deleteMarker(header, CONTACT_FORCE_NAMESPACE, id));
   return array;
 }
@@ -230,20 +262,25 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
   };
   for (const Constraint& c : model.scene().constraints)
   {
-    const auto* contact = std::get_if<ShapeContact>(&c);
-    if (!contact || std::find(drawn.begin(), drawn.end(), contact->shape.name) != drawn.end())
+    // a shape a particle or a link keeps out of, with its carrier
+    const Shape* named = nullptr;
+    int carrier = -1;
+    if (const auto* contact = std::get_if<ShapeContact>(&c))
+      std::tie(named, carrier) = std::make_pair(&contact->shape, contact->carrier);
+    else if (const auto* segment = std::get_if<SegmentContact>(&c))
+      std::tie(named, carrier) = std::make_pair(&segment->shape, segment->carrier);
+    if (!named || std::find(drawn.begin(), drawn.end(), named->name) != drawn.end())
       continue;
-    drawn.push_back(contact->shape.name);
-    const Shape& shape = contact->shape;
+    drawn.push_back(named->name);
+    const Shape& shape = *named;
     holder_origin.setZero();
     holder_turn.setIdentity();
     if (shape.frame.empty() && !shape.topic.empty())
     {
       // on a pose topic: no frame rviz could carry it in, so drawn where its track has it
-      if (!carriers || contact->carrier < 0 ||
-          static_cast<std::size_t>(contact->carrier) >= carriers->size())
+      if (!carriers || carrier < 0 || static_cast<std::size_t>(carrier) >= carriers->size())
         continue;
-      const AnchorTrack& track = (*carriers)[static_cast<std::size_t>(contact->carrier)];
+      const AnchorTrack& track = (*carriers)[static_cast<std::size_t>(carrier)];
       holder_origin = track.motion(time).position;
       holder_turn = track.orientation(time).toRotationMatrix();
     }

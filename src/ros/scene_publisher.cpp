@@ -82,8 +82,9 @@ void ScenePublisher::publishArrows(const Snapshot& snap, const std_msgs::Header&
   const visualization_msgs::MarkerArray contact_arrows =
       contactForceMarkers(header, *snap.model, snap.state.positions, snap.contacts, scale,
                           published_contact_arrows_, &snap.carriers, snap.state.time);
-  // two arrows a surface contact (slack links, the rest of numContacts(), have none)
-  published_contact_arrows_ = static_cast<int>(2 * snap.model->numParticleContacts());
+  // two ids a contact: a particle contact's normal and friction arrows, a link capsule's normal
+  // (slack links have none)
+  published_contact_arrows_ = static_cast<int>(2 * snap.model->numContacts());
   arrows.markers.insert(arrows.markers.end(), contact_arrows.markers.begin(),
                         contact_arrows.markers.end());
   arrows_.publish(arrows);

@@ -153,6 +153,9 @@ Kind randomCase(Random& random, Points& p, Points& v)
   Kind record = randomRecord<Kind>(random);
   if constexpr (std::is_same_v<Kind, SegmentContact>)
   {
+    // a plane is refused (a segment's nearest point to it is an end): another type
+    if (record.shape.type == ShapeType::Plane)
+      record.shape.type = static_cast<ShapeType>(1 + static_cast<int>(random.uniform(0.0, 3.999)));
     // a segment inside a box or a cylinder has its least distance where two faces' distances
     // meet, a kink of C (segment_contact.hpp): its particles are placed again until it is outside
     auto inside = [&]

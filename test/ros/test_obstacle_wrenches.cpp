@@ -59,30 +59,32 @@ forces:
   EXPECT_EQ(none[0].force, Vec3::Zero());
 }
 
-// A link of two 0.5 kg particles balanced across a thin post, its particles clear of it, rests
-// on the post through its capsule (segment_contact) alone: the post carries both weights, at the
-// link's middle (no torque about the post's centre below it).
-TEST(ObstacleWrenches, ALinkBalancedAcrossAThinPostWeighsOnItThroughItsCapsule)
+// A link pinned at one end (x = -0.1 m) resting on a thin post at x = 0.03 m, its free end's
+// 0.5 kg at x = 0.1 m, both balls clear of the post: a lever on a fulcrum. The post carries it
+// through the link's capsule (segment_contact) alone, m g 0.2 / 0.13 straight down at its top,
+// 0.65 along the link (so no torque about the post's centre below it; a contact point taken at
+// 1 - s* would give one).
+TEST(ObstacleWrenches, ALeverOnAThinPostWeighsOnItThroughItsCapsule)
 {
   Simulator simulator = simulatorOf(R"(
 shapes:
-  post: {type: capsule, position: [0, 0, 0], rpy: [1.5707963267948966, 0, 0], radius: 0.01,
+  post: {type: capsule, position: [0.03, 0, 0], rpy: [1.5707963267948966, 0, 0], radius: 0.01,
          length: 0.4}
 chains:
-  - {particles: 2, link_length: 0.2, particle_mass: 0.5, start: [-0.1, 0, 0.015],
+  - {particles: 2, link_length: 0.2, particle_mass: 0.5, start: [-0.1, 0, 0.015], pin_first: true,
      obstacles: [post], radius: 0.005, capsules: true}
 forces:
   - {type: gravity, acceleration: [0, 0, -9.81]}
 )");
   simulator.step(200);
-  ASSERT_NEAR(simulator.state().positions(2, 0), 0.015, 1e-9);  // held up, the balls clear
+  ASSERT_NEAR(simulator.state().positions(2, 1), 0.015, 1e-9);  // held up, its ball clear
   const std::vector<ObstacleWrench> loads =
       obstacleWrenches(simulator.model(), simulator.state().positions, simulator.data().contacts);
   ASSERT_EQ(loads.size(), 1u);
-  const double weight = 2 * 0.5 * 9.81;
-  EXPECT_LE((loads[0].force - Vec3(0.0, 0.0, -weight)).norm(), 1e-9 * weight)
+  const double load = 0.5 * 9.81 * 0.2 / 0.13;
+  EXPECT_LE((loads[0].force - Vec3(0.0, 0.0, -load)).norm(), 1e-9 * load)
       << loads[0].force.transpose();
-  EXPECT_LE(loads[0].torque.norm(), 1e-9 * weight) << loads[0].torque.transpose();
+  EXPECT_LE(loads[0].torque.norm(), 1e-9 * load) << loads[0].torque.transpose();
 }
 
 // A rope hanging at rest over a frictionless horizontal post with equal weights: the post carries

@@ -201,8 +201,9 @@ struct BelowSurface
   double depth = 0.0;
 };
 
-/// The particle contact of `constraints` whose particle lies deepest inside its surface or
-/// obstacle at `positions` (3 x n) [m], by more than CONTACT_START_DEPTH; particles with a zero
+/// The particle contact (or link capsule, segment_contact, named by its first particle) of
+/// `constraints` whose particle lies deepest inside its surface or obstacle at `positions`
+/// (3 x n) [m], by more than CONTACT_START_DEPTH; particles with a zero
 /// entry in `inverse_masses` (held), when given, are skipped; so are carried shapes' contacts
 /// without context.carriers (where their holder will put them is not known). A scene may not
 /// start one there (scenes/scene_file.cpp) nor a teleport put one there (Simulator::setState).
@@ -225,6 +226,17 @@ inline BelowSurface deepestBelowSurface(const std::vector<Constraint>& constrain
             if (free && depth > deepest.depth)
               deepest = { &constraint, contact.particle, depth };
           }
+          else if constexpr (std::is_same_v<std::decay_t<decltype(contact)>, SegmentContact>)
+          {
+            // a link's capsule: named by its first particle (contactTargetText names the link)
+            if (contact.shape.carried() && !context.carriers)
+              return;
+            const double depth = penetration(contact, context, positions);
+            const bool free = !inverse_masses || (*inverse_masses)[contact.first] > 0.0 ||
+                              (*inverse_masses)[contact.second] > 0.0;
+            if (free && depth > deepest.depth)
+              deepest = { &constraint, contact.first, depth };
+          }
         },
         constraint);
   return deepest;
@@ -243,6 +255,10 @@ inline std::string contactTargetText(const Constraint& constraint,
   if (const auto* shape = std::get_if<ShapeContact>(&constraint))
     return "inside obstacle '" + shape->shape.name + "' (a " + shapeTypeName(shape->shape.type) +
            ")";
+  if (const auto* segment = std::get_if<SegmentContact>(&constraint))
+    return "inside obstacle '" + segment->shape.name + "' (a " +
+           shapeTypeName(segment->shape.type) + ") along its link to particle " +
+           std::to_string(segment->second);
   return kindOf(constraint);
 }
 

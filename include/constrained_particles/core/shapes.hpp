@@ -102,8 +102,12 @@ struct SegmentSample
 {
   double fraction = 0.0;  ///< s: the point is a + s (b - a) [1]
   ShapeSample sample;     ///< the shape's distance and its derivatives there
-  /// s minimises the distance between the bounds (d/ds = 0 there), not at one: it moves with the
-  /// segment, and the distance is strictly convex along the segment there (not flat)
+  /// The minimum is at a bound (low or high), where d/ds points inwards or is 0: s stays there
+  bool at_bound = true;
+  /// s minimises the distance between the bounds (d/ds = 0 there), not at one, and the distance
+  /// curves along the segment there ((b - a)^T H (b - a) > 1e-6 |b - a|: not flat, as along a
+  /// face, a capsule's side, or inside a box, where the nearest face's distance is linear): s
+  /// moves with the segment
   bool between = false;
 };
 
@@ -111,9 +115,7 @@ struct SegmentSample
 /// low < high <= 1): a shape's signed distance is convex (each is convex), so along the segment
 /// it has one minimum, found where d/ds = n . (b - a) changes sign, by Newton's steps on
 /// d2/ds2 = (b - a)^T H (b - a) kept inside a bracket (bisection where they leave it), to
-/// rounding. `between` is false where the minimum is at a bound or the distance is flat along the
-/// segment there ((b - a)^T H (b - a) <= 1e-9 |b - a|: a segment lying along a face or a capsule's
-/// side). Stateless; no allocation.
+/// rounding. Stateless; no allocation.
 SegmentSample nearestOnSegment(const Shape& shape, const ShapePose& pose, const Vec3& a,
                                const Vec3& b, double low, double high);
 

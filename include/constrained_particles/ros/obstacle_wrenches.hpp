@@ -1,6 +1,7 @@
 /// @file obstacle_wrenches.hpp
-/// @brief ~obstacle_wrench/<shape>: the load the scene puts on each obstacle (shape_contact's
-/// shapes), as a force/torque sensor holding the obstacle at its origin would read it.
+/// @brief ~obstacle_wrench/<shape>: the load the scene puts on each obstacle (shape_contact's and
+/// segment_contact's shapes), as a force/torque sensor holding the obstacle at its origin would
+/// read it.
 #pragma once
 
 #include "constrained_particles/ros/simulation_runner.hpp"
@@ -19,7 +20,7 @@ namespace constrained_particles
 /// One obstacle's load: the forces its acting contacts take (Newton's third law: minus each
 /// contact's normal force along the shape's normal and its friction force) [N], and their torque
 /// about the shape's origin [N m], each applied where the particle's ball touches the shape
-/// (p_i - r n).
+/// (p_i - r n), or a link's capsule (x(s*) - r n, its normal force only: frictionless).
 struct ObstacleWrench
 {
   std::string shape;  ///< its name (Shape::name)
@@ -28,11 +29,11 @@ struct ObstacleWrench
 };
 
 /// Every obstacle of `model` (its shape_contact records' shapes, each once by name, in the order
-/// they first appear) with its load at `positions` (3 x n [m]) and `contacts` (Data::contacts: a
-/// contact off takes nothing). A chain of n particles of mass m resting on a plane loads it with
-/// (0, 0, -n m g). `contacts` shorter than the model's contacts (another scene's): all zero.
-/// Carried shapes are where `carriers` (Data::carriers) puts them at `time` [s], their torque
-/// about their origin there.
+/// they first appear, then any only a segment_contact names) with its load at `positions` (3 x n
+/// [m]) and `contacts` (Data::contacts: a contact off takes nothing). A chain of n particles of
+/// mass m resting on a plane loads it with (0, 0, -n m g). `contacts` shorter than the model's
+/// contacts (another scene's): all zero. Carried shapes are where `carriers` (Data::carriers) puts
+/// them at `time` [s], their torque about their origin there.
 std::vector<ObstacleWrench> obstacleWrenches(const Model& model, const Points& positions,
                                              const std::vector<ContactState>& contacts,
                                              const std::vector<AnchorTrack>* carriers = nullptr,

@@ -36,9 +36,11 @@ constexpr double SEGMENT_END_FRACTION = 1e-3;
 /// strictly between the bounds and the distance curves along the segment (SegmentSample::between);
 /// a link lying flat on a face or along a capsule's side is held by its particles' contacts.
 /// Inside a box or a cylinder the distance is the nearest face's, and its least along a segment
-/// lies where two faces' distances meet: C has kinks there (J is one face's normal), so a segment
-/// found that deep (more than a step's travel: never at the projection's tolerance) is projected
-/// out along one face, then the other.
+/// lies where two faces' distances meet: C has kinks there (J is one face's normal, no fraction
+/// term). A segment whose centre line went inside (a step's travel over r) is met in time where
+/// it is 2 projection tolerances in (contact.hpp, impactFraction), its centre line still outside
+/// and curved; one found inside at a step's start is projected out along one face at a time
+/// (resolveImpacts: only a nearest point at a bound is left to the particle's contact).
 /// Frictionless (friction acts at the particles); restitution as a particle contact's.
 struct SegmentContact
 {
@@ -82,6 +84,7 @@ inline std::array<int, 2> rowParticles(const SegmentContact& contact)
 struct SegmentFrame
 {
   double fraction = 0.0;  ///< s*: the contact point is (1 - s*) p_i + s* p_j
+  bool at_bound = true;   ///< s* at a bound: that end is its particle's contact's
   bool between = false;   ///< s* strictly inside and the distance curved there: the row may act
   ContactFrame frame;
 
@@ -103,6 +106,7 @@ inline SegmentFrame segmentFrame(const SegmentContact& contact, const EffectCont
       nearestOnSegment(contact.shape, pose, a, b, SEGMENT_END_FRACTION, 1.0 - SEGMENT_END_FRACTION);
   SegmentFrame out;
   out.fraction = near.fraction;
+  out.at_bound = near.at_bound;
   out.between = near.between;
   ContactFrame& f = out.frame;
   const double s = near.fraction;
@@ -172,7 +176,9 @@ inline void violationRates(const SegmentContact& contact, const EffectContext& c
   rates[0] = s.frame.gap > 0.0 ? 0.0 : std::max(0.0, -s.frame.normal.dot(s.frame.relative(v)));
 }
 
-/// How deep inside the shape the capsule is, max(0, -C) [m].
+/// How deep inside the shape the capsule is, max(0, -C) [m], where its row can act on it: 0
+/// where the nearest point is at a bound (that end's ball is its particle contact's, and the
+/// capsule beside it may be in by at most the bound's (SEGMENT_END_FRACTION |e|)^2 / (2 rho)).
 inline double penetration(const SegmentContact& contact, const EffectContext& context,
                           const Points& positions)
 {
@@ -180,7 +186,7 @@ inline double penetration(const SegmentContact& contact, const EffectContext& co
       nearestOnSegment(contact.shape, shapePose(contact.shape, contact.carrier, context),
                        positions.col(contact.first), positions.col(contact.second),
                        SEGMENT_END_FRACTION, 1.0 - SEGMENT_END_FRACTION);
-  return std::max(0.0, contact.radius - near.sample.distance);
+  return near.at_bound ? 0.0 : std::max(0.0, contact.radius - near.sample.distance);
 }
 
 /// @throws InvalidInput naming the bad field
@@ -190,6 +196,12 @@ inline void validate(const SegmentContact& contact, int num_particles, int num_s
   validateFields(contact, num_particles, num_surfaces, prefix, allow_unset);
   requireDistinctParticles(contact.first, contact.second, prefix);
   requireRoundedEdges(contact.shape, contact.radius, prefix + ".radius");
+  if (contact.shape.type == ShapeType::Plane)
+    throw InvalidInput(prefix + ".shape",
+                       "= '" + contact.shape.name +
+                           "', a plane: a segment's nearest point to a plane is always an end, "
+                           "which its particle's shape_contact holds; name a sphere, box, capsule "
+                           "or cylinder");
 }
 
 }  // namespace constrained_particles
