@@ -36,11 +36,6 @@ struct Touch
   bool can_act = true;  ///< may switch on where it touches (a segment: s* inside and curved)
   bool at_end = false;  ///< a segment whose nearest point is at a bound: its particle's contact's
 };
-const SegmentContact& segmentOf(const Model& model, const UnilateralRecord& record)
-{
-  return std::get<std::vector<KindRecord<SegmentContact>>>(model.kindTables())[record.table].record;
-}
-
 Touch touchOf(const Model& model, const UnilateralRecord& record, const EffectContext& context,
               const Points& positions, const Points& velocities)
 {
@@ -53,8 +48,7 @@ Touch touchOf(const Model& model, const UnilateralRecord& record, const EffectCo
     }
     case UnilateralKind::SlackLink:
     {
-      const SlackLink& link =
-          std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables())[record.table].record;
+      const SlackLink& link = unilateralRecord<SlackLink>(model, record);
       const Vec3 d = positions.col(link.first) - positions.col(link.second);
       const double span = d.norm();
       const Vec3 relative = velocities.col(link.first) - velocities.col(link.second);
@@ -63,9 +57,9 @@ Touch touchOf(const Model& model, const UnilateralRecord& record, const EffectCo
     case UnilateralKind::SegmentContact:
       break;
   }
-  const SegmentContact& contact = segmentOf(model, record);
+  const SegmentContact& contact = unilateralRecord<SegmentContact>(model, record);
   const SegmentFrame s = segmentFrame(contact, context, positions, velocities);
-  const Vec3 v = s.pointVelocity(velocities.col(contact.first), velocities.col(contact.second));
+  const Vec3 v = s.pointAt(velocities.col(contact.first), velocities.col(contact.second));
   return { s.frame.gap, s.frame.normal.dot(s.frame.relative(v)), s.between, s.at_bound };
 }
 
@@ -455,10 +449,10 @@ double releaseFraction(const Model& model, Data& data, const std::vector<Contact
   for (int k = model.numParticleContacts(); k < model.numContacts() && !candidate; ++k)
     if (rows[k].kind == UnilateralKind::SegmentContact && acts(data.contacts[k]))
     {
-      const SegmentContact& segment = segmentOf(model, rows[k]);
+      const SegmentContact& segment = unilateralRecord<SegmentContact>(model, rows[k]);
       const SegmentFrame s = segmentFrame(segment, context, x.positions, x.velocities);
-      const Vec3 free = s.pointVelocity(data.free_accelerations.col(segment.first),
-                                        data.free_accelerations.col(segment.second));
+      const Vec3 free = s.pointAt(data.free_accelerations.col(segment.first),
+                                  data.free_accelerations.col(segment.second));
       candidate = s.frame.normal.dot(free) + s.frame.curvature_term > 0.0;
     }
   if (!candidate)
@@ -578,10 +572,10 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       impact = true;
       if (rows[k].kind != UnilateralKind::SegmentContact || !(rows[k].restitution > 0.0))
         continue;
-      const SegmentContact& segment = segmentOf(model, rows[k]);
+      const SegmentContact& segment = unilateralRecord<SegmentContact>(model, rows[k]);
       const SegmentFrame frame = segmentFrame(segment, context, x.positions, x.velocities);
-      const Vec3 free = frame.pointVelocity(data.free_accelerations.col(segment.first),
-                                            data.free_accelerations.col(segment.second));
+      const Vec3 free = frame.pointAt(data.free_accelerations.col(segment.first),
+                                      data.free_accelerations.col(segment.second));
       const double resting =
           std::max(BOUNCE_SPEED, 2.0 * settings.dt * std::abs(frame.frame.normal.dot(free)));
       if (-touch.opening > resting)

@@ -125,9 +125,8 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
     if (contacts[k].kind != UnilateralKind::SegmentContact ||
         data.contacts[k].mode == ContactMode::Separated)
       continue;
-    const auto& table = std::get<std::vector<KindRecord<SegmentContact>>>(model.kindTables());
-    const SegmentFrame s =
-        segmentFrame(table[contacts[k].table].record, context, x.positions, x.velocities);
+    const SegmentFrame s = segmentFrame(unilateralRecord<SegmentContact>(model, contacts[k]),
+                                        context, x.positions, x.velocities);
     in += data.contacts[k].normal_force * s.frame.normal.dot(s.frame.surface_velocity);
   }
 }

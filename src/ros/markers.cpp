@@ -116,16 +116,15 @@ visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& head
     }
   }
   // a link's capsule: its normal force at its point nearest the obstacle (frictionless), ids 2k
-  const auto& segments = std::get<std::vector<KindRecord<SegmentContact>>>(model.kindTables());
   int next_id = 2 * static_cast<int>(count);
   for (std::size_t k = count; k < table.size() && k < contacts.size(); ++k)
   {
     if (table[k].kind != UnilateralKind::SegmentContact)
       continue;
-    const SegmentContact& segment = segments[table[k].table].record;
+    const SegmentContact& segment = unilateralRecord<SegmentContact>(model, table[k]);
     const SegmentFrame frame = segmentFrame(segment, context, positions, positions);
-    const Eigen::Vector3d start = (1.0 - frame.fraction) * positions.col(segment.first) +
-                                  frame.fraction * positions.col(segment.second);
+    const Eigen::Vector3d start =
+        frame.pointAt(positions.col(segment.first), positions.col(segment.second));
     const Eigen::Vector3d end = start + scale * contacts[k].normal_force * frame.frame.normal;
     const int id = 2 * static_cast<int>(k);
     for (; next_id < id; ++next_id)  // slack links before it: none

@@ -35,12 +35,11 @@ std::vector<ObstacleWrench> obstacleWrenches(const Model& model, const Points& p
     load->torque += (at - pose.origin).cross(force);
   }
   // a link's capsule pushes at its point nearest the shape (frictionless: along the normal)
-  const auto& segments = std::get<std::vector<KindRecord<SegmentContact>>>(model.kindTables());
   for (int k = model.numParticleContacts(); k < model.numContacts(); ++k)
   {
     if (rows[k].kind != UnilateralKind::SegmentContact)
       continue;
-    const SegmentContact& contact = segments[rows[k].table].record;
+    const SegmentContact& contact = unilateralRecord<SegmentContact>(model, rows[k]);
     auto load =
         std::find_if(loads.begin(), loads.end(),
                      [&](const ObstacleWrench& w) { return w.shape == contact.shape.name; });
@@ -49,8 +48,7 @@ std::vector<ObstacleWrench> obstacleWrenches(const Model& model, const Points& p
     if (!current || contacts[k].mode == ContactMode::Separated)
       continue;
     const SegmentFrame s = segmentFrame(contact, context, positions, positions);
-    const Vec3 point = (1.0 - s.fraction) * positions.col(contact.first) +
-                       s.fraction * positions.col(contact.second);
+    const Vec3 point = s.pointAt(positions.col(contact.first), positions.col(contact.second));
     const Vec3 force = -contacts[k].normal_force * s.frame.normal;
     const Vec3 at = point - contact.radius * s.frame.normal;
     load->force += force;

@@ -496,6 +496,14 @@ private:
   PathChoice path_;
 };
 
+/// The `Kind` record (a SlackLink, a SegmentContact) that unilateral row `record` stands for: its
+/// entry in the kind's table.
+template <typename Kind>
+const Kind& unilateralRecord(const Model& model, const UnilateralRecord& record)
+{
+  return std::get<std::vector<KindRecord<Kind>>>(model.kindTables())[record.table].record;
+}
+
 /// The frame of particle contact `record` (one of model.unilateral()'s first
 /// numParticleContacts()) at positions p [m] and velocities v [m/s] (3 x n), its obstacle where
 /// `context` puts it (time, carriers): its kind's contactFrame(). Stateless.

@@ -88,12 +88,28 @@ struct SegmentFrame
   bool between = false;   ///< s* strictly inside and the distance curved there: the row may act
   ContactFrame frame;
 
-  /// The contact point's velocity [m/s] given its particles'
-  Vec3 pointVelocity(const Vec3& v_first, const Vec3& v_second) const
+  /// The contact point's value of a per-particle quantity (position [m], velocity [m/s],
+  /// acceleration [m/s^2]) given its particles': (1 - s*) first + s* second
+  Vec3 pointAt(const Vec3& first, const Vec3& second) const
   {
-    return (1.0 - fraction) * v_first + fraction * v_second;
+    return (1.0 - fraction) * first + fraction * second;
   }
 };
+
+/// The point of the segment nearest the contact's shape (where `context` puts it), s* within the
+/// bounds [SEGMENT_END_FRACTION, 1 - SEGMENT_END_FRACTION]. Stateless.
+inline SegmentSample nearestPoint(const SegmentContact& contact, const ShapePose& pose,
+                                  const Points& positions)
+{
+  return nearestOnSegment(contact.shape, pose, positions.col(contact.first),
+                          positions.col(contact.second), SEGMENT_END_FRACTION,
+                          1.0 - SEGMENT_END_FRACTION);
+}
+inline SegmentSample nearestPoint(const SegmentContact& contact, const EffectContext& context,
+                                  const Points& positions)
+{
+  return nearestPoint(contact, shapePose(contact.shape, contact.carrier, context), positions);
+}
 
 /// The frame of `contact` at positions [m] and velocities [m/s]. Stateless.
 inline SegmentFrame segmentFrame(const SegmentContact& contact, const EffectContext& context,
@@ -102,8 +118,7 @@ inline SegmentFrame segmentFrame(const SegmentContact& contact, const EffectCont
   const Vec3 a = positions.col(contact.first), b = positions.col(contact.second);
   const Vec3 v_a = velocities.col(contact.first), v_b = velocities.col(contact.second);
   const ShapePose pose = shapePose(contact.shape, contact.carrier, context);
-  const SegmentSample near =
-      nearestOnSegment(contact.shape, pose, a, b, SEGMENT_END_FRACTION, 1.0 - SEGMENT_END_FRACTION);
+  const SegmentSample near = nearestPoint(contact, pose, positions);
   SegmentFrame out;
   out.fraction = near.fraction;
   out.at_bound = near.at_bound;
@@ -115,7 +130,7 @@ inline SegmentFrame segmentFrame(const SegmentContact& contact, const EffectCont
   const Eigen::Matrix3d& hessian = near.sample.hessian;
   f.normal = n;
   f.gap = near.sample.distance - contact.radius;
-  const Vec3 v = out.pointVelocity(v_a, v_b);
+  const Vec3 v = out.pointAt(v_a, v_b);
   Vec3 w = v;
   double turning = 0.0;  // (omega x n) . e: the shape's turn tilting n against the segment
   if (pose.moving)
@@ -156,10 +171,7 @@ inline void addGeometricStiffness(const SegmentContact& contact, const EffectCon
                                   const Points& positions, const double* multipliers,
                                   double* stiffness)
 {
-  const SegmentSample near =
-      nearestOnSegment(contact.shape, shapePose(contact.shape, contact.carrier, context),
-                       positions.col(contact.first), positions.col(contact.second),
-                       SEGMENT_END_FRACTION, 1.0 - SEGMENT_END_FRACTION);
+  const SegmentSample near = nearestPoint(contact, context, positions);
   const double size =
       std::abs(multipliers[0]) * near.sample.hessian.cwiseAbs().rowwise().sum().maxCoeff();
   const double s = near.fraction;
@@ -172,7 +184,7 @@ inline void violationRates(const SegmentContact& contact, const EffectContext& c
                            const Points& positions, const Points& velocities, double* rates)
 {
   const SegmentFrame s = segmentFrame(contact, context, positions, velocities);
-  const Vec3 v = s.pointVelocity(velocities.col(contact.first), velocities.col(contact.second));
+  const Vec3 v = s.pointAt(velocities.col(contact.first), velocities.col(contact.second));
   rates[0] = s.frame.gap > 0.0 ? 0.0 : std::max(0.0, -s.frame.normal.dot(s.frame.relative(v)));
 }
 
@@ -182,10 +194,7 @@ inline void violationRates(const SegmentContact& contact, const EffectContext& c
 inline double penetration(const SegmentContact& contact, const EffectContext& context,
                           const Points& positions)
 {
-  const SegmentSample near =
-      nearestOnSegment(contact.shape, shapePose(contact.shape, contact.carrier, context),
-                       positions.col(contact.first), positions.col(contact.second),
-                       SEGMENT_END_FRACTION, 1.0 - SEGMENT_END_FRACTION);
+  const SegmentSample near = nearestPoint(contact, context, positions);
   return near.at_bound ? 0.0 : std::max(0.0, contact.radius - near.sample.distance);
 }
 
