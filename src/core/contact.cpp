@@ -119,12 +119,33 @@ void recordNormalForces(const Model& model, Data& data)
   }
 }
 
+// Switches off each acting segment whose nearest point has reached an end (or a flat stretch):
+// it is its particle's contact's there, and on beside it the two rows are nearly dependent
+// (J = ((1 - s*) n, s* n) against (n, 0)), their forces large and opposite. True if any.
+bool releaseSegmentsAtEnds(const Model& model, Data& data, const EffectContext& context,
+                           const State& x)
+{
+  const auto& rows = model.unilateral();
+  bool released = false;
+  for (int k = model.numParticleContacts(); k < model.numContacts(); ++k)
+    if (rows[k].kind == UnilateralKind::SegmentContact && acts(data.contacts[k]) &&
+        !touchOf(model, rows[k], context, x.positions, x.velocities).can_act)
+    {
+      switchOff(data.contacts[k]);
+      released = true;
+    }
+  if (released)
+    writeContactRows(model, data);
+  return released;
+}
+
 }  // namespace
 
 void separateContacts(const Model& model, Data& data)
 {
   data.contacts.assign(data.contacts.size(), ContactState{});
   data.control.start_contacts = data.contacts;
+  data.control.step_normal_forces.assign(data.contacts.size(), 0.0);
   writeContactRows(model, data);
 }
 
@@ -259,6 +280,47 @@ void kickFriction(const Model& model, const Data& data, double dt, Points& veloc
     }
 }
 
+bool settleActiveSet(const Model& model, Data& data, const StepSettings& settings,
+                     SolveReport& solved)
+{
+  const auto& rows = model.unilateral();
+  const State& x = data.state;
+  for (std::size_t iteration = 0; iteration < 2 * rows.size() + 4; ++iteration)
+  {
+    data.stages.p_stage = x.positions;
+    data.stages.v_stage = x.velocities;
+    solved = forward(model, data, settings, x.time, data.stages.p_stage, data.stages.v_stage,
+                     data.accelerations);
+    // Baraff's active set: the most negative multiplier leaves, one at a time
+    int worst = -1;
+    double most_negative = 0.0;
+    for (std::size_t k = 0; k < rows.size(); ++k)
+      if (acts(data.contacts[k]) && data.multipliers[rows[k].row] < most_negative)
+      {
+        most_negative = data.multipliers[rows[k].row];
+        worst = static_cast<int>(k);
+      }
+    if (worst >= 0)
+    {
+      switchOff(data.contacts[worst]);
+      writeContactRows(model, data);
+      continue;
+    }
+    bool slips = false;
+    for (ContactState& contact : data.contacts)
+      if (contact.mode == ContactMode::Sticking && contact.friction_demand > 1.0)
+      {
+        // more than friction can hold: it slides the way friction, at its limit, held it
+        contact.mode = ContactMode::Sliding;
+        contact.slip_direction = contact.friction_force.normalized();
+        slips = true;
+      }
+    if (!slips)
+      return true;
+  }
+  return false;
+}
+
 double chooseContactModes(const Model& model, Data& data, const StepSettings& settings)
 {
   State& x = data.state;
@@ -297,7 +359,8 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
     // a candidate to stick if friction could stop its slide within the step (Coulomb over one
     // step); it sticks if the solve below finds friction enough to hold it
     const double speed = frame.tangential(v).norm();
-    const double stop = settings.dt * w[i] * record.friction * std::max(contact.normal_force, 0.0);
+    const double stop =
+        settings.dt * w[i] * record.friction * std::max(data.control.step_normal_forces[k], 0.0);
     contact.mode = record.friction > 0.0 && speed <= std::max(CONTACT_SPEED, stop)
                        ? ContactMode::Sticking
                        : ContactMode::Sliding;
@@ -305,43 +368,7 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   writeContactRows(model, data);
   data.noteStateChange();
   SolveReport solved;
-  bool settled = false;  // the last forward stage is of the modes chosen
-  for (std::size_t iteration = 0; iteration < 2 * rows.size() + 4; ++iteration)
-  {
-    data.stages.p_stage = x.positions;
-    data.stages.v_stage = x.velocities;
-    solved = forward(model, data, settings, x.time, data.stages.p_stage, data.stages.v_stage,
-                     data.accelerations);
-    // Baraff's active set: the most negative multiplier leaves, one at a time
-    int worst = -1;
-    double most_negative = 0.0;
-    for (std::size_t k = 0; k < rows.size(); ++k)
-      if (acts(data.contacts[k]) && data.multipliers[rows[k].row] < most_negative)
-      {
-        most_negative = data.multipliers[rows[k].row];
-        worst = static_cast<int>(k);
-      }
-    if (worst >= 0)
-    {
-      switchOff(data.contacts[worst]);
-      writeContactRows(model, data);
-      continue;
-    }
-    bool slips = false;
-    for (ContactState& contact : data.contacts)
-      if (contact.mode == ContactMode::Sticking && contact.friction_demand > 1.0)
-      {
-        // more than friction can hold: it slides the way friction, at its limit, held it
-        contact.mode = ContactMode::Sliding;
-        contact.slip_direction = contact.friction_force.normalized();
-        slips = true;
-      }
-    if (!slips)
-    {
-      settled = true;
-      break;
-    }
-  }
+  const bool settled = settleActiveSet(model, data, settings, solved);
   // the sticking contacts stop: their tangential velocity goes, and the rows take the change
   double kinetic_before = 0.0;  // summed (O(n)) only when a contact has a slide to stop
   bool stopped = false;
@@ -499,6 +526,8 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
   const EffectContext context = contextAt(model, data, x.time);
   Eigen::VectorXd& restitution = data.contact_rhs;
   double before = NAN;
+  if (releaseSegmentsAtEnds(model, data, context, x))
+    data.noteStateChange();
   // a projection onto the new rows moves the particles they are linked to, which may take another
   // contact below its surface: again, until none is (each round switches one on at least)
   for (std::size_t round = 0; round <= rows.size(); ++round)
@@ -641,6 +670,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
           switchOff(data.contacts[k]);
       writeContactRows(model, data);
     }
+    releaseSegmentsAtEnds(model, data, context, x);
     data.noteStateChange();
   }
   if (std::isnan(before))

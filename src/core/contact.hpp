@@ -77,6 +77,13 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
 /// order where it turns within a step). `velocities`: 3 x numParticles() [m/s]; dt [s].
 void kickFriction(const Model& model, const Data& data, double dt, Points& velocities);
 
+/// Baraff's active set at data.state with the modes it has: a forward stage (data.accelerations,
+/// multipliers, forces), then the contact with the most negative multiplier switched off, or a
+/// sticking one whose friction demand is over 1 sliding, and solved again until neither is left.
+/// `solved`: the last stage's report. False if it stopped at its iteration limit unsettled.
+bool settleActiveSet(const Model& model, Data& data, const StepSettings& settings,
+                     SolveReport& solved);
+
 /// The active set at the state's start of a step: contacts within contactGap() and approaching
 /// no faster than CONTACT_SPEED act (sticking if they slide slower than friction stops them in
 /// one step, their tangential velocity then removed), then, solving at the state, the one with

@@ -42,6 +42,7 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
       AnchorTrack());  // at rest: each shape at its pose  // Simulator rests them at the start
   contacts.assign(model.numContacts(), ContactState{});
   control.start_contacts = contacts;
+  control.step_normal_forces.assign(model.numContacts(), 0.0);
   const int contact_n = model.numContacts() > 0 ? n : 0;
   control.piece_contacts = contacts;
   control.piece_start.positions.setZero(3, contact_n);

@@ -476,12 +476,12 @@ double Simulator::drivenPower()
   return drivePower(*model_, *data_);
 }
 
-void Simulator::forwardUncounted()
+void Simulator::forwardUncounted(bool settle)
 {
   Data& data = *data_;
   const StepStatistics kept = data.statistics;
   const long friction = data.control.unconverged_friction;
-  forwardAtState();
+  forwardAtState(settle);
   data.statistics = kept;
   data.control.unconverged_friction = friction;
 }
@@ -579,15 +579,23 @@ void Simulator::checkHolds(StepOutcome& outcome, StepStatistics& total)
   outcome.failed = StepCheck::HoldForce;
 }
 
-void Simulator::forwardAtState()
+void Simulator::forwardAtState(bool settle)
 {
   Data& data = *data_;
-  // on copies: forward() imposes the eliminated motion on the positions it is given
-  data.stages.p_stage = data.state.positions;
-  data.stages.v_stage = data.state.velocities;
   data.control.end_energies_current = false;  // the applied forces are evaluated anew
-  forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
-          data.accelerations);
+  if (!settle || model_->numContacts() == 0)
+  {
+    // on copies: forward() imposes the eliminated motion on the positions it is given
+    data.stages.p_stage = data.state.positions;
+    data.stages.v_stage = data.state.velocities;
+    forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
+            data.accelerations);
+    return;
+  }
+  // complementary forces: a row an impact at a step's end switched on beside one it takes the
+  // load from (a lever's end on its face) would pull until the next step chose the modes again
+  SolveReport solved;
+  settleActiveSet(*model_, data, settings_, solved);
 }
 
 void Simulator::evaluateCurrentState(StepStatistics& total)
@@ -783,9 +791,12 @@ void Simulator::acceptStep(const StepPlan& plan, const StepOutcome& outcome, Ste
   total.max_substeps = std::max(total.max_substeps, plan.substeps);
   control.singular = outcome.singular;
   control.end_energies_current = outcome.end_energies;
-  // velocity Verlet and fast projection solve for no multipliers
+  // velocity Verlet and fast projection solve for no multipliers; with contacts, the last
+  // stage's are of the modes the step started with (a row an impact at its end switched on, or
+  // one about to let go, may pull): constraintForces settles them at the state
   control.multipliers_current =
-      driven_ || (plan.method == integrator_ && !integrator_->holds_constraints);
+      model_->numContacts() == 0 &&
+      (driven_ || (plan.method == integrator_ && !integrator_->holds_constraints));
   if (plan.method != integrator_)
   {
     // the stiff-safe method solves for no multipliers: the forces of the failed attempt are
@@ -793,8 +804,10 @@ void Simulator::acceptStep(const StepPlan& plan, const StepOutcome& outcome, Ste
     ++total.stiff_steps;
     if (!driven_)
       evaluateCurrentState(total);
-    control.multipliers_current = true;
+    control.multipliers_current = model_->numContacts() == 0;
   }
+  for (std::size_t k = 0; k < data_->contacts.size(); ++k)
+    control.step_normal_forces[k] = data_->contacts[k].normal_force;
   if (control.rejection_substeps > 1 && ++control.accepted_since_rejection >= RELAX_AFTER_STEPS)
   {
     control.rejection_substeps /= 2;
@@ -852,7 +865,7 @@ Diagnostics Simulator::diagnostics() const
 
 void Simulator::constraintForces(Points& forces, Eigen::VectorXd& multipliers)
 {
-  forwardUncounted();
+  forwardUncounted(true);
   forces = data_->constraint_forces;
   multipliers = data_->multipliers;
 }

@@ -116,6 +116,10 @@ struct StepControl
   bool budget_fallback = false;
   /// The contacts' modes at `start` (attempts start from them again)
   std::vector<ContactState> start_contacts;
+  /// Each contact's normal force at the last accepted step's last stage [N], which the next
+  /// step's stick test reads (chooseContactModes): an evaluation between steps (forwardAtState,
+  /// whenever a caller asks for forces) settles data.contacts anew and must not steer the motion
+  std::vector<double> step_normal_forces;
   /// Energy the contacts' velocity jumps (impacts) took out in this attempt [J], for the ledger
   double contact_loss = 0.0;
   /// A sub-step split at an impact (Simulator::attemptStep): the state and contact modes the

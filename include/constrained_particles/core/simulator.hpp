@@ -218,10 +218,12 @@ private:
   void bookStep(double dt, bool end_energies);
 
   /// Every stage at the current state (forces, multipliers, accelerations), on copies of it.
-  void forwardAtState();
-  /// forwardAtState() outside any step (what it solves is no step's): data_->statistics and the
-  /// friction count (StepControl::unconverged_friction) kept.
-  void forwardUncounted();
+  /// `settle`: with the contacts' active set settled there first (settleActiveSet), for forces
+  /// read between steps; else with the modes as they are (a step's start: chosen).
+  void forwardAtState(bool settle = false);
+  /// forwardAtState(settle) outside any step (what it solves is no step's): data_->statistics
+  /// and the friction count (StepControl::unconverged_friction) kept.
+  void forwardUncounted(bool settle = false);
   /// forwardAtState() within a step, its solve merged into `total`.
   void evaluateCurrentState(StepStatistics& total);
 
