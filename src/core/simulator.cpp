@@ -686,12 +686,15 @@ StepCheck Simulator::attemptUntilPassed(StepPlan& plan, StepStatistics& total)
     // at the finest split a new singular solve is accepted (regularised) and the step finished
     const StepCheck failed =
         attemptStep(*plan.method, plan.substeps, plan.substeps >= max_substeps);
-    const bool finest = plan.substeps >= max_substeps || failed == StepCheck::AdaptiveGuard;
+    // dopri5's guard: sub-steps would only repeat its own internal steps
+    const bool guard = failed == StepCheck::AdaptiveGuard;
+    const bool finest = plan.substeps >= max_substeps || guard;
     if (failed == StepCheck::None)
       return failed;
-    // the finest split of the chosen method failed: the stiff-safe one takes the step
-    const bool fall_back =
-        finest && max_substeps > 1 && plan.method != stiff_ && failed != StepCheck::AdaptiveGuard;
+    // the finest split of the chosen method failed: the stiff-safe one takes the step (at dopri5's
+    // guard too: an ill-conditioned solve, as of a rope folded flat onto itself, leaves rounding
+    // noise in the accelerations above the tolerance, which no internal step passes)
+    const bool fall_back = finest && max_substeps > 1 && plan.method != stiff_;
     if (finest && !fall_back)
       return failed;
     countRejected(attempt, failed, total);

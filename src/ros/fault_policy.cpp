@@ -42,7 +42,10 @@ std::string checkFault(const Simulator& simulator, const NodeParameters& paramet
       return "dopri5 could not meet ~adaptive_tolerance = " + formatValue(step.adaptive_tolerance) +
              " within " + formatValue(step.dt) + " s" + when + " (over " +
              std::to_string(DOPRI5_MAX_INTERNAL_STEPS) + " internal steps, or one under " +
-             formatValue(DOPRI5_MIN_INTERNAL_STEP) + " dt): loosen the tolerance or shorten ~dt";
+             formatValue(DOPRI5_MIN_INTERNAL_STEP) + " dt): loosen the tolerance or shorten ~dt" +
+             (step.max_substeps > 1 ? std::string()
+                                    : ", or raise ~max_substeps above 1 (the stiff fallback "
+                                      "then takes such steps)");
     case StepCheck::NonFinite:
       return "step check non_finite failed" + split + when +
              ": the state became non-finite; shorten ~dt, raise ~max_substeps or use "

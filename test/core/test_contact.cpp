@@ -389,6 +389,47 @@ TEST(SurfaceContact, RefusesSolvesThatCannotSwitchRowsAndWaitsWhileHeld)
   EXPECT_GE(sim.state().positions(2, 1), -1e-10);
 }
 
+// A rope folded flat onto itself (no self-collision yet): two particles on the floor 1 um apart,
+// the particle between them 4 cm straight above, sliding at 0.4 m/s with friction 0.1. Their rows
+// are nearly dependent (the legs' links and both contacts balance with any force along them), so
+// the accelerations carry rounding noise above dopri5's tolerance and its step size collapses
+// (its guard). The stiff fallback takes those steps and the run goes on, the links held; before,
+// the guard was final and the node faulted (rope_over_edge at friction 0.1 did at t = 1.30 s).
+// With max_substeps = 1 there is no fallback: the guard is reported.
+TEST(SurfaceContact, ARopeFoldedFlatOnItselfTakesEveryStepUnderDopri5)
+{
+  const double link = 0.04, apart = 1e-6;
+  Scene scene;
+  scene.masses.assign(3, 0.01);
+  scene.surfaces = { planeOf(0.0) };
+  scene.forces = { GravityForce{} };
+  for (int i = 0; i < 3; ++i)
+    scene.constraints.push_back(contactOf(i, 0.1));
+  scene.constraints.push_back(LinkConstraint{ 0, 1, link });
+  scene.constraints.push_back(LinkConstraint{ 1, 2, link });
+  State start;
+  start.positions.setZero(3, 3);
+  start.velocities.setZero(3, 3);
+  start.positions.col(1) = Vec3(0.5 * apart, 0.0, std::sqrt(link * link - 0.25 * apart * apart));
+  start.positions.col(2) = Vec3(apart, 0.0, 0.0);
+  for (int i = 0; i < 3; ++i)
+    start.velocities.col(i) = Vec3(0.4, 0.0, 0.0);
+  StepSettings settings = settingsOf(1e-3);
+  settings.integrator = "dopri5";
+  Simulator folded(scene, start, settings);
+  const StepStatistics taken = folded.step(200);
+  EXPECT_EQ(taken.failed_check, StepCheck::None);
+  EXPECT_EQ(taken.steps, 200);
+  EXPECT_GE(taken.stiff_steps, 1);
+  // the guard was met, and the fallback took the step
+  EXPECT_GE(taken.rejections[static_cast<int>(StepCheck::AdaptiveGuard)], 1);
+  EXPECT_TRUE(isFinite(folded.state()));
+  EXPECT_LE(folded.diagnostics().max_position_error, 1e-9);
+  settings.max_substeps = 1;
+  Simulator unsplit(scene, start, settings);
+  EXPECT_EQ(unsplit.step(200).failed_check, StepCheck::AdaptiveGuard);
+}
+
 // A chain of two linked balls dropped flat with restitution bounces with its link exact: the
 // restitution impulse is solved with the rows, not added on top of them.
 TEST(SurfaceContact, BounceKeepsLinksExact)

@@ -252,12 +252,14 @@ TEST(SimulationRunner, AFaultUnderAPushSaysThePushActed)
 TEST(SimulationRunner, Dopri5AtItsGuardsFaultsNamingTheTolerance)
 {
   // a 1 mm, 1 mg chain at dt = 1 s and the tightest tolerance: the step cannot be met in
-  // bounded work, so dopri5 ends it unchecked at a guard and the runner faults, keeping t = 0
+  // bounded work, so dopri5 ends it unchecked at a guard; with max_substeps 1 there is no stiff
+  // fallback to take it, and the runner faults, keeping t = 0
   NodeParameters p = parametersFor("chain");
   p.step.integrator = "dopri5";
   p.step.adaptive_tolerance = limits::ADAPTIVE_TOLERANCE.low;
   p.step.dt = 1.0;
-  p.step_given = { "integrator", "adaptive_tolerance", "dt" };
+  p.step.max_substeps = 1;
+  p.step_given = { "integrator", "adaptive_tolerance", "dt", "max_substeps" };
   SceneDescription chain = scene("chain");
   ChainChange change;
   change.num_particles = 50;
@@ -269,6 +271,7 @@ TEST(SimulationRunner, Dopri5AtItsGuardsFaultsNamingTheTolerance)
   const RunnerReply reply = runner.step(1);
   EXPECT_FALSE(reply.success);
   EXPECT_NE(reply.message.find("adaptive_tolerance"), std::string::npos) << reply.message;
+  EXPECT_NE(reply.message.find("raise ~max_substeps above 1"), std::string::npos) << reply.message;
   EXPECT_EQ(reply.steps_taken, 0u);
   EXPECT_TRUE(runner.snapshot()->faulted);
   EXPECT_EQ(runner.snapshot()->state.steps, 0u);
