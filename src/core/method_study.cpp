@@ -178,11 +178,15 @@ bool referenceAt(const Scene& scene, const State& start, const StepSettings& bas
         cpu += spent;
         chunk = std::min(nextChunk(chunk, spent), 1L << 20);
         k += statistics.steps;
-        if (statistics.failed_check != StepCheck::None || !isFinite(simulator.state()))
+        // a step the stiff fallback (first order) took is no reference's either
+        if (statistics.failed_check != StepCheck::None || statistics.stiff_steps > 0 ||
+            !isFinite(simulator.state()))
           throw std::runtime_error(
               std::string("the reference (dopri5 + projection, tolerance ") +
-              formatValue(tolerance) + ") failed step check " +
-              stepCheckName(statistics.failed_check) +
+              formatValue(tolerance) + ") " +
+              (statistics.failed_check != StepCheck::None
+                   ? std::string("failed step check ") + stepCheckName(statistics.failed_check)
+                   : std::string("needed the stiff fallback")) +
               " at t = " + formatValue(simulator.state().time) +
               " s: this scene cannot be resolved to the reference's tolerance");
       }

@@ -123,6 +123,11 @@ void ShadowReference::loop()
             throw std::runtime_error(std::string("the shadow reference failed step check ") +
                                      stepCheckName(statistics.failed_check) +
                                      " at t = " + formatValue(simulator.state().time) + " s");
+          // a step the stiff fallback (first order) took is no reference's
+          if (statistics.stiff_steps > 0)
+            throw std::runtime_error("the shadow reference could not meet its tolerance at t = " +
+                                     formatValue(simulator.state().time) +
+                                     " s (a step taken by the stiff fallback)");
         }
         t = job.sample_times[k];
         std::lock_guard<std::mutex> guard(mutex_);
