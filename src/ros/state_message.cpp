@@ -174,6 +174,23 @@ void fillContacts(const Snapshot& snap, SimState& msg)
       tf2::toMsg(contact.friction_force, friction);  // tf2_eigen converts it
       msg.contact_friction_forces.push_back(friction);
     }
+  // link capsules: where along the link, from the positions and the obstacles' poses published
+  const EffectContext context{ snap.model->scene().surfaces, snap.state.time, nullptr,
+                               &snap.carriers };
+  for (std::size_t k = count; k < contacts.size() && k < snap.contacts.size(); ++k)
+  {
+    const ContactState& contact = snap.contacts[k];
+    if (contacts[k].kind != UnilateralKind::SegmentContact ||
+        contact.mode == ContactMode::Separated || !std::isfinite(contact.normal_force))
+      continue;
+    const SegmentContact& segment = unilateralRecord<SegmentContact>(*snap.model, contacts[k]);
+    const SegmentFrame frame =
+        segmentFrame(segment, context, snap.state.positions, snap.state.positions);
+    msg.segment_contact_first.push_back(segment.first);
+    msg.segment_contact_second.push_back(segment.second);
+    msg.segment_contact_fractions.push_back(frame.fraction);
+    msg.segment_contact_normal_forces.push_back(contact.normal_force);
+  }
 }
 
 void (*const ARRAY_ROWS[])(const Snapshot&, SimState&) = { fillHolders, fillReleases,

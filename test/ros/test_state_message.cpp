@@ -3,6 +3,8 @@
 // same everywhere.
 #include "constrained_particles/ros/state_message.hpp"
 #include "constrained_particles/ros/health.hpp"
+#include "constrained_particles/core/simulator.hpp"
+#include "constrained_particles/scenes/scene_file.hpp"
 
 #include <diagnostic_msgs/DiagnosticStatus.h>
 
@@ -66,6 +68,54 @@ TEST(StateMessage, TheSnapshotsFiguresReachBothFieldAndKey)
   EXPECT_EQ(entries.at("energy residual [J]"), formatValue(snap.ledger.residual()));
   EXPECT_EQ(entries.at("real_time_factor achieved"), formatValue(0.75));
   EXPECT_EQ(entries.size(), 17u);
+}
+
+// A link resting across a post on its capsule (its particles clear of it): ~state lists the link,
+// where along it the post touches and the post's push, the link's weight; a capsule clear of its
+// obstacle is not listed.
+TEST(StateMessage, ALinkCapsuleTouchingAnObstacleIsListed)
+{
+  const SceneDescription description = parseScene(R"(
+name: lever
+shapes:
+  post: {type: cylinder, position: [0.05, 0, 0], rpy: [1.5707963267948966, 0, 0], radius: 0.05,
+         length: 0.5}
+  far: {type: sphere, position: [0, 0, 5], radius: 0.1}
+particles:
+  - {mass: 1, position: [-0.1, 0, 0.06]}
+  - {mass: 3, position: [0.1, 0, 0.06]}
+constraints:
+  - {type: link, first: 0, second: 1}
+  - {type: segment_contact, first: 0, second: 1, shape: post, radius: 0.01}
+  - {type: segment_contact, first: 0, second: 1, shape: far, radius: 0.01}
+forces:
+  - {type: gravity}
+)",
+                                                  "lever.yaml");
+  const BuiltScene built = buildScene(description);
+  Simulator simulator(built.scene, built.initial_state, StepSettings{});
+  simulator.step(10);
+  Points forces;
+  Eigen::VectorXd multipliers;
+  simulator.constraintForces(forces, multipliers);
+  Snapshot snap;
+  snap.model = std::make_shared<const Model>(simulator.model());
+  snap.scene = std::make_shared<const SceneDescription>(description);
+  snap.state = simulator.state();
+  snap.contacts = simulator.data().contacts;
+  SimState msg;
+  fillState(snap, StepStatistics{}, msg);
+  ASSERT_EQ(msg.segment_contact_first.size(), 1u);
+  ASSERT_EQ(msg.segment_contact_second.size(), 1u);
+  ASSERT_EQ(msg.segment_contact_fractions.size(), 1u);
+  ASSERT_EQ(msg.segment_contact_normal_forces.size(), 1u);
+  EXPECT_EQ(msg.segment_contact_first[0], 0);
+  EXPECT_EQ(msg.segment_contact_second[0], 1);
+  // the post's top, x = 0.05, is 3/4 of the way along the link from x = -0.1 to 0.1: the lever
+  // balances there, 1 kg and 3 kg
+  EXPECT_NEAR(msg.segment_contact_fractions[0], 0.75, 1e-6);
+  EXPECT_NEAR(msg.segment_contact_normal_forces[0], 4.0 * 9.81, 1e-6);
+  EXPECT_TRUE(msg.contact_particles.empty());  // the particles touch nothing
 }
 
 TEST(StateMessage, EveryStatisticReachesItsFieldAndKey)
