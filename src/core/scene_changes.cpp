@@ -66,6 +66,7 @@ ProjectionReport Simulator::setState(const State& state)
   // a teleport: the contacts touching before say nothing of where it goes (the next step's start
   // chooses); kept if it is refused
   const std::vector<ContactState> contacts = data_->contacts;
+  const std::vector<double> step_normal_forces = data_->control.step_normal_forces;
   separateContacts(*model_, *data_);
   ProjectionReport report;
   try
@@ -88,6 +89,7 @@ ProjectionReport Simulator::setState(const State& state)
   {
     data_->contacts = contacts;
     data_->control.start_contacts = contacts;
+    data_->control.step_normal_forces = step_normal_forces;  // the next stick test's, as before
     writeContactRows(*model_, *data_);
     throw;
   }

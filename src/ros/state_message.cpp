@@ -185,7 +185,7 @@ void fillContacts(const Snapshot& snap, SimState& msg)
       continue;
     const SegmentContact& segment = unilateralRecord<SegmentContact>(*snap.model, contacts[k]);
     const SegmentFrame frame =
-        segmentFrame(segment, context, snap.state.positions, snap.state.positions);
+        segmentFrame(segment, context, snap.state.positions, snap.state.velocities);
     msg.segment_contact_first.push_back(segment.first);
     msg.segment_contact_second.push_back(segment.second);
     msg.segment_contact_fractions.push_back(frame.fraction);

@@ -121,4 +121,26 @@ TEST(LinkPairContact, RowRatesMatchDifferencesAlongAPath)
             << moving_minimiser << " where the minimiser's motion mattered\n";
 }
 
+// Links near parallel (sin^2 of the angle under PARALLEL_SINE2), exactly parallel included, are
+// not `between`: the minimiser would sweep their overlap as 1 / sin^2; a little further from
+// parallel they are, with a finite curvature term.
+TEST(LinkPairContact, NearlyParallelLinksAreLeftToTheirEnds)
+{
+  const LinkPairContact c;
+  Points p(3, 4), v = Points::Zero(3, 4);
+  v.col(2) = Vec3(0.0, 0.3, 0.0);
+  for (const double angle : { 0.0, 1e-5, 5e-4, 2e-3, 0.1 })
+  {
+    p.col(0) = Vec3(-0.5, 0, 0);
+    p.col(1) = Vec3(0.5, 0, 0);
+    p.col(2) = Vec3(-0.4 * std::cos(angle), -0.4 * std::sin(angle), 0.02);
+    p.col(3) = Vec3(0.4 * std::cos(angle), 0.4 * std::sin(angle), 0.02);
+    const LinkPairFrame f = linkPairFrame(c, p, v);
+    const bool near_parallel = std::sin(angle) * std::sin(angle) < PARALLEL_SINE2;
+    EXPECT_EQ(f.between, !near_parallel) << angle;
+    EXPECT_TRUE(std::isfinite(f.curvature_term)) << angle;
+    EXPECT_NEAR(f.gap, 0.02, 1e-12) << angle;  // they cross 2 cm apart (or overlap so)
+  }
+}
+
 }  // namespace

@@ -116,9 +116,10 @@ struct StepControl
   bool budget_fallback = false;
   /// The contacts' modes at `start` (attempts start from them again)
   std::vector<ContactState> start_contacts;
-  /// Each contact's normal force at the last accepted step's last stage [N], which the next
-  /// step's stick test reads (chooseContactModes): an evaluation between steps (forwardAtState,
-  /// whenever a caller asks for forces) settles data.contacts anew and must not steer the motion
+  /// Each contact's normal force the last accepted step left [N] (its last stage's; velocity
+  /// Verlet's and fast projection's, which solve no stages: its start's), which the next step's
+  /// stick test reads (chooseContactModes): an evaluation between steps (forwardAtState, whenever
+  /// a caller asks for forces) settles data.contacts anew and must not steer the motion
   std::vector<double> step_normal_forces;
   /// Energy the contacts' velocity jumps (impacts) took out in this attempt [J], for the ledger
   double contact_loss = 0.0;

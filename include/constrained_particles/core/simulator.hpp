@@ -39,8 +39,8 @@ public:
   ///  - a step the estimate says needs more than max_substeps, or that fails at max_substeps, is
   ///    taken by the stiff-safe STIFF_FALLBACK (fast projection: bounded at any dt, first order,
   ///    dissipative) with its own sub-steps from 1 (StepStatistics::stiff_steps counts them);
-  ///  - dopri5's guard is final at once (it adapts its internal steps already: sub-steps would
-  ///    repeat them), and so is a check the fallback fails at max_substeps:
+  ///  - dopri5's guard goes to the fallback at once (it adapts its internal steps already:
+  ///    sub-steps would repeat them); a check the fallback fails at max_substeps is final:
   ///    StepStatistics::failed_check names it and the batch ends there, that step put back (the
   ///    state is the last accepted step's);
   ///  - max_substeps = 1 takes each step as asked, as before the checks existed (no sub-steps, no
@@ -178,8 +178,9 @@ public:
     return data_->ledger;
   }
 
-  /// Constraint forces [N] and multipliers at the current state, as the next step would apply
-  /// them (computed on demand).
+  /// Constraint forces [N] and multipliers at the current state (computed on demand); with
+  /// contacts, of the active set settled there (no acting contact pulls). Reading them never
+  /// changes the motion.
   void constraintForces(Points& forces, Eigen::VectorXd& multipliers);
 
   /// A conservative scene's energy may rise in one sub-step by this fraction of energyScale() at

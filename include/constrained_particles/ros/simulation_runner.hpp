@@ -116,8 +116,8 @@ public:
   /// offers a snapshot; at least one step is always taken.
   static constexpr double BATCH_WALL_TIME = 0.02;  // [s]
   /// Steps are taken in chunks of about this wall time, each checked for a fault (non-finite
-  /// state, constraint error over ~max_constraint_error, a dopri5 step forced at its guards): a
-  /// fault keeps every good chunk.
+  /// state, constraint error over ~max_constraint_error, a failed step check, e.g. a dopri5 step
+  /// forced at its guards with ~max_substeps 1): a fault keeps every good chunk.
   static constexpr double CHECK_WALL_TIME = 0.002;  // [s]
   static constexpr double BATCH_PERIOD = Pacer::BATCH_PERIOD;
   static constexpr double TIME_JUMP = Pacer::TIME_JUMP;

@@ -22,7 +22,8 @@ namespace constrained_particles
 ///   Jdot v = (|w'|^2 - (n . w')^2) / |w| - g^T H^-1 g,
 /// w' = (1 - s*) v_i + s* v_j - (1 - t*) v_k - t* v_l, as segment_contact.hpp's row (there one
 /// parameter). Parallel links have a line of minimisers (H singular): the row may act only where
-/// H's free block is regular (`between`), as a link flat on a face is left to its particles.
+/// the links are not near parallel and H's free block is regular (`between`), as a link flat on a
+/// face is left to its particles. Links of zero length are not links (refused where kinds are).
 struct LinkPairContact
 {
   int first_a = 0, second_a = 1;  ///< link a: particles i, j
@@ -36,7 +37,14 @@ struct SegmentPairSample
 {
   double s = 0.0, t = 0.0;
   bool s_at_bound = true, t_at_bound = true;
+  bool parallel = false;  ///< sin^2 of the links' angle under PARALLEL_SINE2
 };
+
+/// Links closer to parallel than this (sin^2 of their angle) have a line of near-minimisers: the
+/// minimiser sweeps their overlap as fast as 1 / sin^2 (the -g^T H^-1 g term grows so), and at
+/// exactly parallel Ericson's choice jumps to an end. Such a pair is not `between`: its ends'
+/// rows hold it (as a link flat on a face is held by its particles).
+constexpr double PARALLEL_SINE2 = 1e-6;
 
 inline SegmentPairSample closestOnSegments(const Vec3& a0, const Vec3& a1, const Vec3& b0,
                                            const Vec3& b1)
@@ -57,7 +65,8 @@ inline SegmentPairSample closestOnSegments(const Vec3& a0, const Vec3& a1, const
     t = 1.0;
     s = std::clamp((b - c) / a, 0.0, 1.0);
   }
-  return { s, t, s <= 0.0 || s >= 1.0, t <= 0.0 || t >= 1.0 };
+  return { s, t, s <= 0.0 || s >= 1.0, t <= 0.0 || t >= 1.0,
+           denominator <= PARALLEL_SINE2 * a * e };
 }
 
 /// The pair's frame at positions p [m] and velocities v [m/s]: where (s*, t*), the unit normal
@@ -103,7 +112,9 @@ inline LinkPairFrame linkPairFrame(const LinkPairContact& c, const Points& p, co
   const double g_s = dn.dot(e_a) + n.dot(de_a);
   const double g_t = -(dn.dot(e_b) + n.dot(de_b));
   const double scale = 1e-9 * std::max(e_a.squaredNorm(), e_b.squaredNorm()) / d;
-  if (!near.s_at_bound && !near.t_at_bound)
+  if (near.parallel)
+    out.between = false;
+  else if (!near.s_at_bound && !near.t_at_bound)
   {
     const double det = h_ss * h_tt - h_st * h_st;
     out.between = det > scale * std::max(h_ss, h_tt);
