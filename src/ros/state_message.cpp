@@ -184,11 +184,10 @@ void fillContacts(const Snapshot& snap, SimState& msg)
         contact.mode == ContactMode::Separated || !std::isfinite(contact.normal_force))
       continue;
     const SegmentContact& segment = unilateralRecord<SegmentContact>(*snap.model, contacts[k]);
-    const SegmentFrame frame =
-        segmentFrame(segment, context, snap.state.positions, snap.state.velocities);
     msg.segment_contact_first.push_back(segment.first);
     msg.segment_contact_second.push_back(segment.second);
-    msg.segment_contact_fractions.push_back(frame.fraction);
+    msg.segment_contact_fractions.push_back(
+        nearestPoint(segment, context, snap.state.positions).fraction);
     msg.segment_contact_normal_forces.push_back(contact.normal_force);
   }
 }
