@@ -54,6 +54,12 @@ Touch touchOf(const Model& model, const UnilateralRecord& record, const EffectCo
       const Vec3 relative = velocities.col(link.first) - velocities.col(link.second);
       return { link.length - span, span > 0.0 ? -d.dot(relative) / span : 0.0 };
     }
+    case UnilateralKind::LinkPairContact:
+    {
+      const LinkPairFrame f =
+          linkPairFrame(unilateralRecord<LinkPairContact>(model, record), positions, velocities);
+      return { f.gap, f.opening, f.between, !f.between };
+    }
     case UnilateralKind::SegmentContact:
       break;
   }
@@ -67,7 +73,18 @@ Touch touchOf(const Model& model, const UnilateralRecord& record, const EffectCo
 bool held(const Model& model, const UnilateralRecord& record)
 {
   const auto& w = model.inverseMasses();
-  return !(w[record.particles[0]] > 0.0) && !(w[record.particles[1]] > 0.0);
+  for (int a = 0; a < record.count; ++a)
+    if (w[record.particles[a]] > 0.0)
+      return false;
+  return true;
+}
+
+// A row between a link and something (an obstacle, another link): its first two blocks sum to
+// its unit normal, and it acts only where its point is strictly inside (Touch::can_act)
+bool isLinkRow(const UnilateralRecord& record)
+{
+  return record.kind == UnilateralKind::SegmentContact ||
+         record.kind == UnilateralKind::LinkPairContact;
 }
 
 // The friction force [N] an acting contact exerts at multiplier `lambda` (its row's J `normal`):
@@ -108,9 +125,9 @@ void recordNormalForces(const Model& model, Data& data)
   {
     ContactState& contact = data.contacts[k];
     // J's normal: a particle contact's block, a slack link's -d (so lambda |d| is its tension),
-    // a segment's two blocks summed ((1 - s) n + s n, n unit)
+    // a segment's (or a link pair's link a's) two blocks summed ((1 - s) n + s n, n unit)
     const Vec3 normal =
-        rows[k].kind == UnilateralKind::SegmentContact
+        isLinkRow(rows[k])
             ? Vec3(data.rows.jacobian[rows[k].block] + data.rows.jacobian[rows[k].block + 1])
             : data.rows.jacobian[rows[k].block];
     contact.normal_force = acts(contact) ? data.multipliers[rows[k].row] * normal.norm() : 0.0;
@@ -128,7 +145,7 @@ bool releaseSegmentsAtEnds(const Model& model, Data& data, const EffectContext& 
   const auto& rows = model.unilateral();
   bool released = false;
   for (int k = model.numParticleContacts(); k < model.numContacts(); ++k)
-    if (rows[k].kind == UnilateralKind::SegmentContact && acts(data.contacts[k]) &&
+    if (isLinkRow(rows[k]) && acts(data.contacts[k]) &&
         !touchOf(model, rows[k], context, x.positions, x.velocities).can_act)
     {
       switchOff(data.contacts[k]);
@@ -419,7 +436,7 @@ double impactFraction(const Model& model, Data& data, const Points& p0, const Po
     if (!copied)
       p = x.positions;  // the other particles' columns are not read: rows touch their own
     copied = true;
-    const int count = rows[k].kind == UnilateralKind::ParticleContact ? 1 : 2;
+    const int count = rows[k].count;
     // the row's gap with its particles at fraction s along their Hermite paths
     auto gapAt = [&](double s)
     {
@@ -482,6 +499,17 @@ double releaseFraction(const Model& model, Data& data, const std::vector<Contact
                                   data.free_accelerations.col(segment.second));
       candidate = s.frame.normal.dot(free) + s.frame.curvature_term > 0.0;
     }
+    else if (rows[k].kind == UnilateralKind::LinkPairContact && acts(data.contacts[k]))
+    {
+      // a link pair: its points' free relative acceleration along n
+      const LinkPairContact& pair = unilateralRecord<LinkPairContact>(model, rows[k]);
+      const LinkPairFrame f = linkPairFrame(pair, x.positions, x.velocities);
+      const std::array<Vec3, 4> jacobian = linkPairJacobian(f);
+      double free = f.curvature_term;
+      for (int a = 0; a < 4; ++a)
+        free += jacobian[a].dot(data.free_accelerations.col(rows[k].particles[a]));
+      candidate = free > 0.0;
+    }
   if (!candidate)
     return NAN;
   // the multipliers at x: a forward stage there, in the stage buffers (the integrator is done)
@@ -495,10 +523,8 @@ double releaseFraction(const Model& model, Data& data, const std::vector<Contact
     if (!acts(data.contacts[k]) || rows[k].kind == UnilateralKind::SlackLink)
       continue;
     // [N]: a particle contact's J is its normal, a segment's n unit
-    const double end =
-        data.multipliers[rows[k].row] * (rows[k].kind == UnilateralKind::SegmentContact
-                                             ? 1.0
-                                             : data.rows.jacobian[rows[k].block].norm());
+    const double end = data.multipliers[rows[k].row] *
+                       (isLinkRow(rows[k]) ? 1.0 : data.rows.jacobian[rows[k].block].norm());
     if (!(end < 0.0))
       continue;
     const double start = std::max(at_start[k].normal_force, 0.0);
@@ -557,7 +583,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
     for (std::size_t k = contacts; k < rows.size(); ++k)
     {
       ContactState& contact = data.contacts[k];
-      if (rows[k].kind != UnilateralKind::SegmentContact || acts(contact) || held(model, rows[k]))
+      if (!isLinkRow(rows[k]) || acts(contact) || held(model, rows[k]))
         continue;
       const Touch touch = touchOf(model, rows[k], context, x.positions, x.velocities);
       if (touch.at_end || !(touch.gap < -settings.projection_tolerance))
@@ -665,7 +691,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
           switchOff(data.contacts[k]);  // leaving
       }
       for (std::size_t k = contacts; k < rows.size(); ++k)
-        if (rows[k].kind == UnilateralKind::SegmentContact && acts(data.contacts[k]) &&
+        if (isLinkRow(rows[k]) && acts(data.contacts[k]) &&
             touchOf(model, rows[k], context, x.positions, x.velocities).opening > CONTACT_SPEED)
           switchOff(data.contacts[k]);
       writeContactRows(model, data);

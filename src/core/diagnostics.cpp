@@ -144,6 +144,10 @@ Diagnostics computeDiagnostics(const Model& model, const State& state, RowData& 
   for (const auto& segment : std::get<std::vector<KindRecord<SegmentContact>>>(model.kindTables()))
     d.max_position_error =
         worseError(d.max_position_error, penetration(segment.record, context, state.positions));
+  // two links' capsules', how deep in each other they are
+  for (const auto& pair : std::get<std::vector<KindRecord<LinkPairContact>>>(model.kindTables()))
+    d.max_position_error =
+        worseError(d.max_position_error, penetration(pair.record, state.positions));
   // a slack link's, how far over its length it is, taut or slack
   for (const auto& link : std::get<std::vector<KindRecord<SlackLink>>>(model.kindTables()))
     d.max_position_error =

@@ -1,4 +1,5 @@
 #include "constrained_particles/core/model.hpp"
+#include "constrained_particles/core/self_collision.hpp"
 
 #include "model_structure.hpp"
 
@@ -94,6 +95,14 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
     validateSurface(scene.surfaces[k], "surfaces[" + std::to_string(k) + "]");
   for (std::size_t k = 0; k < scene.forces.size(); ++k)
     validateForce(scene.forces[k], n, "forces[" + std::to_string(k) + "]");
+  validateSelfCollisions(scene);
+  // a rope's link pairs join links far apart along it: a cycle of rows, made as the rope moves
+  if (!scene.self_collisions.empty() && method != SolveMethod::Automatic &&
+      method != SolveMethod::Sparse && method != SolveMethod::Dense)
+    throw InvalidInput("solve_method",
+                       std::string("= ") + solveMethodName(method) +
+                           ", but the scene has self_collisions, whose link pair rows close "
+                           "cycles as the rope moves; use automatic, sparse or dense");
 
   Model model;
   model.scene_ = scene;
@@ -210,7 +219,7 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
 
   const bool tridiagonal = isTridiagonal(model);
   // the particle contacts first, kind by kind in registry order, then the slack links, then the
-  // segment contacts
+  // segment contacts, then the link pairs
   std::apply(
       [&](const auto&... tables)
       {
@@ -227,7 +236,8 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
                                     UnilateralKind::ParticleContact,
                                     { table[k].record.particle, table[k].record.particle },
                                     table[k].record.friction,
-                                    table[k].record.restitution });
+                                    table[k].record.restitution,
+                                    1 });
         };
         (add(tables), ...);
       },
@@ -253,6 +263,21 @@ Model Model::compile(const Scene& scene, SolveMethod method, StagePaths paths)
                           { segment_table[k].record.first, segment_table[k].record.second },
                           0.0,
                           segment_table[k].record.restitution });
+  const auto& pair_table = std::get<std::vector<KindRecord<LinkPairContact>>>(model.kind_tables_);
+  for (std::size_t k = 0; k < pair_table.size(); ++k)
+  {
+    const LinkPairContact& pair = pair_table[k].record;
+    model.unilateral_.push_back(
+        UnilateralRecord{ pair_table[k].first_row,
+                          pair_table[k].first_block,
+                          static_cast<int>(k),
+                          pair_table[k].constraint,
+                          UnilateralKind::LinkPairContact,
+                          { pair.first_a, pair.second_a, pair.first_b, pair.second_b },
+                          0.0,
+                          0.0,
+                          4 });
+  }
   // two contacts of one particle with one obstacle: identical rows, J W J^T singular (sorted by
   // particle, each particle's few contacts compared: O(n log n))
   const auto& shape_table = std::get<std::vector<KindRecord<ShapeContact>>>(model.kind_tables_);

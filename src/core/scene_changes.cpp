@@ -12,8 +12,10 @@
 #include "constrained_particles/core/constraints.hpp"
 #include "constrained_particles/core/diagnostics.hpp"
 #include "constrained_particles/core/forces.hpp"
+#include "constrained_particles/core/self_collision.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -112,6 +114,7 @@ void Simulator::restoreState(const State& state)
 void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
 {
   Compiled compiled = compile(scene, initial_state, settings_, method, paths_);
+  requested_method_ = method;
   // the world outside the scene goes on: an obstacle carried in both rests where it is now
   carryCarriers(*model_, *data_, *compiled.model, *compiled.data, true);
   install(std::move(compiled.model), std::move(compiled.data));
@@ -251,6 +254,94 @@ void Simulator::setPerturbations(const std::vector<Force>& perturbations)
   ledgerPowers(*model_, *data_, data_->state, ledger.power_in, ledger.power_dissipated);
   ledger.power_in += drivenPower();
   ledger.scale = std::max(ledger.scale, ledgerScale(*model_, *data_));
+}
+
+void Simulator::updateLinkPairs()
+{
+  const Scene& scene = model_->scene();
+  if (scene.self_collisions.empty())
+    return;
+  const Data& data = *data_;
+  const std::vector<LinkPairContact> near =
+      nearLinkPairs(scene.self_collisions, data.state.positions,
+                    linkPairMargin(scene.self_collisions, data.state.velocities, settings_.dt));
+  using Key = std::array<int, 4>;
+  auto key = [](const LinkPairContact& c) {
+    return Key{ { c.first_a, c.second_a, c.first_b, c.second_b } };
+  };
+  // the pairs the simulator made come last (after any the scene lists), each with its contact
+  const auto& table = std::get<std::vector<KindRecord<LinkPairContact>>>(model_->kindTables());
+  auto generatedCount = [](const std::vector<KindRecord<LinkPairContact>>& pairs)
+  {
+    return static_cast<int>(std::count_if(pairs.begin(), pairs.end(),
+                                          [](const auto& p) { return p.record.generated; }));
+  };
+  const int generated = generatedCount(table);
+  const int first_pair = model_->numContacts() - generated;
+  std::vector<std::pair<Key, int>> have;
+  have.reserve(generated);
+  for (int k = 0; k < generated; ++k)
+    have.emplace_back(key(table[table.size() - generated + k].record), first_pair + k);
+  std::sort(have.begin(), have.end());
+  auto find = [&have](const Key& k)
+  {
+    const auto it = std::lower_bound(have.begin(), have.end(), std::make_pair(k, -1));
+    return it != have.end() && it->first == k ? it->second : -1;
+  };
+  const bool missing = std::any_of(near.begin(), near.end(),
+                                   [&](const LinkPairContact& c) { return find(key(c)) < 0; });
+  // far pairs are kept until they outnumber the near ones (their rows are off: they cost the
+  // solve an identity row each), so a pair at the margin's edge does not recompile every step
+  if (!missing && static_cast<std::size_t>(generated) <= 2 * near.size() + 16)
+    return;
+  Scene next = scene;
+  next.constraints.erase(std::remove_if(next.constraints.begin(), next.constraints.end(),
+                                        [](const Constraint& c)
+                                        {
+                                          const auto* pair = std::get_if<LinkPairContact>(&c);
+                                          return pair && pair->generated;
+                                        }),
+                         next.constraints.end());
+  next.constraints.insert(next.constraints.end(), near.begin(), near.end());
+  auto model = std::make_unique<Model>(Model::compile(next, requested_method_, paths_));
+  auto fresh = std::make_unique<Data>(*model);
+  fresh->setState(data.state);
+  fresh->perturbations = data.perturbations;
+  fresh->tracks = data.tracks;
+  fresh->carriers = data.carriers;
+  // the rows before the made pairs are the same rows in the same order; those by their particles
+  StepControl control = data.control;
+  const auto& pairs = std::get<std::vector<KindRecord<LinkPairContact>>>(model->kindTables());
+  const int new_first_pair = model->numContacts() - generatedCount(pairs);
+  std::vector<int> source(model->numContacts(), -1);
+  for (int k = 0; k < first_pair; ++k)
+    source[k] = k;
+  for (int k = new_first_pair; k < model->numContacts(); ++k)
+    source[k] = find(key(pairs[pairs.size() - (model->numContacts() - k)].record));
+  control.start_contacts = fresh->control.start_contacts;
+  control.step_normal_forces = fresh->control.step_normal_forces;
+  for (std::size_t k = 0; k < source.size(); ++k)
+    if (source[k] >= 0)
+    {
+      fresh->contacts[k] = data.contacts[source[k]];
+      control.start_contacts[k] = data.control.start_contacts[source[k]];
+      control.step_normal_forces[k] = data.control.step_normal_forces[source[k]];
+    }
+  // the contact stage's buffers are sized for the new model (none without contacts)
+  control.piece_start = fresh->control.piece_start;
+  control.piece_contacts = fresh->control.piece_contacts;
+  control.impact_positions = fresh->control.impact_positions;
+  control.multipliers_current = false;  // of the old rows
+  control.forward_version = 0;
+  fresh->control = std::move(control);
+  fresh->statistics = data.statistics;
+  fresh->ledger = data.ledger;  // no work is done: the rows are frictionless and off or at rest
+  fresh->counters = data.counters;
+  writeContactRows(*model, *fresh);
+  fresh->noteStateChange();
+  const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
+  install(std::move(model), std::move(fresh));
+  hold_loads_ = loads;
 }
 
 }  // namespace constrained_particles

@@ -266,6 +266,7 @@ Simulator::Simulator(const Scene& scene, const State& initial_state, const StepS
   : paths_(paths)
 {
   Compiled compiled = compile(scene, initial_state, settings, method, paths_);
+  requested_method_ = method;
   settings_ = settings;
   substep_settings_ = settings;
   integrator_ = &findIntegrator(settings.integrator);
@@ -822,12 +823,13 @@ StepStatistics Simulator::step(int count)
 {
   // as mj_step reads: plan the step, mark its start, take it (attempts, splits, the stiff
   // fallback, the energy budget), then accept it or put it back
-  Data& data = *data_;
-  const EffectCounters before = data.counters;
+  const EffectCounters before = data_->counters;
   StepStatistics total;
   total.solve.method = model_->solveMethod();
   for (int k = 0; k < count; ++k)
   {
+    updateLinkPairs();  // may replace the model and its data (self-collision's pairs)
+    Data& data = *data_;
     if (model_->numContacts() > 0)
     {
       // the active set at the step's start; stopping a sticking contact's slide is dissipation
@@ -853,6 +855,7 @@ StepStatistics Simulator::step(int count)
     }
     acceptStep(plan, outcome, total);
   }
+  Data& data = *data_;
   total.effects = data.counters.since(before);
   // the batch's friction solves that stopped short, stalled or at their limit (every attempt's)
   total.unconverged_friction = std::exchange(data.control.unconverged_friction, 0);

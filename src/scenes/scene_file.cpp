@@ -281,6 +281,11 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
       if (!d.chains.back().contact.empty())
         surfaceIndex(at / "contact", chains[k]["contact"], d.surfaces);
       const ChainSpec& chain = d.chains.back();
+      if (chain.self_collision && !(chain.radius > 0.0 && 2.0 * chain.radius < chain.link_length))
+        fail(at / "radius", chains[k]["radius"] ? chains[k]["radius"] : chains[k],
+             "= " + formatValue(chain.radius) +
+                 " m with self_collision: true, must be over 0 and under half of link_length (" +
+                 formatValue(chain.link_length) + " m)");
       if (chain.capsules && chain.obstacles.empty())
         fail(at / "capsules", chains[k]["capsules"],
              "= true with no obstacles: name the shapes its links keep out of under obstacles");
@@ -583,6 +588,15 @@ BuiltScene buildScene(const SceneDescription& d)
               if (!(i == first && chain.pin_first && i + 1 == next - 1 && chain.pin_last))
                 scene.constraints.push_back(
                     SegmentContact{ i, i + 1, shape, chain.radius, chain.restitution });
+    // its links as capsules against each other: the Simulator makes the pairs' rows as they near
+    if (chain.self_collision)
+    {
+      SelfCollision rope;
+      rope.radius = chain.radius;
+      for (int i = first; i < next; ++i)
+        rope.particles.push_back(i);
+      scene.self_collisions.push_back(std::move(rope));
+    }
     if (chain.pin_first)
       scene.constraints.push_back(PinConstraint{ first, start });
     if (chain.pin_last)

@@ -46,8 +46,13 @@ std::vector<int> kindsListed(const Scene& scene, bool forces)
     for (const Force& f : scene.forces)
       listed[f.index()] = 1;
   else
+  {
     for (const Constraint& c : scene.constraints)
       listed[c.index()] = 1;
+    // a rope's self-collision calls for link pair rows, made as its links come near
+    if (!scene.self_collisions.empty())
+      listed[constraintKindIndex<LinkPairContact>()] = 1;
+  }
   return listed;
 }
 

@@ -15,6 +15,7 @@
 #include "constrained_particles/core/effects/collinear_constraint.hpp"
 #include "constrained_particles/core/effects/frame_anchor.hpp"
 #include "constrained_particles/core/effects/link_constraint.hpp"
+#include "constrained_particles/core/effects/link_pair_contact.hpp"
 #include "constrained_particles/core/effects/moving_anchor.hpp"
 #include "constrained_particles/core/effects/pin_constraint.hpp"
 #include "constrained_particles/core/effects/point_on_line.hpp"
@@ -31,10 +32,11 @@
 namespace constrained_particles
 {
 /// One constraint of a scene: the registry of constraint kinds.
-using Constraint = std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
-                                PointOnLineConstraint, PointOnPlaneConstraint,
-                                MovingAnchorConstraint, CollinearConstraint, FrameAnchorConstraint,
-                                SurfaceContact, SlackLink, ShapeContact, SegmentContact>;
+using Constraint =
+    std::variant<SurfaceConstraint, LinkConstraint, PinConstraint, AngleConstraint,
+                 PointOnLineConstraint, PointOnPlaneConstraint, MovingAnchorConstraint,
+                 CollinearConstraint, FrameAnchorConstraint, SurfaceContact, SlackLink,
+                 ShapeContact, SegmentContact, LinkPairContact>;
 
 /// Number of constraint kinds.
 constexpr int NUM_CONSTRAINT_KINDS = static_cast<int>(std::variant_size_v<Constraint>);

@@ -203,6 +203,7 @@ enum class UnilateralKind
   ParticleContact,  ///< a kind with PARTICLE_CONTACT (surface_contact, shape_contact)
   SlackLink,        ///< slack_link: taut or slack
   SegmentContact,   ///< segment_contact: a link's capsule against an obstacle
+  LinkPairContact,  ///< link_pair_contact: two links' capsules against each other
 };
 
 /// One row the contact stage switches on and off (Model::unilateral()): a particle contact's,
@@ -214,9 +215,10 @@ struct UnilateralRecord
   int table = 0;       ///< its index in its kind's table
   int constraint = 0;  ///< its index in Scene::constraints
   UnilateralKind kind = UnilateralKind::ParticleContact;
-  int particles[2] = {};   ///< the particles it touches (a particle contact's twice)
+  int particles[4] = {};   ///< the particles it touches (a particle contact's twice), `count`
   double friction = 0.0;   ///< a contact's Coulomb mu [1] (a link's 0)
   double restitution = 0;  ///< a contact's Newton e [1] (a link's 0)
+  int count = 2;           ///< particles it touches (a particle contact's 1 in `particles` twice)
 };
 
 /// A validated scene plus the structure the solver needs. Constant during a run.

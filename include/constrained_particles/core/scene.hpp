@@ -13,6 +13,16 @@
 
 namespace constrained_particles
 {
+/// One rope that cannot pass through itself: its links (consecutive particles of `particles`) are
+/// capsules of radius r, and no two links that share no particle come closer than 2 r
+/// (link_pair_contact.hpp). The Simulator keeps a row for each pair of its links a broad phase
+/// finds near (self_collision.hpp); two ropes do not collide with each other.
+struct SelfCollision
+{
+  std::vector<int> particles;  ///< the rope's particles in order along it (at least 2)
+  double radius = 0.0;         ///< r [m], limits::PARTICLE_RADIUS, under half of each link
+};
+
 /// A scene: the particles and the forces and constraints acting on them — and nothing else is
 /// evaluated. Plain data; Model::compile() validates it.
 struct Scene
@@ -22,6 +32,9 @@ struct Scene
   std::vector<Surface> surfaces;        ///< height fields referred to by SurfaceConstraint
   std::vector<Force> forces;            ///< applied forces
   std::vector<Constraint> constraints;  ///< rows are ordered as listed (eliminated kinds aside)
+  /// ropes whose links collide with each other: their link_pair_contact records are the
+  /// Simulator's to make (any in `constraints` are replaced as it finds pairs near)
+  std::vector<SelfCollision> self_collisions;
 };
 
 /// Everything that changes while simulating.

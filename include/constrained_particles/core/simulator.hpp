@@ -204,6 +204,13 @@ private:
   /// Sets conservative_, has_stiffness_ and driven_ from the model's scene (after any scene
   /// change).
   void readSceneKind();
+  /// Self-collision at a step's start: the link pairs within linkPairMargin() of touching
+  /// (nearLinkPairs) become the model's link_pair_contact rows. While each is in the model already
+  /// nothing changes; else the model is compiled again with them (far pairs dropped) and the data
+  /// carried over whole: state, contacts (the pairs' by their particles), step memory, ledger,
+  /// statistics and holders' tracks. The motion is the same as with every pair in the model from
+  /// the start: a pair's row is off until it touches. No-op without Scene::self_collisions.
+  void updateLinkPairs();
 
   /// Makes `model` and `data` the simulator's (the old data, which refers to the old model, goes
   /// first), reads the scene's kind and sizes the diagnostics' workspaces to its rows.
@@ -286,9 +293,10 @@ private:
   StepSettings settings_;
   StepSettings substep_settings_;  // settings_ with a sub-step's dt (attemptStep)
   StepStatistics driven_attempt_;  // a driven scene's attempt, aside while its end is evaluated
-  StagePaths paths_ = StagePaths::Specialized;  // kept for every model compiled later
-  const IntegratorInfo* integrator_ = nullptr;  // settings_.integrator's row
-  const IntegratorInfo* stiff_ = nullptr;       // STIFF_FALLBACK's row
+  StagePaths paths_ = StagePaths::Specialized;             // kept for every model compiled later
+  SolveMethod requested_method_ = SolveMethod::Automatic;  // the scene's: link pair models too
+  const IntegratorInfo* integrator_ = nullptr;             // settings_.integrator's row
+  const IntegratorInfo* stiff_ = nullptr;                  // STIFF_FALLBACK's row
   bool conservative_ = false;   // only conservative forces, no driven anchor: energy is checked
   bool has_stiffness_ = false;  // rows or springs: the stability estimate has something to see
   bool driven_ = false;  // a driven anchor: its reactions are evaluated at each step's end (ledger)

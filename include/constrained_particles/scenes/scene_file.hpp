@@ -54,7 +54,8 @@ struct ChainSpec
   bool slack = false;        ///< links that go slack: at most link_length, pulling only taut
   std::vector<std::string> obstacles;  ///< shapes every particle stays out of (shape_contact)
   double radius = 0.0;                 ///< the chain's radius against its obstacles [m]
-  bool capsules = false;  ///< its links too keep out of the obstacles (segment_contact)
+  bool capsules = false;        ///< its links too keep out of the obstacles (segment_contact)
+  bool self_collision = false;  ///< its links cannot pass through each other (SelfCollision)
 
   static constexpr auto fields()
   {
@@ -92,7 +93,11 @@ struct ChainSpec
               "the chain's radius against its obstacles (half the rope's thickness)"),
         field("capsules", &ChainSpec::capsules, FieldKind::Flag, nullptr,
               "its links are capsules of that radius: each keeps out of every obstacle but a "
-              "plane (a segment_contact each, frictionless), so no link cuts an edge"));
+              "plane (a segment_contact each, frictionless), so no link cuts an edge"),
+        field("self_collision", &ChainSpec::self_collision, FieldKind::Flag, nullptr,
+              "its links are capsules of that radius that cannot pass through each other "
+              "(link_pair_contact rows for the pairs near, frictionless and inelastic); the "
+              "radius must be under half of link_length"));
   }
 };
 

@@ -1,0 +1,160 @@
+/// @file self_collision.cpp
+/// @brief Self-collision's broad phase (self_collision.hpp).
+#include "constrained_particles/core/self_collision.hpp"
+
+#include "constrained_particles/core/limits.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <unordered_map>
+#include <utility>
+
+namespace constrained_particles
+{
+namespace
+{
+// A grid cell's key: its three integer coordinates packed (21 bits each; the coordinates are
+// limits::COORDINATE over a cell no smaller than a radius, well inside that)
+std::int64_t cellKey(std::int64_t x, std::int64_t y, std::int64_t z)
+{
+  constexpr std::int64_t BIAS = std::int64_t(1) << 20, MASK = (std::int64_t(1) << 21) - 1;
+  return (((x + BIAS) & MASK) << 42) | (((y + BIAS) & MASK) << 21) | ((z + BIAS) & MASK);
+}
+
+}  // namespace
+
+std::vector<LinkPairContact> nearLinkPairs(const std::vector<SelfCollision>& collisions,
+                                           const Points& positions, double margin)
+{
+  std::vector<LinkPairContact> pairs;
+  std::unordered_map<std::int64_t, std::vector<int>> grid;
+  std::vector<std::array<std::int64_t, 3>> cells;
+  std::vector<std::pair<int, int>> found;
+  for (const SelfCollision& rope : collisions)
+  {
+    const std::vector<int>& p = rope.particles;
+    const int links = static_cast<int>(p.size()) - 1;
+    if (links < 3)
+      continue;  // links 0 and 2 are the first that share no particle
+    double longest = 0.0;
+    for (int k = 0; k < links; ++k)
+      longest = std::max(longest, (positions.col(p[k + 1]) - positions.col(p[k])).norm());
+    const double reach = 2.0 * rope.radius + margin;
+    // two links within `reach` have midpoints within longest + reach: neighbouring cells
+    const double cell = longest + reach;
+    grid.clear();
+    cells.resize(links);
+    for (int k = 0; k < links; ++k)
+    {
+      const Vec3 middle = 0.5 * (positions.col(p[k]) + positions.col(p[k + 1])) / cell;
+      cells[k] = { static_cast<std::int64_t>(std::floor(middle.x())),
+                   static_cast<std::int64_t>(std::floor(middle.y())),
+                   static_cast<std::int64_t>(std::floor(middle.z())) };
+      grid[cellKey(cells[k][0], cells[k][1], cells[k][2])].push_back(k);
+    }
+    found.clear();
+    for (int a = 0; a < links; ++a)
+      for (std::int64_t dx = -1; dx <= 1; ++dx)
+        for (std::int64_t dy = -1; dy <= 1; ++dy)
+          for (std::int64_t dz = -1; dz <= 1; ++dz)
+          {
+            const auto it =
+                grid.find(cellKey(cells[a][0] + dx, cells[a][1] + dy, cells[a][2] + dz));
+            if (it == grid.end())
+              continue;
+            for (const int b : it->second)
+            {
+              if (b < a + 2)  // each pair once, and links sharing a particle are neighbours
+                continue;
+              const SegmentPairSample near =
+                  closestOnSegments(positions.col(p[a]), positions.col(p[a + 1]),
+                                    positions.col(p[b]), positions.col(p[b + 1]));
+              const Vec3 w =
+                  (1.0 - near.s) * positions.col(p[a]) + near.s * positions.col(p[a + 1]) -
+                  (1.0 - near.t) * positions.col(p[b]) - near.t * positions.col(p[b + 1]);
+              if (w.norm() <= reach)
+                found.emplace_back(a, b);
+            }
+          }
+    std::sort(found.begin(), found.end());
+    for (const auto& [a, b] : found)
+    {
+      LinkPairContact pair;
+      pair.first_a = p[a];
+      pair.second_a = p[a + 1];
+      pair.first_b = p[b];
+      pair.second_b = p[b + 1];
+      pair.radius = rope.radius;
+      pair.generated = true;
+      // a particle's ball: the link starting there holds it unless it touches the other link
+      // (or there is none), then the link ending there (a's start and b's are always held). Links
+      // one apart (b = a + 2) fold at the joint between them, p_{a+2}: p_{a+1}'s ball against b
+      // and p_{a+3}'s against link a + 1 are both that joint's angle (with the two links' rows,
+      // four rows on three degrees of freedom: J W J^T singular), so the first is left to the
+      // second's pair (a + 1, a + 3), where there is one
+      pair.holds_second_a = b == a + 2 ? !(a + 3 < links) : !(a + 1 < links && b - (a + 1) >= 2);
+      pair.holds_second_b = !(b + 1 < links);
+      pairs.push_back(pair);
+    }
+  }
+  return pairs;
+}
+
+void validateSelfCollisions(const Scene& scene)
+{
+  const int n = static_cast<int>(scene.masses.size());
+  // link lengths between particle pairs, from the scene's links and slack links
+  std::map<std::pair<int, int>, double> lengths;
+  for (const Constraint& c : scene.constraints)
+  {
+    if (const auto* link = std::get_if<LinkConstraint>(&c))
+      lengths[std::minmax(link->first, link->second)] = link->length;
+    else if (const auto* slack = std::get_if<SlackLink>(&c))
+      lengths[std::minmax(slack->first, slack->second)] = slack->length;
+  }
+  for (std::size_t k = 0; k < scene.self_collisions.size(); ++k)
+  {
+    const SelfCollision& rope = scene.self_collisions[k];
+    const std::string field = "self_collisions[" + std::to_string(k) + "]";
+    requireInRange(field + ".radius", rope.radius, limits::PARTICLE_RADIUS);
+    if (rope.particles.size() < 2)
+      throw InvalidInput(field + ".particles",
+                         "has " + std::to_string(rope.particles.size()) +
+                             " particles: a rope needs at least 2 (one link)");
+    std::vector<char> seen(n, 0);
+    for (std::size_t i = 0; i < rope.particles.size(); ++i)
+    {
+      const int particle = rope.particles[i];
+      const std::string at = field + ".particles[" + std::to_string(i) + "]";
+      if (particle < 0 || particle >= n)
+        throw InvalidInput(at, "= " + std::to_string(particle) + ", must be in [0, " +
+                                   std::to_string(n - 1) + "]");
+      if (seen[particle]++)
+        throw InvalidInput(at, "= " + std::to_string(particle) + " appears twice in the rope");
+      if (i == 0)
+        continue;
+      const auto length = lengths.find(std::minmax(rope.particles[i - 1], particle));
+      if (length != lengths.end() && !(2.0 * rope.radius < length->second))
+        throw InvalidInput(field + ".radius",
+                           "= " + formatValue(rope.radius) + " m, must be under half of the link " +
+                               std::to_string(rope.particles[i - 1]) + "-" +
+                               std::to_string(particle) + " (" + formatValue(length->second) +
+                               " m): links one apart would overlap in a straight rope");
+    }
+  }
+}
+
+double linkPairMargin(const std::vector<SelfCollision>& collisions, const Points& velocities,
+                      double dt)
+{
+  double radius = 0.0;
+  for (const SelfCollision& rope : collisions)
+    radius = std::max(radius, rope.radius);
+  const double fastest = velocities.cols() > 0 ? velocities.colwise().norm().maxCoeff() : 0.0;
+  return radius + 4.0 * dt * fastest;
+}
+
+}  // namespace constrained_particles
