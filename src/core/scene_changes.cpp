@@ -27,12 +27,16 @@ namespace
 {
 // The running scene changed in place (its forces, its constraints): a model of `scene` and its
 // data, with `data`'s state and perturbations (they come from outside the scene) carried over.
+// The method is the model's, but a self-colliding rope's, whose structure its link pairs change
+// as it moves (a tree now, sparse later): the one the scene asked for.
 std::pair<std::unique_ptr<Model>, std::unique_ptr<Data>> recompile(const Scene& scene,
                                                                    const Model& model,
                                                                    const Data& data,
-                                                                   StagePaths paths)
+                                                                   StagePaths paths,
+                                                                   SolveMethod requested)
 {
-  auto compiled = std::make_unique<Model>(Model::compile(scene, model.solveMethod(), paths));
+  const SolveMethod method = scene.self_collisions.empty() ? model.solveMethod() : requested;
+  auto compiled = std::make_unique<Model>(Model::compile(scene, method, paths));
   auto fresh = std::make_unique<Data>(*compiled);
   fresh->state = data.state;
   fresh->perturbations = data.perturbations;
@@ -140,7 +144,7 @@ void Simulator::setForces(const std::vector<Force>& forces)
 {
   Scene scene = model_->scene();
   scene.forces = forces;
-  auto [model, data] = recompile(scene, *model_, *data_, paths_);
+  auto [model, data] = recompile(scene, *model_, *data_, paths_, requested_method_);
   data->tracks = data_->tracks;  // the holders' paths come from outside the scene too
   data->carriers = data_->carriers;
   const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
@@ -171,7 +175,7 @@ ProjectionReport Simulator::setConstraints(const std::vector<Constraint>& constr
 {
   Scene scene = model_->scene();
   scene.constraints = constraints;
-  auto [model, data] = recompile(scene, *model_, *data_, paths_);
+  auto [model, data] = recompile(scene, *model_, *data_, paths_, requested_method_);
   // tracks by the particle they hold (each particle has at most one holder)
   restartTracks(*model, *data, data_->state.positions);
   for (std::size_t k = 0; k < data->tracks.size(); ++k)
@@ -205,7 +209,7 @@ ProjectionReport Simulator::setSurfaces(const std::vector<Surface>& surfaces)
                                        ": a change replaces each, it adds or removes none");
   Scene scene = model_->scene();
   scene.surfaces = surfaces;
-  auto [model, data] = recompile(scene, *model_, *data_, paths_);
+  auto [model, data] = recompile(scene, *model_, *data_, paths_, requested_method_);
   data->tracks = data_->tracks;  // the world outside the scene goes on
   data->carriers = data_->carriers;
   // with the new model, before anything is replaced: a refusal changes nothing
@@ -269,19 +273,16 @@ void Simulator::updateLinkPairs()
   auto key = [](const LinkPairContact& c) {
     return Key{ { c.first_a, c.second_a, c.first_b, c.second_b } };
   };
-  // the pairs the simulator made come last (after any the scene lists), each with its contact
+  // the link pairs' rows come last (a scene's own, then the made ones): every pair by its
+  // particles, each with its contact (the scene's own are on no rope: validateSelfCollisions)
   const auto& table = std::get<std::vector<KindRecord<LinkPairContact>>>(model_->kindTables());
-  auto generatedCount = [](const std::vector<KindRecord<LinkPairContact>>& pairs)
-  {
-    return static_cast<int>(std::count_if(pairs.begin(), pairs.end(),
-                                          [](const auto& p) { return p.record.generated; }));
-  };
-  const int generated = generatedCount(table);
-  const int first_pair = model_->numContacts() - generated;
+  const int first_pair = model_->numContacts() - static_cast<int>(table.size());
+  const auto generated = static_cast<std::size_t>(std::count_if(
+      table.begin(), table.end(), [](const auto& pair) { return pair.record.generated; }));
   std::vector<std::pair<Key, int>> have;
-  have.reserve(generated);
-  for (int k = 0; k < generated; ++k)
-    have.emplace_back(key(table[table.size() - generated + k].record), first_pair + k);
+  have.reserve(table.size());
+  for (std::size_t k = 0; k < table.size(); ++k)
+    have.emplace_back(key(table[k].record), first_pair + static_cast<int>(k));
   std::sort(have.begin(), have.end());
   auto find = [&have](const Key& k)
   {
@@ -292,7 +293,7 @@ void Simulator::updateLinkPairs()
                                    [&](const LinkPairContact& c) { return find(key(c)) < 0; });
   // far pairs are kept until they outnumber the near ones (their rows are off: they cost the
   // solve an identity row each), so a pair at the margin's edge does not recompile every step
-  if (!missing && static_cast<std::size_t>(generated) <= 2 * near.size() + 16)
+  if (!missing && generated <= 2 * near.size() + 16)
     return;
   Scene next = scene;
   next.constraints.erase(std::remove_if(next.constraints.begin(), next.constraints.end(),
@@ -309,15 +310,15 @@ void Simulator::updateLinkPairs()
   fresh->perturbations = data.perturbations;
   fresh->tracks = data.tracks;
   fresh->carriers = data.carriers;
-  // the rows before the made pairs are the same rows in the same order; those by their particles
+  // the rows before the link pairs are the same rows in the same order; the pairs by particles
   StepControl control = data.control;
   const auto& pairs = std::get<std::vector<KindRecord<LinkPairContact>>>(model->kindTables());
-  const int new_first_pair = model->numContacts() - generatedCount(pairs);
+  const int new_first_pair = model->numContacts() - static_cast<int>(pairs.size());
   std::vector<int> source(model->numContacts(), -1);
-  for (int k = 0; k < first_pair; ++k)
+  for (int k = 0; k < new_first_pair; ++k)
     source[k] = k;
-  for (int k = new_first_pair; k < model->numContacts(); ++k)
-    source[k] = find(key(pairs[pairs.size() - (model->numContacts() - k)].record));
+  for (std::size_t k = 0; k < pairs.size(); ++k)
+    source[new_first_pair + k] = find(key(pairs[k].record));
   control.start_contacts = fresh->control.start_contacts;
   control.step_normal_forces = fresh->control.step_normal_forces;
   for (std::size_t k = 0; k < source.size(); ++k)

@@ -119,7 +119,7 @@ void validateSelfCollisions(const Scene& scene)
   {
     const SelfCollision& rope = scene.self_collisions[k];
     const std::string field = "self_collisions[" + std::to_string(k) + "]";
-    requireInRange(field + ".radius", rope.radius, limits::PARTICLE_RADIUS);
+    requireInRange(field + ".radius", rope.radius, limits::ROPE_RADIUS);
     if (rope.particles.size() < 2)
       throw InvalidInput(field + ".particles",
                          "has " + std::to_string(rope.particles.size()) +
@@ -137,6 +137,16 @@ void validateSelfCollisions(const Scene& scene)
       if (i == 0)
         continue;
       const auto length = lengths.find(std::minmax(rope.particles[i - 1], particle));
+      // a joint's fold is held by one row, the ball after it against the link before: exact
+      // where both links are as long (nearLinkPairs)
+      const auto first = lengths.find(std::minmax(rope.particles[0], rope.particles[1]));
+      if (length != lengths.end() && first != lengths.end() &&
+          std::abs(length->second - first->second) > 1e-9 * first->second)
+        throw InvalidInput(
+            field + ".particles",
+            "has links of " + formatValue(first->second) + " m and " + formatValue(length->second) +
+                " m (" + std::to_string(rope.particles[i - 1]) + "-" + std::to_string(particle) +
+                "): a self-colliding rope's links must be equally long");
       if (length != lengths.end() && !(2.0 * rope.radius < length->second))
         throw InvalidInput(field + ".radius",
                            "= " + formatValue(rope.radius) + " m, must be under half of the link " +
@@ -145,6 +155,22 @@ void validateSelfCollisions(const Scene& scene)
                                " m): links one apart would overlap in a straight rope");
     }
   }
+  // a pair the scene lists on a rope's links would be the simulator's row twice (or a ball held
+  // by two rows): J W J^T singular once both act (its particles' range is checked with the
+  // constraints, after this)
+  std::vector<int> rope_of(n, -1);
+  for (std::size_t k = 0; k < scene.self_collisions.size(); ++k)
+    for (const int particle : scene.self_collisions[k].particles)
+      rope_of[particle] = static_cast<int>(k);
+  for (std::size_t k = 0; k < scene.constraints.size(); ++k)
+    if (const auto* pair = std::get_if<LinkPairContact>(&scene.constraints[k]);
+        pair && !pair->generated && pair->first_a >= 0 && pair->first_a < n && pair->first_b >= 0 &&
+        pair->first_b < n && rope_of[pair->first_a] >= 0 &&
+        rope_of[pair->first_a] == rope_of[pair->first_b])
+      throw InvalidInput("constraints[" + std::to_string(k) + "]",
+                         "a link_pair_contact between links of rope self_collisions[" +
+                             std::to_string(rope_of[pair->first_a]) +
+                             "], whose pairs the simulator makes as they come near; remove it");
 }
 
 double linkPairMargin(const std::vector<SelfCollision>& collisions, const Points& velocities,

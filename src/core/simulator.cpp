@@ -280,6 +280,7 @@ void Simulator::install(std::unique_ptr<Model> model, std::unique_ptr<Data> data
 {
   data_.reset();  // the old data refers to the old model: it goes first
   model_ = std::move(model);
+  ++model_version_;
   data_ = std::move(data);
   readSceneKind();
   diagnostic_rows_.resize(*model_);

@@ -272,7 +272,7 @@ RunnerReply SimulationRunner::reconfigure(
             throw;
           }
           session_.adoptChange(*changed);
-          model_copy_ = std::make_shared<const Model>(simulator_->model());
+          copyModel();
         }
         // a step setting changed here is the user's choice from now on, for every scene
         session_.chooseStep(parameters_.step, candidate.step);
@@ -652,6 +652,8 @@ bool SimulationRunner::runChunk(int steps, StepStatistics& batch)
   const Clock::time_point chunk_start = Clock::now();
   const double cpu_start = accuracy_.open() ? threadCpuSeconds() : 0.0;
   StepStatistics statistics = simulator_->step(steps_now);
+  if (simulator_->modelVersion() != model_copy_version_)
+    copyModel();  // a self-colliding rope's link pairs changed: the snapshots' rows are the new
   if (accuracy_.open())
     accuracy_.addLiveCpu(threadCpuSeconds() - cpu_start);
   accuracy_.clearReferenceNow();
@@ -784,10 +786,16 @@ void SimulationRunner::afterChange(bool model_changed)
 {
   accuracy_.abandon();  // the state changed under the window
   if (model_changed)
-    model_copy_ = std::make_shared<const Model>(simulator_->model());
+    copyModel();
   simulator_->constraintForces(forces_, multipliers_);
   last_good_ = simulator_->state();
   snapshot_due_ = true;
+}
+
+void SimulationRunner::copyModel()
+{
+  model_copy_ = std::make_shared<const Model>(simulator_->model());
+  model_copy_version_ = simulator_->modelVersion();
 }
 
 void SimulationRunner::reanchor(Pacer::Anchor anchor)

@@ -242,6 +242,47 @@ TEST(SelfCollision, BadRopesAreRefusedNamingTheField)
       refusal([&] { Model::compile(built.scene, SolveMethod::Tridiagonal); }).find("solve_method"),
       std::string::npos);
   EXPECT_EQ(refusal([&] { Model::compile(built.scene); }), "(accepted)");
+  bad = built.scene;
+  bad.self_collisions[0].radius = 0.0;
+  EXPECT_NE(refusal([&] { Model::compile(bad); }).find("self_collisions[0].radius"),
+            std::string::npos);
+  bad = built.scene;
+  std::get<LinkConstraint>(bad.constraints[2]).length = 0.05;  // the rope's third link
+  EXPECT_NE(refusal([&] { Model::compile(bad); }).find("equally long"), std::string::npos);
+  // a pair listed on the rope's links would be the simulator's row twice
+  bad = built.scene;
+  LinkPairContact listed;
+  listed.first_a = 0;
+  listed.second_a = 1;
+  listed.first_b = 3;
+  listed.second_b = 4;
+  listed.radius = 0.01;
+  bad.constraints.push_back(listed);
+  EXPECT_NE(refusal([&] { Model::compile(bad); })
+                .find("constraints[" + std::to_string(bad.constraints.size() - 1) + "]"),
+            std::string::npos);
+}
+
+// A self-colliding rope's model changes with its pairs (a tree with none, sparse with some):
+// changes between steps (forces, holders) compile with the method the scene asked for, not the
+// one its current model resolved to, before, while and after its links touch.
+TEST(SelfCollision, ForcesChangeBeforeAndAfterTheLinksMeet)
+{
+  const BuiltScene built = buildScene(loadSceneFile(std::string(SCENES_DIR) + "/rope_pile.yaml"));
+  StepSettings settings;
+  Simulator simulator(built.scene, built.initial_state, settings);
+  EXPECT_EQ(simulator.model().solveMethod(), SolveMethod::Tree);
+  const std::uint64_t first = simulator.modelVersion();
+  std::vector<Force> forces = built.scene.forces;
+  EXPECT_NO_THROW(simulator.setForces(forces));  // a tree now
+  simulator.step(600);
+  EXPECT_GT(simulator.modelVersion(), first + 1);  // the pairs came
+  EXPECT_EQ(simulator.model().solveMethod(), SolveMethod::Sparse);
+  EXPECT_NO_THROW(simulator.setForces(forces));
+  EXPECT_EQ(simulator.step(100).failed_check, StepCheck::None);
+  simulator.reset();  // the rope upright again: its pairs far
+  simulator.step(1);
+  EXPECT_NO_THROW(simulator.setForces(forces));
 }
 
 }  // namespace

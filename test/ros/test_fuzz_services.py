@@ -39,13 +39,13 @@ SURFACE_TYPES = {"plane": 3, "bowl": 2, "saddle": 2, "waves": 3, "gaussian": 4}
 CHAIN_COUNTS = {"chain": 5, "surface_chain": 5, "pinned_pendulum": 4, "two_chains_on_surface": 4,
                 "mobile": 3, "shaken_chain": 6, "stiff_rod": 4, "hold_the_rope": 8,
                 "surface_chain_contact": 5, "friction_ramp": 4, "rope_on_table": 20,
-                "rope_over_post": 30, "rope_over_edge": 20}
+                "rope_over_post": 30, "rope_over_edge": 20, "rope_pile": 30}
 # scenes with a surface_contact or shape_contact: a chain or surface change that would start a
 # particle below the surface or inside an obstacle, or a teleport that would put one there, is
 # refused, naming the particle (a request
 # valid field by field may be)
 CONTACT_SCENES = {"surface_chain_contact", "friction_ramp", "rope_on_table", "dome",
-                  "rope_over_post", "rope_over_edge"}
+                  "rope_over_post", "rope_over_edge", "rope_pile"}
 
 
 def contact_refusal(scene, expect, response):

@@ -105,6 +105,9 @@ constexpr Range SHAPE_SIZE{ 1e-6, false, 1e3, "m", false };
 constexpr Range SHAPE_ANGLE{ -1e3, false, 1e3, "rad", false };
 /// A particle's radius against obstacles [m] (a rope's thickness / 2); 0: a point.
 constexpr Range PARTICLE_RADIUS{ 0.0, false, 10.0, "m", false };
+/// A self-colliding rope's radius [m] (its links' against each other): over 0, as links of no
+/// thickness never touch.
+constexpr Range ROPE_RADIUS{ 0.0, true, 10.0, "m", false };
 
 // --- constraints ---
 /// The angle an angle constraint holds at its vertex [rad]. Straight (pi) and folded (0) are

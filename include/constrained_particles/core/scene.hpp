@@ -20,7 +20,7 @@ namespace constrained_particles
 struct SelfCollision
 {
   std::vector<int> particles;  ///< the rope's particles in order along it (at least 2)
-  double radius = 0.0;         ///< r [m], limits::PARTICLE_RADIUS, under half of each link
+  double radius = 0.0;         ///< r [m], limits::ROPE_RADIUS, under half of each link
 };
 
 /// A scene: the particles and the forces and constraints acting on them — and nothing else is
@@ -33,7 +33,7 @@ struct Scene
   std::vector<Force> forces;            ///< applied forces
   std::vector<Constraint> constraints;  ///< rows are ordered as listed (eliminated kinds aside)
   /// ropes whose links collide with each other: their link_pair_contact records are the
-  /// Simulator's to make (any in `constraints` are replaced as it finds pairs near)
+  /// Simulator's to make as it finds pairs near (a scene may list none on a rope's links)
   std::vector<SelfCollision> self_collisions;
 };
 

@@ -23,9 +23,11 @@ std::vector<LinkPairContact> nearLinkPairs(const std::vector<SelfCollision>& col
                                            const Points& positions, double margin);
 
 /// @throws InvalidInput naming "self_collisions[k].<field>": a particle out of range or listed
-/// twice, fewer than 2 particles, a radius out of limits::PARTICLE_RADIUS, or a radius not under
-/// half of a link (a link or slack link of `scene` between consecutive particles: two links one
-/// apart would touch in a straight rope)
+/// twice, fewer than 2 particles, a radius out of limits::ROPE_RADIUS, a radius not
+/// under half of a link (a link or slack link of `scene` between consecutive particles: two links
+/// one apart would touch in a straight rope), or links of unequal length (a joint's fold is one
+/// row, exact for equal links); or "constraints[k]": a listed link_pair_contact on a rope's links.
+/// Consecutive particles with no link or slack link between them are not checked.
 void validateSelfCollisions(const Scene& scene);
 
 /// The margin [m] the Simulator looks ahead by at each step's start: r + 4 dt v_max, v_max the

@@ -106,6 +106,13 @@ public:
   {
     return *model_;
   }
+  /// Counts the models this simulator has had: a scene change, and a self-colliding rope's link
+  /// pairs changing within step() (updateLinkPairs), each make a new one. A caller keeping a copy
+  /// of model() takes another when this changes.
+  std::uint64_t modelVersion() const
+  {
+    return model_version_;
+  }
   /// The stage path the steps take under the current settings, and why (forward_path.hpp); the
   /// energy budget's fallback, while it holds the run, is the stiff-safe method's.
   PathChoice forwardPath() const
@@ -208,8 +215,8 @@ private:
   /// (nearLinkPairs) become the model's link_pair_contact rows. While each is in the model already
   /// nothing changes; else the model is compiled again with them (far pairs dropped) and the data
   /// carried over whole: state, contacts (the pairs' by their particles), step memory, ledger,
-  /// statistics and holders' tracks. The motion is the same as with every pair in the model from
-  /// the start: a pair's row is off until it touches. No-op without Scene::self_collisions.
+  /// statistics and holders' tracks; modelVersion() counts the change. A pair's row is off until
+  /// it touches. No-op without Scene::self_collisions.
   void updateLinkPairs();
 
   /// Makes `model` and `data` the simulator's (the old data, which refers to the old model, goes
@@ -295,6 +302,7 @@ private:
   StepStatistics driven_attempt_;  // a driven scene's attempt, aside while its end is evaluated
   StagePaths paths_ = StagePaths::Specialized;             // kept for every model compiled later
   SolveMethod requested_method_ = SolveMethod::Automatic;  // the scene's: link pair models too
+  std::uint64_t model_version_ = 0;                        // models installed (modelVersion())
   const IntegratorInfo* integrator_ = nullptr;             // settings_.integrator's row
   const IntegratorInfo* stiff_ = nullptr;                  // STIFF_FALLBACK's row
   bool conservative_ = false;   // only conservative forces, no driven anchor: energy is checked

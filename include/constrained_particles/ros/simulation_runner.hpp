@@ -295,6 +295,8 @@ private:
   /// The forces and multipliers (and, `model_changed`, the model copy) after a change of state
   /// or model between steps; the accuracy window ends; a snapshot due.
   void afterChange(bool model_changed = false);
+  /// The snapshots' copy of the simulator's model, and its modelVersion().
+  void copyModel();
   /// The stamp [ns] the state stands for now (Pacer::stampAt).
   std::int64_t stampNow() const
   {
@@ -313,6 +315,7 @@ private:
   RunnerQueue queue_;                      // requests from other threads; this thread's wake-ups
   std::unique_ptr<Simulator> simulator_;
   std::shared_ptr<const Model> model_copy_;
+  std::uint64_t model_copy_version_ = 0;  // the Simulator::modelVersion() it was copied at
   std::shared_ptr<std::promise<RunnerReply>> attach_reply_;  // the waiting ~attach's
   std::optional<StepRequest> step_request_;
   bool paused_ = false, faulted_ = false;

@@ -73,7 +73,7 @@ struct LinkPairContact
               "particle k: link b starts here"),
         field("second_b", &LinkPairContact::second_b, FieldKind::Particle, nullptr,
               "particle l: link b ends here"),
-        field("radius", &LinkPairContact::radius, FieldKind::Number, &limits::PARTICLE_RADIUS,
+        field("radius", &LinkPairContact::radius, FieldKind::Number, &limits::ROPE_RADIUS,
               "r: each link's radius (the rope's thickness / 2)"));
   }
 };
