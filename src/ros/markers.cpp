@@ -50,13 +50,15 @@ double particleSize(const Model& model)
   for (const Constraint& c : model.scene().constraints)
     if (const auto* link = std::get_if<LinkConstraint>(&c))
       shortest = shortest > 0.0 ? std::min(shortest, link->length) : link->length;
-  // a rope with a thickness (its obstacles' radius) is drawn that thick
+  // a rope with a thickness (its obstacles' radius, or its self-collision's) is drawn that thick
   double thickest = 0.0;
   for (const Constraint& c : model.scene().constraints)
     if (const auto* contact = std::get_if<ShapeContact>(&c))
       thickest = std::max(thickest, 2.0 * contact->radius);
     else if (const auto* segment = std::get_if<SegmentContact>(&c))
       thickest = std::max(thickest, 2.0 * segment->radius);
+  for (const SelfCollision& rope : model.scene().self_collisions)  // or its own links' radius
+    thickest = std::max(thickest, 2.0 * rope.radius);
   return thickest > 0.0 ? thickest : 0.3 * (shortest > 0.0 ? shortest : 0.5);
 }
 
@@ -115,17 +117,30 @@ visualization_msgs::MarkerArray contactForceMarkers(const std_msgs::Header& head
       array.markers.push_back(m);
     }
   }
-  // a link's capsule: its normal force at its point nearest the obstacle (frictionless), ids 2k
+  // a link's capsule: its normal force at its point nearest the obstacle (frictionless), ids 2k;
+  // a rope's link pair: the push on link a at its point nearest link b
   int next_id = 2 * static_cast<int>(count);
   for (std::size_t k = count; k < table.size() && k < contacts.size(); ++k)
   {
-    if (table[k].kind != UnilateralKind::SegmentContact)
+    Eigen::Vector3d start, normal;
+    if (table[k].kind == UnilateralKind::SegmentContact)
+    {
+      const SegmentContact& segment = unilateralRecord<SegmentContact>(model, table[k]);
+      const SegmentFrame frame = segmentFrame(segment, context, positions, positions);
+      start = frame.pointAt(positions.col(segment.first), positions.col(segment.second));
+      normal = frame.frame.normal;
+    }
+    else if (table[k].kind == UnilateralKind::LinkPairContact)
+    {
+      const LinkPairContact& pair = unilateralRecord<LinkPairContact>(model, table[k]);
+      const LinkPairFrame frame = linkPairGeometry(pair, positions);
+      start =
+          (1.0 - frame.s) * positions.col(pair.first_a) + frame.s * positions.col(pair.second_a);
+      normal = frame.normal;
+    }
+    else
       continue;
-    const SegmentContact& segment = unilateralRecord<SegmentContact>(model, table[k]);
-    const SegmentFrame frame = segmentFrame(segment, context, positions, positions);
-    const Eigen::Vector3d start =
-        frame.pointAt(positions.col(segment.first), positions.col(segment.second));
-    const Eigen::Vector3d end = start + scale * contacts[k].normal_force * frame.frame.normal;
+    const Eigen::Vector3d end = start + scale * contacts[k].normal_force * normal;
     const int id = 2 * static_cast<int>(k);
     for (; next_id < id; ++next_id)  // slack links before it: none
       array.markers.push_back(deleteMarker(header, CONTACT_FORCE_NAMESPACE, next_id));

@@ -190,6 +190,21 @@ void fillContacts(const Snapshot& snap, SimState& msg)
         nearestPoint(segment, context, snap.state.positions).fraction);
     msg.segment_contact_normal_forces.push_back(contact.normal_force);
   }
+  // a rope's links touching each other: where along each, from the positions published
+  for (std::size_t k = count; k < contacts.size() && k < snap.contacts.size(); ++k)
+  {
+    const ContactState& contact = snap.contacts[k];
+    if (contacts[k].kind != UnilateralKind::LinkPairContact ||
+        contact.mode == ContactMode::Separated || !std::isfinite(contact.normal_force))
+      continue;
+    const LinkPairContact& pair = unilateralRecord<LinkPairContact>(*snap.model, contacts[k]);
+    const LinkPairFrame frame = linkPairGeometry(pair, snap.state.positions);
+    for (const int particle : { pair.first_a, pair.second_a, pair.first_b, pair.second_b })
+      msg.link_pair_particles.push_back(particle);
+    msg.link_pair_fractions.push_back(frame.s);
+    msg.link_pair_fractions.push_back(frame.t);
+    msg.link_pair_normal_forces.push_back(contact.normal_force);
+  }
 }
 
 void (*const ARRAY_ROWS[])(const Snapshot&, SimState&) = { fillHolders, fillReleases,

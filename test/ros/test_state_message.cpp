@@ -3,6 +3,7 @@
 // same everywhere.
 #include "constrained_particles/ros/state_message.hpp"
 #include "constrained_particles/ros/health.hpp"
+#include "constrained_particles/ros/markers.hpp"
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
@@ -73,6 +74,22 @@ TEST(StateMessage, TheSnapshotsFiguresReachBothFieldAndKey)
 // A link resting across a post on its capsule (its particles clear of it): ~state lists the link,
 // where along it the post touches and the post's push, the link's weight; a capsule clear of its
 // obstacle is not listed.
+// ~state of `simulator` after its forces are read between steps (as the node reads them)
+SimState stateOf(Simulator& simulator, const SceneDescription& description)
+{
+  Points forces;
+  Eigen::VectorXd multipliers;
+  simulator.constraintForces(forces, multipliers);
+  Snapshot snap;
+  snap.model = std::make_shared<const Model>(simulator.model());
+  snap.scene = std::make_shared<const SceneDescription>(description);
+  snap.state = simulator.state();
+  snap.contacts = simulator.data().contacts;
+  SimState msg;
+  fillState(snap, StepStatistics{}, msg);
+  return msg;
+}
+
 TEST(StateMessage, ALinkCapsuleTouchingAnObstacleIsListed)
 {
   const SceneDescription description = parseScene(R"(
@@ -95,16 +112,7 @@ forces:
   const BuiltScene built = buildScene(description);
   Simulator simulator(built.scene, built.initial_state, StepSettings{});
   simulator.step(10);
-  Points forces;
-  Eigen::VectorXd multipliers;
-  simulator.constraintForces(forces, multipliers);
-  Snapshot snap;
-  snap.model = std::make_shared<const Model>(simulator.model());
-  snap.scene = std::make_shared<const SceneDescription>(description);
-  snap.state = simulator.state();
-  snap.contacts = simulator.data().contacts;
-  SimState msg;
-  fillState(snap, StepStatistics{}, msg);
+  const SimState msg = stateOf(simulator, description);
   ASSERT_EQ(msg.segment_contact_first.size(), 1u);
   ASSERT_EQ(msg.segment_contact_second.size(), 1u);
   ASSERT_EQ(msg.segment_contact_fractions.size(), 1u);
@@ -116,6 +124,67 @@ forces:
   EXPECT_NEAR(msg.segment_contact_fractions[0], 0.75, 1e-6);
   EXPECT_NEAR(msg.segment_contact_normal_forces[0], 4.0 * 9.81, 1e-6);
   EXPECT_TRUE(msg.contact_particles.empty());  // the particles touch nothing
+}
+
+// Two crossing links, the upper (1 kg and 3 kg at its ends) resting on the lower (pinned) across
+// it: listed with its four particles, where along each they touch (the upper balances at 3/4 of
+// its length, over the lower's middle) and the push, its weight.
+TEST(StateMessage, TwoLinksTouchingEachOtherAreListed)
+{
+  const SceneDescription description = parseScene(R"(
+name: crossing
+particles:
+  - {mass: 1, position: [-0.1, 0, 0.02]}
+  - {mass: 3, position: [0.1, 0, 0.02]}
+  - {mass: 1, position: [0.05, -0.2, 0]}
+  - {mass: 1, position: [0.05, 0.2, 0]}
+constraints:
+  - {type: link, first: 0, second: 1}
+  - {type: pin, particle: 2}
+  - {type: pin, particle: 3}
+  - {type: link_pair_contact, first_a: 0, second_a: 1, first_b: 2, second_b: 3, radius: 0.01}
+forces:
+  - {type: gravity}
+)",
+                                                  "crossing.yaml");
+  const BuiltScene built = buildScene(description);
+  Simulator simulator(built.scene, built.initial_state, StepSettings{});
+  simulator.step(10);
+  const SimState msg = stateOf(simulator, description);
+  ASSERT_EQ(msg.link_pair_particles.size(), 4u);
+  ASSERT_EQ(msg.link_pair_fractions.size(), 2u);
+  ASSERT_EQ(msg.link_pair_normal_forces.size(), 1u);
+  EXPECT_EQ(msg.link_pair_particles, (std::vector<int>{ 0, 1, 2, 3 }));
+  EXPECT_NEAR(msg.link_pair_fractions[0], 0.75, 1e-6);
+  EXPECT_NEAR(msg.link_pair_fractions[1], 0.5, 1e-6);
+  EXPECT_NEAR(msg.link_pair_normal_forces[0], 4.0 * 9.81, 1e-6);
+  EXPECT_TRUE(msg.segment_contact_first.empty());
+  // rviz: one green arrow from link a's point over the lower link's middle, up, |f| scale long
+  const visualization_msgs::MarkerArray arrows =
+      contactForceMarkers(std_msgs::Header(), simulator.model(), simulator.state().positions,
+                          simulator.data().contacts, 0.01, 0, nullptr, simulator.state().time);
+  int drawn = 0;
+  for (const visualization_msgs::Marker& m : arrows.markers)
+    if (m.action == visualization_msgs::Marker::ADD)
+    {
+      ++drawn;
+      ASSERT_EQ(m.points.size(), 2u);
+      EXPECT_NEAR(m.points[0].x, 0.05, 1e-6);
+      EXPECT_NEAR(m.points[0].y, 0.0, 1e-6);
+      EXPECT_NEAR(m.points[0].z, 0.02, 1e-6);
+      EXPECT_NEAR(m.points[1].z - m.points[0].z, 0.01 * 4.0 * 9.81, 1e-6);
+    }
+  EXPECT_EQ(drawn, 1);
+}
+
+// A self-colliding rope with no obstacle is drawn as thick as it collides (2 r), not 0.3 of a link.
+TEST(StateMessage, ASelfCollidingRopeIsDrawnItsThickness)
+{
+  const BuiltScene built = buildScene(
+      parseScene("chains: [{particles: 6, link_length: 0.05, start: [0, 0, 1], radius: 0.012, "
+                 "self_collision: true}]\n",
+                 "rope.yaml"));
+  EXPECT_NEAR(particleSize(Model::compile(built.scene)), 0.024, 1e-15);
 }
 
 TEST(StateMessage, EveryStatisticReachesItsFieldAndKey)

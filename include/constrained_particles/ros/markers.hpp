@@ -46,7 +46,9 @@ visualization_msgs::MarkerArray constraintForceMarkers(const std_msgs::Header& h
 /// Two ARROWs per surface contact (ids 2k, 2k + 1; ns CONTACT_FORCE_NAMESPACE), from its particle
 /// along its normal force (green) and its friction (orange) [N], `scale` [m/N]; a contact that does
 /// not act, or a non-finite force, is a DELETE of its arrows; so are ids in [2 contacts,
-/// previous_count) (a scene with fewer contacts than the last).
+/// previous_count) (a scene with fewer contacts than the last). A link's capsule against an
+/// obstacle (segment_contact) is one green ARROW (id 2k) from its point nearest it, and a rope's
+/// link pair (link_pair_contact) one from link a's point nearest link b: the push on link a.
 /// Carried obstacles are where `carriers` (Data::carriers) puts them at `time` [s].
 visualization_msgs::MarkerArray contactForceMarkers(
     const std_msgs::Header& header, const Model& model, const Points& positions,
