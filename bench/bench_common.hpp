@@ -19,6 +19,28 @@ inline double threadCpuSeconds()
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
+/// The options every benchmark program reads: --quick (a small sweep) and --out DIR (where its
+/// CSV goes; "." by default). Others are ignored.
+struct Options
+{
+  bool quick = false;
+  std::string out = ".";
+};
+
+inline Options parseOptions(int argc, char** argv)
+{
+  Options options;
+  for (int k = 1; k < argc; ++k)
+  {
+    const std::string arg = argv[k];
+    if (arg == "--quick")
+      options.quick = true;
+    else if (arg == "--out" && k + 1 < argc)
+      options.out = argv[++k];
+  }
+  return options;
+}
+
 inline double median(std::vector<double> values)
 {
   if (values.empty())

@@ -11,6 +11,8 @@
 // Usage: bench_contact [--quick] [--out DIR]   (scripts/bench.sh --contact runs it into docs/bench)
 #include "constrained_particles/core/simulator.hpp"
 
+#include "bench_common.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -23,20 +25,6 @@ using namespace constrained_particles;
 
 namespace
 {
-double cpuSeconds()
-{
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return t.tv_sec + 1e-9 * t.tv_nsec;
-}
-
-double median(std::vector<double> v)
-{
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
 // n particles along +x on z = 0, linked, each with a contact on the plane if `contact`
 Simulator chainOnPlane(int n, bool contact, StagePaths paths, SolveMethod method)
 {
@@ -82,30 +70,21 @@ double slopeOf(const std::vector<double>& x, const std::vector<double>& y)
 
 double timeSteps(Simulator& sim, int steps)
 {
-  const double t0 = cpuSeconds();
+  const double t0 = bench::threadCpuSeconds();
   sim.step(steps);
-  return cpuSeconds() - t0;
+  return bench::threadCpuSeconds() - t0;
 }
 }  // namespace
 
 int main(int argc, char** argv)
 {
-  bool quick = false;
-  std::string out = ".";
-  for (int k = 1; k < argc; ++k)
-  {
-    const std::string arg = argv[k];
-    if (arg == "--quick")
-      quick = true;
-    else if (arg == "--out" && k + 1 < argc)
-      out = argv[++k];
-  }
+  const bench::Options options = bench::parseOptions(argc, argv);
   // the exponent is fitted over 1,000 to 100,000 (issue 35's range); 10^6, past every cache, gives
   // the slope from 10^5 on its own
-  const std::vector<int> sizes =
-      quick ? std::vector<int>{ 1000, 10000 } : std::vector<int>{ 1000, 10000, 100000, 1000000 };
-  const int rounds = quick ? 3 : 7;
-  std::ofstream csv(out + "/contact.csv");
+  const std::vector<int> sizes = options.quick ? std::vector<int>{ 1000, 10000 }
+                                               : std::vector<int>{ 1000, 10000, 100000, 1000000 };
+  const int rounds = options.quick ? 3 : 7;
+  std::ofstream csv(options.out + "/contact.csv");
   csv << "n,contact_us_per_particle_step,contact_sparse_us_per_particle_step,"
          "free_fused_us_per_particle_step,free_generic_sparse_us_per_particle_step,"
          "contact_over_fused,contact_over_generic\n";
@@ -141,12 +120,14 @@ int main(int argc, char** argv)
         std::fprintf(stderr, "n = %d: the chain left the plane (z in [%g, %g])\n", n,
                      p.row(2).minCoeff(), p.row(2).maxCoeff());
     }
-    std::printf("%8d %14.4f %14.4f %14.4f %14.4f %10.2f %10.2f\n", n, median(c), median(cs),
-                median(f), median(g), median(cf), median(cg));
-    csv << n << "," << median(c) << "," << median(cs) << "," << median(f) << "," << median(g) << ","
-        << median(cf) << "," << median(cg) << "\n";
+    std::printf("%8d %14.4f %14.4f %14.4f %14.4f %10.2f %10.2f\n", n, bench::median(c),
+                bench::median(cs), bench::median(f), bench::median(g), bench::median(cf),
+                bench::median(cg));
+    csv << n << "," << bench::median(c) << "," << bench::median(cs) << "," << bench::median(f)
+        << "," << bench::median(g) << "," << bench::median(cf) << "," << bench::median(cg) << "\n";
     log_n.push_back(std::log(static_cast<double>(n)));
-    const double per_step[4] = { median(c), median(cs), median(f), median(g) };
+    const double per_step[4] = { bench::median(c), bench::median(cs), bench::median(f),
+                                 bench::median(g) };
     for (int k = 0; k < 4; ++k)
       log_cost[k].push_back(std::log(per_step[k] * n));  // cost per step
   }

@@ -16,6 +16,9 @@
 #        scripts/bench.sh --contact        (only what contact costs: a chain lying on a plane,
 #                                          bench/contact_chain.cpp: docs/bench/contact.csv and
 #                                          contact.txt, about 3 minutes)
+#        scripts/bench.sh --self-collision (only what self-collision costs: a rope folded on
+#                                          itself on a floor, bench/self_collision.cpp:
+#                                          docs/bench/self_collision.csv and .txt, 2 minutes)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 QUICK=()
@@ -32,6 +35,8 @@ elif [[ "${1:-}" == "--kernel" ]]; then
   ONLY_SCENES=3
 elif [[ "${1:-}" == "--contact" ]]; then
   ONLY_SCENES=4
+elif [[ "${1:-}" == "--self-collision" ]]; then
+  ONLY_SCENES=5
 elif [[ "${1:-}" == "--cores" ]]; then
   exec bash "$ROOT/scripts/compare_cores.sh" ${2:-} --csv "$OUT/cores.csv"
 fi
@@ -68,6 +73,12 @@ if ((ONLY_SCENES == 4)); then
   unstamp contact
   "$BIN/bench_contact" --out "$OUT" | tee "$OUT/contact.txt"
   stamp contact
+  exit 0
+fi
+if ((ONLY_SCENES == 5)); then
+  unstamp self_collision
+  "$BIN/bench_self_collision" --out "$OUT" | tee "$OUT/self_collision.txt"
+  stamp self_collision
   exit 0
 fi
 if ((ONLY_SCENES == 2)); then

@@ -212,21 +212,70 @@ ProjectionReport Simulator::setSurfaces(const std::vector<Surface>& surfaces)
   auto [model, data] = recompile(scene, *model_, *data_, paths_, requested_method_);
   data->tracks = data_->tracks;  // the world outside the scene goes on
   data->carriers = data_->carriers;
+  return installChangedWorld(std::move(model), std::move(data), "surfaces");
+}
+
+ProjectionReport Simulator::setObstacles(const std::vector<Constraint>& contacts)
+{
+  for (std::size_t k = 0; k < contacts.size(); ++k)
+    if (!std::holds_alternative<ShapeContact>(contacts[k]) &&
+        !std::holds_alternative<SegmentContact>(contacts[k]))
+      throw InvalidInput("contacts[" + std::to_string(k) + "]",
+                         "is a " + std::string(kindOf(contacts[k])) +
+                             " record: only shape_contact and segment_contact records are "
+                             "obstacle contacts");
+  // every other record stays, in its order (holders' tracks follow their records' order); the
+  // rope's link pairs go and come back at the next step's start (updateLinkPairs)
+  Scene scene = model_->scene();
+  scene.constraints.erase(std::remove_if(scene.constraints.begin(), scene.constraints.end(),
+                                         [](const Constraint& c)
+                                         {
+                                           return std::holds_alternative<ShapeContact>(c) ||
+                                                  std::holds_alternative<SegmentContact>(c) ||
+                                                  (std::holds_alternative<LinkPairContact>(c) &&
+                                                   std::get<LinkPairContact>(c).generated);
+                                         }),
+                          scene.constraints.end());
+  const std::size_t first = scene.constraints.size();
+  scene.constraints.insert(scene.constraints.end(), contacts.begin(), contacts.end());
+  for (std::size_t k = 0; k < contacts.size(); ++k)
+    validateConstraint(scene.constraints[first + k], model_->numParticles(),
+                       static_cast<int>(scene.surfaces.size()),
+                       "contacts[" + std::to_string(k) + "]");
+  auto [model, data] = recompile(scene, *model_, *data_, paths_, requested_method_);
+  data->tracks = data_->tracks;  // the same eliminated records, in the same order
+  carryCarriers(*model_, *data_, *model, *data, false);  // carried shapes by name
+  return installChangedWorld(std::move(model), std::move(data), "contacts");
+}
+
+ProjectionReport Simulator::installChangedWorld(std::unique_ptr<Model> model,
+                                                std::unique_ptr<Data> data,
+                                                const std::string& field)
+{
   // with the new model, before anything is replaced: a refusal changes nothing
   State moved = data_->state;
-  ProjectionReport report = projectState(*model, *data, settings_, moved, "surfaces",
-                                         "the state cannot be projected onto the new surfaces");
+  ProjectionReport report = projectState(*model, *data, settings_, moved, field,
+                                         "the state cannot be projected onto the constraints");
   data->setState(moved);
   separateContacts(*model, *data);
-  // a contact now under its surface: switched on and projected, its approach taken out
-  // (resolveImpacts at rest: no bounce below BOUNCE_SPEED)
+  // a contact now inside its surface or obstacle: switched on and projected, its approach taken
+  // out (resolveImpacts at rest: no bounce below BOUNCE_SPEED)
   data->free_accelerations.setZero();
   State lifted = data->state;
   resolveImpacts(*model, *data, settings_, lifted);
   if (!isFinite(lifted))
-    throw InvalidInput("surfaces",
-                       "lifting the particles onto them produced a non-finite "
-                       "state; nothing changed");
+    throw InvalidInput(field,
+                       "moving the particles out of what their contacts keep them out of "
+                       "produced a non-finite state; nothing changed");
+  // the impacts' projection stops at its iteration limit without a word: a shape put deep over
+  // a rope (its normals all along one line, the links across it) may leave no way out it finds
+  const double error =
+      computeDiagnostics(*model, lifted, &data->tracks, &data->carriers).max_position_error;
+  if (!(error <= 2.0 * settings_.projection_tolerance))
+    throw InvalidInput(field, "leave the particles " + formatValue(error) +
+                                  " m from their constraints after moving them out of what "
+                                  "their contacts keep them out of (a change too deep for the "
+                                  "projection to undo: make it in smaller moves); nothing changed");
   separateContacts(*model, *data);
   data->setState(lifted);
   report.max_displacement = (lifted.positions - data_->state.positions).colwise().norm().maxCoeff();

@@ -56,6 +56,15 @@ SceneSession::Candidate SceneSession::forSurface(const std::string& type,
                    current);
 }
 
+SceneSession::Candidate SceneSession::forObstacle(ObstacleChange change, const std::string& name,
+                                                  const std::string& shape,
+                                                  const StepSettings& current) const
+{
+  SceneDescription changed = *scene_;
+  changeObstacle(changed, change, name, shape);
+  return build(changed, current, false);
+}
+
 SceneSession::Candidate SceneSession::forChain(const ChainChange& change,
                                                const StepSettings& current) const
 {
@@ -116,10 +125,11 @@ void SceneSession::requireAtMost(const SceneDescription& description,
 }
 
 SceneSession::Candidate SceneSession::build(const SceneDescription& description,
-                                            const StepSettings& settings) const
+                                            const StepSettings& settings,
+                                            bool refuse_start_inside) const
 {
   requireAtMost(description, "num_particles");
-  return Candidate{ description, settings, buildScene(description) };
+  return Candidate{ description, settings, buildScene(description, refuse_start_inside) };
 }
 
 }  // namespace constrained_particles

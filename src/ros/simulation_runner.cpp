@@ -153,6 +153,37 @@ RunnerReply SimulationRunner::setSurface(const std::string& type,
   return changeScene(make, "surface set to '" + type + "'");
 }
 
+RunnerReply SimulationRunner::setObstacle(ObstacleChange change, const std::string& name,
+                                          const std::string& shape)
+{
+  static const char* const DONE[] = { "added", "replaced", "removed" };
+  return queue_.submit(
+      [this, change, name, shape]
+      {
+        const SceneSession::Candidate candidate =
+            session_.forObstacle(change, name, shape, parameters_.step);
+        // the scene's obstacle contacts as its description now makes them; the rest (holders
+        // attached at run time among it) is the simulator's own
+        std::vector<Constraint> contacts;
+        for (const Constraint& constraint : candidate.built.scene.constraints)
+          if (std::holds_alternative<ShapeContact>(constraint) ||
+              std::holds_alternative<SegmentContact>(constraint))
+            contacts.push_back(constraint);
+        const ProjectionReport report = simulator_->setObstacles(contacts);
+        session_.adoptChange(candidate.description);
+        afterChange(true);  // the shadow's scene is not this one any more
+        interruptStep("~set_obstacle");
+        RunnerReply reply = acceptedReply(
+            "obstacle '" + name + "' " + DONE[static_cast<int>(change)] +
+            ", the state kept: particles moved out by up to " +
+            formatValue(report.max_displacement) + " m, velocities changed by up to " +
+            formatValue(report.max_velocity_change) + " m/s");
+        reply.max_displacement = report.max_displacement;
+        reply.max_velocity_change = report.max_velocity_change;
+        return reply;
+      });
+}
+
 RunnerReply SimulationRunner::setChain(const ChainChange& change)
 {
   return changeScene([this, change] { return session_.forChain(change, parameters_.step); },

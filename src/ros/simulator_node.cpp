@@ -111,6 +111,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   serve("reset", &SimulatorNode::resetCallback);
   serve("list_scenes", &SimulatorNode::listScenesCallback);
   serve("set_surface", &SimulatorNode::setSurfaceCallback);
+  serve("set_obstacle", &SimulatorNode::setObstacleCallback);
   serve("set_chain", &SimulatorNode::setChainCallback);
   serve("set_state", &SimulatorNode::setStateCallback);
   serve("pause", &SimulatorNode::pauseCallback);
@@ -370,6 +371,22 @@ bool SimulatorNode::setSurfaceCallback(SetSurface::Request& request, SetSurface:
                                                 request.expression, request.keep_state);
   answer(response, reply);
   response.max_displacement = reply.max_displacement;
+  if (response.success)
+    publishNewScene();
+  return true;
+}
+
+bool SimulatorNode::setObstacleCallback(SetObstacle::Request& request,
+                                        SetObstacle::Response& response)
+{
+  if (request.operation > SetObstacle::Request::REMOVE)
+    return refuse(response, "operation = " + std::to_string(request.operation) +
+                                ", must be 0 (ADD), 1 (REPLACE) or 2 (REMOVE)");
+  const RunnerReply reply = runner_->setObstacle(static_cast<ObstacleChange>(request.operation),
+                                                 request.name, request.shape);
+  answer(response, reply);
+  response.max_displacement = reply.max_displacement;
+  response.max_velocity_change = reply.max_velocity_change;
   if (response.success)
     publishNewScene();
   return true;

@@ -174,36 +174,34 @@ void fillContacts(const Snapshot& snap, SimState& msg)
       tf2::toMsg(contact.friction_force, friction);  // tf2_eigen converts it
       msg.contact_friction_forces.push_back(friction);
     }
-  // link capsules: where along the link, from the positions and the obstacles' poses published
+  // the rows of two or four particles touching: where along their links, from the positions
+  // and the obstacles' poses published
   const EffectContext context{ snap.model->scene().surfaces, snap.state.time, nullptr,
                                &snap.carriers };
   for (std::size_t k = count; k < contacts.size() && k < snap.contacts.size(); ++k)
   {
     const ContactState& contact = snap.contacts[k];
-    if (contacts[k].kind != UnilateralKind::SegmentContact ||
-        contact.mode == ContactMode::Separated || !std::isfinite(contact.normal_force))
+    if (contact.mode == ContactMode::Separated || !std::isfinite(contact.normal_force))
       continue;
-    const SegmentContact& segment = unilateralRecord<SegmentContact>(*snap.model, contacts[k]);
-    msg.segment_contact_first.push_back(segment.first);
-    msg.segment_contact_second.push_back(segment.second);
-    msg.segment_contact_fractions.push_back(
-        nearestPoint(segment, context, snap.state.positions).fraction);
-    msg.segment_contact_normal_forces.push_back(contact.normal_force);
-  }
-  // a rope's links touching each other: where along each, from the positions published
-  for (std::size_t k = count; k < contacts.size() && k < snap.contacts.size(); ++k)
-  {
-    const ContactState& contact = snap.contacts[k];
-    if (contacts[k].kind != UnilateralKind::LinkPairContact ||
-        contact.mode == ContactMode::Separated || !std::isfinite(contact.normal_force))
-      continue;
-    const LinkPairContact& pair = unilateralRecord<LinkPairContact>(*snap.model, contacts[k]);
-    const LinkPairFrame frame = linkPairGeometry(pair, snap.state.positions);
-    for (const int particle : { pair.first_a, pair.second_a, pair.first_b, pair.second_b })
-      msg.link_pair_particles.push_back(particle);
-    msg.link_pair_fractions.push_back(frame.s);
-    msg.link_pair_fractions.push_back(frame.t);
-    msg.link_pair_normal_forces.push_back(contact.normal_force);
+    if (contacts[k].kind == UnilateralKind::SegmentContact)
+    {
+      const SegmentContact& segment = unilateralRecord<SegmentContact>(*snap.model, contacts[k]);
+      msg.segment_contact_first.push_back(segment.first);
+      msg.segment_contact_second.push_back(segment.second);
+      msg.segment_contact_fractions.push_back(
+          nearestPoint(segment, context, snap.state.positions).fraction);
+      msg.segment_contact_normal_forces.push_back(contact.normal_force);
+    }
+    else if (contacts[k].kind == UnilateralKind::LinkPairContact)
+    {
+      const LinkPairContact& pair = unilateralRecord<LinkPairContact>(*snap.model, contacts[k]);
+      const LinkPairFrame frame = linkPairGeometry(pair, snap.state.positions);
+      for (const int particle : { pair.first_a, pair.second_a, pair.first_b, pair.second_b })
+        msg.link_pair_particles.push_back(particle);
+      msg.link_pair_fractions.push_back(frame.s);
+      msg.link_pair_fractions.push_back(frame.t);
+      msg.link_pair_normal_forces.push_back(contact.normal_force);
+    }
   }
 }
 

@@ -234,6 +234,10 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
           fail(top / "shapes" / name, entry.first, "appears twice among the shapes");
       d.shapes.push_back(parseShape(top / "shapes" / name, entry.second, name));
     }
+    if (!limits::SHAPES.contains(static_cast<double>(d.shapes.size())))
+      fail(top / "shapes", shapes,
+           "has " + std::to_string(d.shapes.size()) + " shapes, must be in " +
+               limits::SHAPES.text());
   }
   // the robot's own links (URDF collision geometry), each carried by its link's tf frame
   if (const YAML::Node links = root["robot_links"])
@@ -260,6 +264,12 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
           fail(where, links, "makes shape '" + shape.name + "', a name under shapes already");
       d.shapes.push_back(std::move(shape));
     }
+    if (!limits::SHAPES.contains(static_cast<double>(d.shapes.size())))
+      fail(where, links,
+           "makes " + std::to_string(d.shapes.size()) +
+               " shapes with those under shapes, must "
+               "be in " +
+               limits::SHAPES.text());
   }
 
   if (const YAML::Node particles = root["particles"])
@@ -508,7 +518,7 @@ SceneDescription loadSceneFile(const std::string& path, const SceneInputs& input
   return d;
 }
 
-BuiltScene buildScene(const SceneDescription& d)
+BuiltScene buildScene(const SceneDescription& d, bool refuse_start_inside)
 {
   BuiltScene built;
   Scene& scene = built.scene;
@@ -633,8 +643,11 @@ BuiltScene buildScene(const SceneDescription& d)
   // a contact's particle starts on or above its surface: below it, the first step would have to
   // lift it out (an impact as deep as the start is wrong), so the file is refused, saying where
   // (the deepest one)
-  if (const BelowSurface below = deepestBelowSurface(
-          scene.constraints, EffectContext{ scene.surfaces, 0.0 }, state.positions);
+  if (const BelowSurface below =
+          refuse_start_inside
+              ? deepestBelowSurface(scene.constraints, EffectContext{ scene.surfaces, 0.0 },
+                                    state.positions)
+              : BelowSurface{};
       below.contact)
   {
     std::vector<std::string> surface_names;

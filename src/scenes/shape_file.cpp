@@ -4,6 +4,10 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+#include <type_traits>
+#include <variant>
+
 namespace constrained_particles
 {
 namespace scene_yaml
@@ -94,4 +98,121 @@ Shape parseShape(const Where& where, const YAML::Node& node, const std::string& 
 }
 
 }  // namespace scene_yaml
+
+namespace
+{
+// Whether `constraint` names shape `name` (in a Shape field, as shape_contact's and
+// segment_contact's `shape`), putting `replacement` there if given.
+bool namesShape(Constraint& constraint, const std::string& name, const Shape* replacement)
+{
+  bool names = false;
+  std::visit(
+      [&](auto& record)
+      {
+        forEachField<std::decay_t<decltype(record)>>(
+            [&](const auto& spec)
+            {
+              if constexpr (std::is_same_v<typename std::decay_t<decltype(spec)>::MemberType,
+                                           Shape>)
+                if (Shape& shape = record.*(spec.member); shape.name == name)
+                {
+                  names = true;
+                  if (replacement)
+                    shape = *replacement;
+                }
+            });
+      },
+      constraint);
+  return names;
+}
+
+// The shape ~set_obstacle's `shape` field writes, as a scene file writes one under `shapes`.
+Shape parseObstacle(const std::string& yaml, const std::string& name)
+{
+  static const std::string SOURCE = "shape";
+  Shape shape;
+  try
+  {
+    shape = scene_yaml::parseShape(scene_yaml::Where{ SOURCE, "" }, YAML::Load(yaml), name);
+  }
+  catch (const YAML::Exception& e)  // not YAML, or a value yaml-cpp cannot convert
+  {
+    throw InvalidInput(SOURCE + (e.mark.is_null() ? "" : ":" + std::to_string(e.mark.line + 1)),
+                       "is not a valid shape: " + e.msg);
+  }
+  if (shape.carried())
+    throw InvalidInput(SOURCE + ".frame",
+                       "= '" + shape.frame + shape.topic +
+                           "': ~set_obstacle places fixed shapes only (a carried shape, with its "
+                           "holder, comes with a scene file and ~reset)");
+  return shape;
+}
+}  // namespace
+
+void changeObstacle(SceneDescription& d, ObstacleChange change, const std::string& name,
+                    const std::string& shape_yaml)
+{
+  if (name.empty())
+    throw InvalidInput("name", "is empty: name the shape (its key under `shapes`)");
+  const auto found = std::find_if(d.shapes.begin(), d.shapes.end(),
+                                  [&name](const Shape& shape) { return shape.name == name; });
+  if (change == ObstacleChange::Add && found != d.shapes.end())
+    throw InvalidInput("name", "= '" + name + "' is a shape of scene '" + d.name +
+                                   "' already: replace it (REPLACE), or add another name");
+  if (change != ObstacleChange::Add)
+  {
+    std::string fixed;
+    for (const Shape& shape : d.shapes)
+      if (!shape.carried())
+        fixed += (fixed.empty() ? "" : ", ") + shape.name;
+    if (found == d.shapes.end())
+      throw InvalidInput("name", "= '" + name + "' is not a shape of scene '" + d.name +
+                                     "'; its fixed shapes: " + (fixed.empty() ? "none" : fixed));
+    if (found->carried())
+      throw InvalidInput("name", "= '" + name + "' is carried by '" + found->frame + found->topic +
+                                     "': a carried shape changes with its scene file (~reset)");
+  }
+  if (change == ObstacleChange::Remove)
+  {
+    if (!shape_yaml.empty())
+      throw InvalidInput("shape", "must be empty to remove a shape (REMOVE)");
+    d.shapes.erase(found);
+    for (ChainSpec& chain : d.chains)
+      chain.obstacles.erase(std::remove(chain.obstacles.begin(), chain.obstacles.end(), name),
+                            chain.obstacles.end());
+    d.constraints.erase(
+        std::remove_if(d.constraints.begin(), d.constraints.end(),
+                       [&name](Constraint& c) { return namesShape(c, name, nullptr); }),
+        d.constraints.end());
+    return;
+  }
+  const Shape shape = parseObstacle(shape_yaml, name);
+  // a box's or cylinder's sharp edges against a point: refused as a scene file's are
+  for (std::size_t k = 0; k < d.chains.size(); ++k)
+  {
+    const ChainSpec& chain = d.chains[k];
+    if (change == ObstacleChange::Add ||
+        std::find(chain.obstacles.begin(), chain.obstacles.end(), name) != chain.obstacles.end())
+      requireRoundedEdges(shape, chain.radius, "chains[" + std::to_string(k) + "].radius");
+  }
+  if (change == ObstacleChange::Replace)
+  {
+    *found = shape;
+    for (Constraint& constraint : d.constraints)
+      namesShape(constraint, name, &shape);
+    return;
+  }
+  if (d.chains.empty())
+    throw InvalidInput("operation", "= ADD, but scene '" + d.name +
+                                        "' has no chain to keep out of it (an added shape is "
+                                        "kept out by every chain)");
+  if (!limits::SHAPES.contains(static_cast<double>(d.shapes.size() + 1)))
+    throw InvalidInput("operation",
+                       "= ADD, but scene '" + d.name + "' has " + std::to_string(d.shapes.size()) +
+                           " shapes already; shapes must be in " + limits::SHAPES.text());
+  d.shapes.push_back(shape);
+  for (ChainSpec& chain : d.chains)
+    chain.obstacles.push_back(name);
+}
+
 }  // namespace constrained_particles

@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -69,6 +70,26 @@ StepSettings settingsOf(double dt, const std::string& integrator = "rk4")
   settings.dt = dt;
   settings.integrator = integrator;
   return settings;
+}
+// A rope of n 0.1 kg particles on 0.1 m links laid along +x on the plane surface z = 0, a
+// surface_contact each, and `extra` records, under gravity, rk4 at dt 1 ms
+Simulator ropeOnPlane(int n, const std::vector<Constraint>& extra)
+{
+  Scene scene;
+  scene.masses.assign(n, 0.1);
+  scene.surfaces = { makeSurface(SurfaceType::Plane, { 0.0, 0.0, 0.0 }, "surface") };
+  scene.forces = { GravityForce{} };
+  for (int i = 0; i + 1 < n; ++i)
+    scene.constraints.push_back(LinkConstraint{ i, i + 1, 0.1 });
+  for (int i = 0; i < n; ++i)
+    scene.constraints.push_back(SurfaceContact{ i, 0 });
+  scene.constraints.insert(scene.constraints.end(), extra.begin(), extra.end());
+  State start;
+  start.positions.setZero(3, n);
+  start.velocities.setZero(3, n);
+  for (int i = 0; i < n; ++i)
+    start.positions(0, i) = 0.1 * i;
+  return Simulator(scene, start, settingsOf(1e-3));
 }
 }  // namespace
 
@@ -360,21 +381,8 @@ forces:
 // a count of surfaces other than the scene's is refused with nothing changed.
 TEST(SetSurfaces, GroundRaisedUnderARestingRopeLiftsItOntoIt)
 {
-  Scene scene;
   const int n = 6;
-  scene.masses.assign(n, 0.1);
-  scene.surfaces = { makeSurface(SurfaceType::Plane, { 0.0, 0.0, 0.0 }, "surface") };
-  scene.forces = { GravityForce{} };
-  for (int i = 0; i + 1 < n; ++i)
-    scene.constraints.push_back(LinkConstraint{ i, i + 1, 0.1 });
-  for (int i = 0; i < n; ++i)
-    scene.constraints.push_back(SurfaceContact{ i, 0 });
-  State start;
-  start.positions.setZero(3, n);
-  start.velocities.setZero(3, n);
-  for (int i = 0; i < n; ++i)
-    start.positions(0, i) = 0.1 * i;
-  Simulator sim(scene, start, settingsOf(1e-3));
+  Simulator sim = ropeOnPlane(n, {});
   sim.step(200);
   EXPECT_THROW(sim.setSurfaces({}), InvalidInput);
   EXPECT_EQ(sim.model().scene().surfaces[0].coefficients[2], 0.0);  // nothing changed
@@ -390,6 +398,95 @@ TEST(SetSurfaces, GroundRaisedUnderARestingRopeLiftsItOntoIt)
     EXPECT_NEAR(sim.state().positions(2, i), 0.01, 1e-9) << i;
     EXPECT_LT(sim.state().velocities.col(i).norm(), 1e-9) << i;
   }
+}
+
+// setObstacles (~set_obstacle, issue 48 item 5): a rope resting on a plane surface, a sphere
+// raised under its middle (two particles 9.3 mm inside it): every particle moved out of it and
+// its links kept, the report's displacement the largest move, the time going on and the rope
+// staying out over 0.5 s; a record of another kind, and a sphere centred on the rope's line (its
+// normals along the rope, the link across it: no way out along them), refused with nothing
+// changed (bitwise); the sphere removed, the rope falls back onto the plane.
+TEST(SetObstacles, SphereMovedOntoARestingRopePushesItOutAndRemovedLetsItFall)
+{
+  const int n = 6;
+  Shape ball;
+  ball.name = "ball";
+  ball.type = ShapeType::Sphere;
+  ball.radius = 0.08;
+  ball.position = Vec3(0.25, 0.0, -5.0);  // far under the plane: never touched
+  std::vector<Constraint> far;
+  for (int i = 0; i < n; ++i)
+    far.push_back(ShapeContact{ i, ball, 0.0 });
+  Simulator sim = ropeOnPlane(n, far);
+  sim.step(200);
+  const State before = sim.state();
+  const std::size_t records = sim.model().scene().constraints.size();
+  // another kind: refused, nothing changed
+  EXPECT_THROW(sim.setObstacles({ LinkConstraint{ 0, 1, 0.1 } }), InvalidInput);
+  EXPECT_EQ(sim.model().scene().constraints.size(), records);
+  EXPECT_EQ(sim.state().positions, before.positions);
+  EXPECT_EQ(sim.state().velocities, before.velocities);
+  auto around = [&ball, n](const Vec3& centre)
+  {
+    ball.position = centre;
+    std::vector<Constraint> contacts;
+    for (int i = 0; i < n; ++i)
+      contacts.push_back(ShapeContact{ i, ball, 0.0 });
+    return contacts;
+  };
+  // centred on the rope's line: particles 2 and 3 pushed apart along it, the link between them
+  // 0.1 m long where they would need 0.16 m: refused, nothing changed
+  try
+  {
+    sim.setObstacles(around(Vec3(0.25, 0.0, 0.0)));
+    ADD_FAILURE() << "a sphere with no way out along its normals accepted";
+  }
+  catch (const InvalidInput& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("too deep for the projection"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(sim.model().scene().constraints.size(), records);
+  EXPECT_EQ(sim.state().positions, before.positions);
+  EXPECT_EQ(sim.state().velocities, before.velocities);
+  EXPECT_EQ(std::get<ShapeContact>(sim.model().scene().constraints.back()).shape.position.z(),
+            -5.0);
+  // raised under the rope's middle: particles 2 and 3 lie 7.07 cm from its centre, 9.3 mm in
+  const ProjectionReport report = sim.setObstacles(around(Vec3(0.25, 0.0, -0.05)));
+  EXPECT_EQ(sim.model().scene().constraints.size(), records);
+  EXPECT_NEAR(sim.state().time, before.time, 1e-15);
+  const double moved = (sim.state().positions - before.positions).colwise().norm().maxCoeff();
+  EXPECT_GT(moved, 0.005);
+  EXPECT_NEAR(report.max_displacement, moved, 1e-15);
+  auto worst = [&sim, &ball]
+  {
+    double inside = 0.0, link = 0.0, below = 0.0;
+    const Points& p = sim.state().positions;
+    for (int i = 0; i < p.cols(); ++i)
+    {
+      inside = std::max(inside, -evaluateShape(ball, p.col(i)).distance);
+      below = std::max(below, -p(2, i));
+      if (i + 1 < p.cols())
+        link = std::max(link, std::abs((p.col(i + 1) - p.col(i)).norm() - 0.1));
+    }
+    return std::array<double, 3>{ { inside, link, below } };
+  };
+  for (const double error : worst())
+    EXPECT_LT(error, 1e-9);
+  for (int k = 0; k < 500; ++k)
+  {
+    ASSERT_EQ(sim.step().failed_check, StepCheck::None) << k;
+    for (const double error : worst())
+      ASSERT_LT(error, 1e-9) << k;
+  }
+  EXPECT_GT(sim.state().positions.row(2).maxCoeff(), 0.005);  // over the ball
+  // removed: the rope falls back onto the plane
+  const ProjectionReport removed = sim.setObstacles({});
+  EXPECT_EQ(removed.max_displacement, 0.0);
+  EXPECT_EQ(sim.model().scene().constraints.size(), records - n);
+  sim.step(1500);
+  EXPECT_LT(sim.state().positions.row(2).maxCoeff(), 1e-6);
+  EXPECT_GT(sim.state().positions.row(2).minCoeff(), -1e-9);
 }
 
 // A new scene (a ~reset) with an obstacle of the same name carried: it stays where its holder

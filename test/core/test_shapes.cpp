@@ -404,3 +404,125 @@ constraints: [{type: shape_contact, particle: 1, shape: post}]
         << e.what();
   }
 }
+
+// ~set_obstacle's scene change (changeObstacle): an added shape is kept out by every chain with
+// its radius, friction and capsules; a replaced one everywhere it is named (a chain's obstacles
+// and a listed record); a removed one nowhere; each refusal names its field and changes nothing.
+TEST(ShapeContact, ObstaclesAddedReplacedAndRemovedInASceneDescription)
+{
+  const SceneDescription scene = parseScene(R"(
+name: two_posts
+shapes:
+  post: {type: sphere, position: [0, 0, 0], radius: 0.1}
+  hand: {type: sphere, radius: 0.1, frame: gripper}
+chains:
+  - {particles: 4, link_length: 0.1, start: [-0.15, 0, 0.5], obstacles: [post], radius: 0.01,
+     friction: 0.3, capsules: true}
+constraints: [{type: shape_contact, particle: 0, shape: hand}]
+particles: [{position: [2, 0, 0.5]}]
+)",
+                                            "two_posts.yaml");
+  auto records = [](const SceneDescription& d, const std::string& name, bool segments)
+  {
+    int count = 0;
+    for (const Constraint& c : buildScene(d, false).scene.constraints)
+    {
+      if (const auto* contact = std::get_if<ShapeContact>(&c); contact && !segments)
+        count += contact->shape.name == name;
+      if (const auto* segment = std::get_if<SegmentContact>(&c); segment && segments)
+        count += segment->shape.name == name;
+    }
+    return count;
+  };
+  // added: 4 particles and 3 links keep out of it, with the chain's radius and friction
+  SceneDescription added = scene;
+  changeObstacle(added, ObstacleChange::Add, "block",
+                 "{type: box, position: [0, 0, 0.5], size: [0.4, 0.4, 0.1]}");
+  EXPECT_EQ(added.shapes.size(), 3u);
+  EXPECT_EQ(records(added, "block", false), 4);
+  EXPECT_EQ(records(added, "block", true), 3);
+  for (const Constraint& c : buildScene(added, false).scene.constraints)
+    if (const auto* contact = std::get_if<ShapeContact>(&c);
+        contact && contact->shape.name == "block")
+    {
+      EXPECT_DOUBLE_EQ(contact->radius, 0.01);
+      EXPECT_DOUBLE_EQ(contact->friction, 0.3);
+      EXPECT_DOUBLE_EQ(contact->shape.size.z(), 0.1);
+    }
+  // the chain starts inside it: a scene file would be refused, ~set_obstacle's build is not
+  EXPECT_THROW(buildScene(added), InvalidInput);
+  // replaced: moved and grown wherever it is named
+  SceneDescription replaced = scene;
+  changeObstacle(replaced, ObstacleChange::Replace, "post",
+                 "{type: sphere, position: [0, 0, -1], radius: 0.3}");
+  for (const Constraint& c : buildScene(replaced, false).scene.constraints)
+    if (const auto* contact = std::get_if<ShapeContact>(&c);
+        contact && contact->shape.name == "post")
+    {
+      EXPECT_DOUBLE_EQ(contact->shape.radius, 0.3);
+      EXPECT_DOUBLE_EQ(contact->shape.position.z(), -1.0);
+    }
+  EXPECT_EQ(records(replaced, "post", false), 4);
+  // removed: from shapes, the chain's obstacles and its records
+  SceneDescription removed = scene;
+  changeObstacle(removed, ObstacleChange::Remove, "post", "");
+  EXPECT_EQ(removed.shapes.size(), 1u);
+  EXPECT_TRUE(removed.chains[0].obstacles.empty());
+  EXPECT_EQ(records(removed, "post", false), 0);
+  EXPECT_EQ(records(removed, "post", true), 0);
+  EXPECT_EQ(records(removed, "hand", false), 1);  // the other shape's record stays
+
+  auto refusal = [&scene](ObstacleChange change, const std::string& name, const std::string& yaml)
+  {
+    SceneDescription changed = scene;
+    try
+    {
+      changeObstacle(changed, change, name, yaml);
+    }
+    catch (const InvalidInput& e)
+    {
+      EXPECT_EQ(changed.shapes.size(), scene.shapes.size());
+      EXPECT_EQ(changed.chains[0].obstacles, scene.chains[0].obstacles);
+      EXPECT_EQ(changed.constraints.size(), scene.constraints.size());
+      return std::string(e.what());
+    }
+    ADD_FAILURE() << name << ": " << yaml << " accepted";
+    return std::string();
+  };
+  const std::string sphere = "{type: sphere, radius: 0.1}";
+  EXPECT_EQ(refusal(ObstacleChange::Add, "", sphere).rfind("name is empty", 0), 0u);
+  EXPECT_NE(refusal(ObstacleChange::Add, "post", sphere).find("name = 'post' is a shape"),
+            std::string::npos);
+  const std::string unknown = refusal(ObstacleChange::Replace, "pole", sphere);
+  EXPECT_NE(unknown.find("its fixed shapes: post"), std::string::npos) << unknown;
+  const std::string carried = refusal(ObstacleChange::Remove, "hand", "");
+  EXPECT_NE(carried.find("carried by 'gripper'"), std::string::npos) << carried;
+  const std::string range = refusal(ObstacleChange::Add, "ball", "{type: sphere, radius: -0.1}");
+  EXPECT_NE(range.find("shape:1: radius"), std::string::npos) << range;
+  EXPECT_NE(range.find(limits::SHAPE_SIZE.text()), std::string::npos) << range;
+  const std::string key = refusal(ObstacleChange::Add, "ball", "{type: sphere, size: [1, 1, 1]}");
+  EXPECT_NE(key.find("size"), std::string::npos) << key;
+  const std::string yaml = refusal(ObstacleChange::Add, "ball", "{type: sphere, radius: [");
+  EXPECT_NE(yaml.find("shape"), std::string::npos) << yaml;
+  const std::string frame =
+      refusal(ObstacleChange::Add, "ball", "{type: sphere, radius: 0.1, frame: tool0}");
+  EXPECT_NE(frame.find("fixed shapes only"), std::string::npos) << frame;
+  const std::string text = refusal(ObstacleChange::Remove, "post", sphere);
+  EXPECT_NE(text.find("shape must be empty"), std::string::npos) << text;
+  SceneDescription rounded = scene;  // the chain's radius is 0.01: a box's edges rounded
+  EXPECT_NO_THROW(changeObstacle(rounded, ObstacleChange::Add, "block", "{type: box}"));
+  SceneDescription point = scene;
+  point.chains[0].radius = 0.0;
+  EXPECT_THROW(changeObstacle(point, ObstacleChange::Add, "block", "{type: box}"), InvalidInput);
+  SceneDescription beads = scene;
+  beads.chains.clear();
+  try
+  {
+    changeObstacle(beads, ObstacleChange::Add, "ball", sphere);
+    ADD_FAILURE() << "an obstacle added to a scene with no chain";
+  }
+  catch (const InvalidInput& e)
+  {
+    EXPECT_EQ(e.field(), "operation");
+  }
+}

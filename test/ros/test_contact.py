@@ -2,7 +2,7 @@
 """Contact through the node (issues 35, 48): surface_chain_contact for 10 s keeps every particle
 on or above the bowl and its links exact, with no fault, ~state naming the touching particles; a
 rope slides off its table without going into it; a rope dropped over a post stays out of it and
-its floor and loads both. Waits are wall-clock deadlines with polling."""
+its floor and loads both; obstacles change under it (~set_obstacle). Waits are wall-clock deadlines with polling."""
 import math
 import unittest
 
@@ -11,7 +11,7 @@ import rostest
 from topic_recorder import Recorder
 from wall_clock import WallClockWaits
 from constrained_particles.msg import SimState
-from constrained_particles.srv import Reset, SetSurface, Step
+from constrained_particles.srv import Reset, SetObstacle, SetObstacleRequest, SetSurface, Step
 from std_srvs.srv import Empty
 from geometry_msgs.msg import WrenchStamped
 from visualization_msgs.msg import Marker, MarkerArray
@@ -70,6 +70,26 @@ class ContactTest(WallClockWaits, unittest.TestCase):
                     length = math.dist((a.x, a.y, a.z), (b.x, b.y, b.z))
                     self.assertLessEqual(abs(length - link), TOLERANCE, f"t = {t}")
             self.assertLessEqual(state.max_position_error, TOLERANCE, f"t = {t}")
+        return state
+
+    def step_on(self, chunks, start, gap):
+        """Steps `chunks` chunks of 0.1 s from sim time `start` [s] (the time goes on: no reset),
+        checking the state after each: no fault, gap(p) >= -TOLERANCE for every particle (p's
+        distance outside what its contacts keep it out of). Returns the last state."""
+        state = None
+        for chunk in range(chunks):
+            step = self.step(100)
+            self.assertTrue(step.success, step.message)
+            self.assertAlmostEqual(step.sim_time, start + 0.1 * (chunk + 1), delta=1e-9)
+            since = time.monotonic()
+            state = self.wait_until(
+                lambda: next((s for s in self.states.since(since - 1.0)
+                              if abs(s.sim_time - step.sim_time) < 1e-9), None),
+                f"~state at t = {step.sim_time}")
+            self.assertNotEqual(state.status, SimState.STATUS_FAULT, state.status_message)
+            for i, p in enumerate(state.positions):
+                self.assertGreaterEqual(gap(p), -TOLERANCE,
+                                        f"particle {i} inside at t = {state.sim_time}")
         return state
 
     def test_chain_rests_in_the_bowl(self):
@@ -159,23 +179,73 @@ class ContactTest(WallClockWaits, unittest.TestCase):
                     for a, b in zip(before.positions, after.positions))
         self.assertGreater(moved, 1e-3)
         self.assertAlmostEqual(reply.max_displacement, moved, delta=1e-9)
-        for chunk in range(20):
-            step = self.step(100)
-            self.assertTrue(step.success, step.message)
-            # the time went on from 3 s: kept, not reset
-            self.assertAlmostEqual(step.sim_time, 3.0 + 0.1 * (chunk + 1), delta=1e-9)
-            since = time.monotonic()
-            state = self.wait_until(
-                lambda: next((s for s in self.states.since(since - 1.0)
-                              if abs(s.sim_time - step.sim_time) < 1e-9), None),
-                f"~state at t = {step.sim_time}")
-            self.assertNotEqual(state.status, SimState.STATUS_FAULT, state.status_message)
-            for i, p in enumerate(state.positions):
-                self.assertGreaterEqual(p.z - steeper(p.x, p.y), -TOLERANCE,
-                                        f"particle {i} below the new bowl at t = {state.sim_time}")
+        # the time goes on from 3 s: kept, not reset
+        self.step_on(20, 3.0, lambda p: p.z - steeper(p.x, p.y))
         bad = set_surface(type="bowl", coefficients=[-1.0], expression="", keep_state=True)
         self.assertFalse(bad.success)
         self.assertIn("coefficients", bad.message)
+
+    def test_obstacles_change_under_the_draped_rope_and_keep_the_state(self):
+        """~set_obstacle (issue 48, item 5) on rope_over_post after 2 s: the post grown from 5 cm
+        to 8 cm pushes the rope out (the reply says how far, the time goes on, nothing inside the
+        new post over 1 s more); a shape added far away moves nothing and is drawn; bad requests
+        are refused naming their field with the time unchanged; the post removed, the rope falls
+        to the floor."""
+        set_obstacle = rospy.ServiceProxy(f"{NODE}/set_obstacle", SetObstacle)
+        markers = Recorder(f"{NODE}/obstacles", MarkerArray)
+
+        def gap(radius):
+            return lambda p: math.hypot(p.x, p.z - 0.5) - radius - 0.01
+
+        before = self.run_scene("rope_over_post", lambda x, y: 0.01, 2.0, link=0.05,
+                                outside=gap(0.05))
+        self.assertLess(min(gap(0.08)(p) for p in before.positions), -0.02)
+        since = time.monotonic()
+        grown = ("{type: cylinder, position: [0, 0, 0.5], rpy: [1.5707963267948966, 0, 0], "
+                 "radius: 0.08, length: 0.8}")
+        reply = set_obstacle(operation=SetObstacleRequest.REPLACE, name="post",
+                             shape=grown)
+        self.assertTrue(reply.success, reply.message)
+        after = self.wait_until(
+            lambda: next((s for s in self.states.since(since)
+                          if abs(s.sim_time - before.sim_time) < 1e-9 and
+                          all(gap(0.08)(p) >= -TOLERANCE for p in s.positions)), None),
+            "~state at the change's time outside the grown post")
+        moved = max(math.dist((a.x, a.y, a.z), (b.x, b.y, b.z))
+                    for a, b in zip(before.positions, after.positions))
+        self.assertGreater(moved, 0.02)
+        self.assertAlmostEqual(reply.max_displacement, moved, delta=1e-9)
+        print(f"set_obstacle: the post grown to 8 cm moved the rope out by up to {moved:.4g} m "
+              f"at t = {before.sim_time:.3f} s ({reply.message})")
+
+        self.step_on(10, 2.0, lambda p: min(p.z - 0.01, gap(0.08)(p)))
+        # bad requests: refused, naming the field, nothing changed
+        for request, field in (
+                (dict(operation=7, name="post", shape=""), "operation"),
+                (dict(operation=SetObstacleRequest.REPLACE, name="post",
+                      shape="{type: cylinder, radius: -1}"), "radius"),
+                (dict(operation=SetObstacleRequest.REMOVE, name="pole", shape=""),
+                 "name"),
+                (dict(operation=SetObstacleRequest.ADD, name="post",
+                      shape="{type: sphere}"), "name")):
+            bad = set_obstacle(**request)
+            self.assertFalse(bad.success, request)
+            self.assertIn(field, bad.message)
+        # added far away: nothing moves, three shapes drawn
+        since = time.monotonic()
+        added = set_obstacle(operation=SetObstacleRequest.ADD, name="ball",
+                             shape="{type: sphere, position: [0, 0, 3], radius: 0.1}")
+        self.assertTrue(added.success, added.message)
+        self.assertEqual(added.max_displacement, 0.0)
+        self.wait_until(lambda: next((m for m in markers.since(since)
+                                      if len(m.markers) == 4), None),
+                        "~obstacles with the post, the floor and the ball")
+        # the post removed: the rope falls to the floor (z = 0.01 its radius)
+        removed = set_obstacle(operation=SetObstacleRequest.REMOVE, name="post",
+                               shape="")
+        self.assertTrue(removed.success, removed.message)
+        state = self.step_on(10, 3.0, lambda p: p.z - 0.01)
+        self.assertLess(max(p.z for p in state.positions), 0.1)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,8 @@ import yaml
 from wall_clock import WallClockWaits
 from constrained_particles.msg import SimState
 from constrained_particles.srv import (ApplyForce, ClearForces, ListScenes, Reset, SetChain,
-                                       SetState, SetSurface, Step)
+                                       SetObstacle, SetObstacleRequest, SetState, SetSurface,
+                                       Step)
 from dynamic_reconfigure.msg import Config, DoubleParameter, StrParameter
 from dynamic_reconfigure.srv import Reconfigure
 from geometry_msgs.msg import Point, Vector3
@@ -116,6 +117,7 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
         cls.reconfigure = proxy("set_parameters", Reconfigure)
         cls.apply_force = proxy("apply_force", ApplyForce)
         cls.clear_forces = proxy("clear_forces", ClearForces)
+        cls.set_obstacle = proxy("set_obstacle", SetObstacle)
         cls.latest = None
         rospy.Subscriber(f"{NODE}/state", SimState, cls._on_state, queue_size=1)
 
@@ -363,6 +365,86 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
             with open(os.environ["CP_FUZZ_SUMMARY"], "w") as f:
                 f.write(summary + "\n")
         self.assertGreaterEqual(tally.calls, 10000)
+        self.assertEqual(len(tally.problems), 0, "\n".join(tally.problems[:20]))
+
+    def test_fuzz_set_obstacle(self):
+        """~set_obstacle (issue 48, item 5): 400 requests on rope_over_post between steps, valid
+        (the post moved and resized, spheres added near the rope and removed) and not (bad
+        operation, names, YAML, ranges, carried shapes): valid ones accepted, the rest refused
+        with a message; afterwards a finite state on its constraints, outside every obstacle."""
+        rng = random.Random(SEED + 1)
+        tally = Tally()
+        self.pause()
+        self.assertTrue(self.reset("rope_over_post").success)
+        added = []
+        post = [0.0, 0.5, 0.05]  # x, z, radius [m]
+
+        def cylinder(x, z, radius):
+            return (f"{{type: cylinder, position: [{x}, 0, {z}], "
+                    f"rpy: [1.5707963267948966, 0, 0], radius: {radius}, length: 0.8}}")
+
+        while tally.calls < 400:
+            kind = rng.random()
+            if kind < 0.3:  # the post moved by up to 2 cm and resized within 3-8 cm
+                moved = [post[0] + rng.uniform(-0.02, 0.02), post[1] + rng.uniform(-0.02, 0.02),
+                         rng.uniform(0.03, 0.08)]
+                r = self.set_obstacle(operation=SetObstacleRequest.REPLACE, name="post",
+                                      shape=cylinder(*moved))
+                tally.record("set_obstacle", True, r.success, r.message)
+                if r.success:
+                    post = moved
+            elif kind < 0.45:  # a small sphere near the rope
+                name = f"ball_{tally.calls}"
+                shape = (f"{{type: sphere, position: [{rng.uniform(-0.6, 0.6)}, 0, "
+                         f"{rng.uniform(0.1, 0.7)}], radius: {rng.uniform(0.01, 0.04)}}}")
+                r = self.set_obstacle(operation=SetObstacleRequest.ADD, name=name, shape=shape)
+                tally.record("set_obstacle", True, r.success, r.message)
+                if r.success:
+                    added.append(name)
+            elif kind < 0.55 and added:
+                name = added.pop(rng.randrange(len(added)))
+                r = self.set_obstacle(operation=SetObstacleRequest.REMOVE, name=name, shape="")
+                tally.record("set_obstacle", True, r.success, r.message)
+            elif kind < 0.7:
+                r = self.step(rng.randint(1, 50))
+                self.assertTrue(r.success, r.message)
+            else:
+                operation, name, shape = rng.choice([
+                    (3, "post", ""), (255, "post", cylinder(0, 0.5, 0.05)),
+                    (SetObstacleRequest.ADD, "", "{type: sphere}"),
+                    (SetObstacleRequest.ADD, "post", "{type: sphere}"),
+                    (SetObstacleRequest.ADD, "floor", "{type: sphere}"),
+                    (SetObstacleRequest.ADD, "b", "{type: sphere, radius: -1}"),
+                    (SetObstacleRequest.ADD, "b", "{type: sphere, radius: .nan}"),
+                    (SetObstacleRequest.ADD, "b", "{type: sphere, position: [1e9, 0, 0]}"),
+                    (SetObstacleRequest.ADD, "b", "{type: torus}"),
+                    (SetObstacleRequest.ADD, "b", "{radius: 0.1}"),
+                    (SetObstacleRequest.ADD, "b", ""),
+                    (SetObstacleRequest.ADD, "b", "[1, 2, 3]"),
+                    (SetObstacleRequest.ADD, "b", "{type: sphere, radius: ["),
+                    (SetObstacleRequest.ADD, "b", "{type: sphere, frame: tool0}"),
+                    (SetObstacleRequest.ADD, "b", "{type: box, size: [1, 1, 1e9]}"),
+                    (SetObstacleRequest.ADD, "b", "{type: sphere, colour: red}"),
+                    (SetObstacleRequest.ADD, "b", "x" * 100000),
+                    (SetObstacleRequest.REPLACE, "pole", cylinder(0, 0.5, 0.05)),
+                    (SetObstacleRequest.REPLACE, "post", "{type: cylinder, length: 0}"),
+                    (SetObstacleRequest.REMOVE, "pole", ""),
+                    (SetObstacleRequest.REMOVE, "post", "{type: sphere}"),
+                    (SetObstacleRequest.REMOVE, "\0", "")])
+                r = self.set_obstacle(operation=operation, name=name, shape=shape)
+                tally.record("set_obstacle", False, r.success, r.message)
+        self.assertTrue(self.step(100).success)
+        state = self.fresh_state()
+        values = [c for p in state.positions for c in (p.x, p.y, p.z)]
+        values += [c for v in state.velocities for c in (v.x, v.y, v.z)]
+        self.assertTrue(all(math.isfinite(v) for v in values))
+        self.assertLess(state.max_position_error, 1e-8)
+        for i, p in enumerate(state.positions):
+            gap = math.hypot(p.x - post[0], p.z - post[1]) - post[2] - 0.01
+            self.assertGreaterEqual(gap, -1e-8, f"particle {i} inside the post")
+            self.assertGreaterEqual(p.z, 0.01 - 1e-8, f"particle {i} in the floor")
+        rospy.loginfo("fuzz set_obstacle: %d calls, %d valid, %d invalid; %d spheres left",
+                      tally.calls, tally.valid, tally.invalid, len(added))
         self.assertEqual(len(tally.problems), 0, "\n".join(tally.problems[:20]))
 
     @staticmethod

@@ -103,6 +103,8 @@ constexpr Range SURFACE_WIDTH{ 1e-6, false, 1e6, "m", false };
 constexpr Range SHAPE_SIZE{ 1e-6, false, 1e3, "m", false };
 /// A shape's roll, pitch or yaw [rad] (URDF's rpy: about fixed x, then y, then z).
 constexpr Range SHAPE_ANGLE{ -1e3, false, 1e3, "rad", false };
+/// Obstacle shapes in one scene (its `shapes`, with robot_links', and those ~set_obstacle adds).
+constexpr Range SHAPES{ 0.0, false, 256.0, "1", true };
 /// A particle's radius against obstacles [m] (a rope's thickness / 2); 0: a point.
 constexpr Range PARTICLE_RADIUS{ 0.0, false, 10.0, "m", false };
 /// A self-colliding rope's radius [m] (its links' against each other): over 0, as links of no

@@ -95,6 +95,17 @@ public:
   /// changes
   ProjectionReport setSurfaces(const std::vector<Surface>& surfaces);
 
+  /// Replaces the scene's obstacle contacts (its shape_contact and segment_contact records, and a
+  /// self-colliding rope's link pairs, made again at the next step) with `contacts`, keeping the
+  /// state, forces, perturbations, holders' and carried shapes' tracks: an obstacle added, moved,
+  /// resized or removed under the running rope (~set_obstacle). As setSurfaces, the state is
+  /// projected onto the constraints, then each particle or link a contact keeps out of its
+  /// obstacle but now inside it is moved out (its velocity into it taken out); the report says by
+  /// how much.
+  /// @throws InvalidInput naming "contacts[k]" (a record of another kind, or invalid) or the
+  /// failed projection; nothing changes
+  ProjectionReport setObstacles(const std::vector<Constraint>& contacts);
+
   /// Replaces the forces applied from outside the model (Data::perturbations: a push, a grabbed
   /// particle's target spring), evaluated from the next step on beside the model's own and
   /// counted with them; empty = none. Cheap: no recompilation. A conservative scene's energy
@@ -222,6 +233,14 @@ private:
   /// Makes `model` and `data` the simulator's (the old data, which refers to the old model, goes
   /// first), reads the scene's kind and sizes the diagnostics' workspaces to its rows.
   void install(std::unique_ptr<Model> model, std::unique_ptr<Data> data);
+
+  /// Installs `model` and `data` (the data holding the running state, tracks and carriers) after
+  /// a change of the world under the state (setSurfaces, setObstacles): the state is projected
+  /// onto the new constraints, then each contact now inside its surface or obstacle is switched
+  /// on and its particles moved out (resolveImpacts at rest); the ledger is opened anew.
+  /// @throws InvalidInput naming `field`; nothing changes
+  ProjectionReport installChangedWorld(std::unique_ptr<Model> model, std::unique_ptr<Data> data,
+                                       const std::string& field);
 
   /// Opens the energy ledger at the current state (t0).
   void openLedger();

@@ -21,12 +21,13 @@ namespace constrained_particles
 struct RunnerReply
 {
   bool success = false;
-  std::string message;            ///< what was done, or why not (naming the field)
-  std::string field;              ///< the refused field, when one was named
-  double sim_time = 0;            ///< sim time once applied [s]
-  std::uint64_t steps_taken = 0;  ///< ~step: steps taken (fewer if interrupted or faulted)
-  double max_displacement = 0;    ///< teleport, attach: largest move of a particle [m]
-  std::int64_t stamp_ns = -1;     ///< attach: the stamp of the state the hold began at [ns]
+  std::string message;             ///< what was done, or why not (naming the field)
+  std::string field;               ///< the refused field, when one was named
+  double sim_time = 0;             ///< sim time once applied [s]
+  std::uint64_t steps_taken = 0;   ///< ~step: steps taken (fewer if interrupted or faulted)
+  double max_displacement = 0;     ///< teleport, attach: largest move of a particle [m]
+  double max_velocity_change = 0;  ///< ~set_obstacle: largest change of a velocity [m/s]
+  std::int64_t stamp_ns = -1;      ///< attach: the stamp of the state the hold began at [ns]
   /// Batches of steps that ended between queueing and applying the request: at most 1, the one
   /// under way (a request waits for no more than one batch).
   std::uint64_t batches_waited = 0;

@@ -50,6 +50,11 @@ public:
   /// the scene's own refusal (no surface); nothing changes
   Candidate forSurface(const std::string& type, const std::vector<double>& coefficients,
                        const std::string& expression, const StepSettings& current) const;
+  /// ~set_obstacle: the current scene with obstacle `name` changed (changeObstacle), built
+  /// without refusing a start inside it (the change meets the running state), under `current`.
+  /// @throws InvalidInput naming `operation`, `name` or `shape` (its key); nothing changes
+  Candidate forObstacle(ObstacleChange change, const std::string& name, const std::string& shape,
+                        const StepSettings& current) const;
   /// ~set_chain: every chain of the current scene changed by `change`, under `current` settings.
   /// @throws InvalidInput naming `num_particles`, `link_length` or `particle_mass` and its range
   /// (limits.hpp, and ~max_particles for the count), or the scene's own refusal (no chain);
@@ -94,7 +99,8 @@ public:
 private:
   /// @throws InvalidInput naming `field` if `description` is over ~max_particles
   void requireAtMost(const SceneDescription& description, const std::string& field) const;
-  Candidate build(const SceneDescription& description, const StepSettings& settings) const;
+  Candidate build(const SceneDescription& description, const StepSettings& settings,
+                  bool refuse_start_inside = true) const;
 
   int max_particles_;
   std::string scene_directory_;

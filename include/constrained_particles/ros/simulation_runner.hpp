@@ -164,6 +164,11 @@ public:
   /// changed.
   RunnerReply setSurface(const std::string& type, const std::vector<double>& coefficients,
                          const std::string& expression, bool keep_state = false);
+  /// ~set_obstacle: a fixed obstacle added, replaced or removed (SceneSession::forObstacle) with
+  /// the state going on (Simulator::setObstacles: the reply's max_displacement and
+  /// max_velocity_change say how far particles were moved out); refused naming the field, with
+  /// nothing changed.
+  RunnerReply setObstacle(ObstacleChange change, const std::string& name, const std::string& shape);
   /// ~set_chain: every chain of the current scene changed (SceneSession::forChain), then a reset
   /// to it; refused naming the field and its range, with nothing changed.
   RunnerReply setChain(const ChainChange& change);

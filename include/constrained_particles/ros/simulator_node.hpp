@@ -26,6 +26,7 @@
 #include <constrained_particles/Reset.h>
 #include <constrained_particles/SetChain.h>
 #include <constrained_particles/SetState.h>
+#include <constrained_particles/SetObstacle.h>
 #include <constrained_particles/SetSurface.h>
 #include <constrained_particles/Step.h>
 #include <ros/callback_queue.h>
@@ -101,6 +102,7 @@ private:
   bool resetCallback(Reset::Request& request, Reset::Response& response);
   bool listScenesCallback(ListScenes::Request& request, ListScenes::Response& response);
   bool setSurfaceCallback(SetSurface::Request& request, SetSurface::Response& response);
+  bool setObstacleCallback(SetObstacle::Request& request, SetObstacle::Response& response);
   bool setChainCallback(SetChain::Request& request, SetChain::Response& response);
   bool setStateCallback(SetState::Request& request, SetState::Response& response);
   bool pauseCallback(std_srvs::Empty::Request& request, std_srvs::Empty::Response& response);

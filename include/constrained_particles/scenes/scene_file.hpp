@@ -217,8 +217,10 @@ SceneDescription loadSceneFile(const std::string& path, const SceneInputs& input
 /// The scene and initial state a description stands for: chains expanded, particles on surfaces
 /// placed at z = Z(x, y) with their velocity lifted into the tangent plane, unset fields (pins at
 /// their starts, angles as they start) completed by each kind's fillFromStart.
+/// @param refuse_start_inside refuse a particle or link starting inside what its contact keeps
+/// it out of (false: ~set_obstacle, whose change meets the running state, not the start)
 /// @throws InvalidInput naming the bad field
-BuiltScene buildScene(const SceneDescription& description);
+BuiltScene buildScene(const SceneDescription& description, bool refuse_start_inside = true);
 
 /// Least margin the region keeps around the particles [m].
 constexpr double REGION_MARGIN = 0.25;
@@ -245,6 +247,25 @@ std::string resolveScene(const std::string& name_or_path, const std::string& dir
 /// follows the new chains). @throws InvalidInput if the scene has no chain, or names chain
 /// particles by index
 void setChains(SceneDescription& description, const ChainChange& change);
+
+/// What ~set_obstacle does to an obstacle (srv/SetObstacle.srv's operation).
+enum class ObstacleChange
+{
+  Add,      ///< a new shape, kept out by every chain (as if listed in each one's `obstacles`)
+  Replace,  ///< moved, resized or retyped: in `shapes` and in every record naming it
+  Remove,   ///< from `shapes`, every chain's `obstacles` and every record naming it
+};
+
+/// Applies `change` to the fixed obstacle `name`. `shape_yaml` is the shape as a scene file
+/// writes it under `shapes` (a YAML map: "{type: sphere, position: [0, 0, 0.5], radius: 0.1}"),
+/// for Add and Replace; empty for Remove. An added shape is kept out by each chain with the
+/// chain's radius, friction, restitution and capsules.
+/// @throws InvalidInput naming `name` (empty; taken, for Add; not a shape of the scene, or one a
+/// frame or topic carries, for Replace and Remove), `shape` (its key and line, as a scene file's
+/// are named; a frame or topic in it; present for Remove) or `operation` (Add in a scene with no
+/// chain, or over limits::SHAPES shapes); `description` is then unchanged
+void changeObstacle(SceneDescription& description, ObstacleChange change, const std::string& name,
+                    const std::string& shape_yaml);
 
 /// Replaces the scene's first surface. @throws InvalidInput if it has none
 void setFirstSurface(SceneDescription& description, const Surface& surface);
