@@ -16,6 +16,9 @@
 
 namespace constrained_particles
 {
+/// Rows from which the sparse solve's pattern is of the acting rows only (sparse.cpp).
+constexpr int SPARSE_ACTIVE_PATTERN_ROWS = 1024;
+
 /// Factorisation of J W J^T for one model. Allocates when made; the single-row, tridiagonal and
 /// tree solves allocate nothing after that, but for a tree's steps handed to its sparse fallback
 /// (two particles of one tree with rows of their own, one locked along its parent link), which
