@@ -29,76 +29,95 @@ std::int64_t cellKey(std::int64_t x, std::int64_t y, std::int64_t z)
 std::vector<LinkPairContact> nearLinkPairs(const std::vector<SelfCollision>& collisions,
                                            const Points& positions, double margin)
 {
-  std::vector<LinkPairContact> pairs;
-  std::unordered_map<std::int64_t, std::vector<int>> grid;
-  std::vector<std::array<std::int64_t, 3>> cells;
-  std::vector<std::pair<int, int>> found;
-  for (const SelfCollision& rope : collisions)
+  // every rope's links in one grid: a rope's own pairs and two ropes' pairs alike
+  struct Link
   {
-    const std::vector<int>& p = rope.particles;
-    const int links = static_cast<int>(p.size()) - 1;
-    if (links < 3)
-      continue;  // links 0 and 2 are the first that share no particle
-    double longest = 0.0;
-    for (int k = 0; k < links; ++k)
+    int rope, index;  // its rope (collisions' index) and its place along it (link k: p_k-p_k+1)
+  };
+  std::vector<Link> links;
+  double longest = 0.0, widest = 0.0;
+  for (std::size_t r = 0; r < collisions.size(); ++r)
+  {
+    const std::vector<int>& p = collisions[r].particles;
+    widest = std::max(widest, collisions[r].radius);
+    for (int k = 0; k + 1 < static_cast<int>(p.size()); ++k)
+    {
+      links.push_back(Link{ static_cast<int>(r), k });
       longest = std::max(longest, (positions.col(p[k + 1]) - positions.col(p[k])).norm());
-    const double reach = 2.0 * rope.radius + margin;
-    // two links within `reach` have midpoints within longest + reach: neighbouring cells
-    const double cell = longest + reach;
-    grid.clear();
-    cells.resize(links);
-    for (int k = 0; k < links; ++k)
-    {
-      const Vec3 middle = 0.5 * (positions.col(p[k]) + positions.col(p[k + 1])) / cell;
-      cells[k] = { static_cast<std::int64_t>(std::floor(middle.x())),
-                   static_cast<std::int64_t>(std::floor(middle.y())),
-                   static_cast<std::int64_t>(std::floor(middle.z())) };
-      grid[cellKey(cells[k][0], cells[k][1], cells[k][2])].push_back(k);
     }
-    found.clear();
-    for (int a = 0; a < links; ++a)
-      for (std::int64_t dx = -1; dx <= 1; ++dx)
-        for (std::int64_t dy = -1; dy <= 1; ++dy)
-          for (std::int64_t dz = -1; dz <= 1; ++dz)
+  }
+  auto end = [&](const Link& link, int which)
+  { return collisions[link.rope].particles[link.index + which]; };
+  // two links within r_a + r_b + margin have midpoints within longest + that: neighbouring cells
+  const double cell = longest + 2.0 * widest + margin;
+  std::unordered_map<std::int64_t, std::vector<int>> grid;
+  std::vector<std::array<std::int64_t, 3>> cells(links.size());
+  for (std::size_t k = 0; k < links.size(); ++k)
+  {
+    const Vec3 middle =
+        0.5 * (positions.col(end(links[k], 0)) + positions.col(end(links[k], 1))) / cell;
+    cells[k] = { static_cast<std::int64_t>(std::floor(middle.x())),
+                 static_cast<std::int64_t>(std::floor(middle.y())),
+                 static_cast<std::int64_t>(std::floor(middle.z())) };
+    grid[cellKey(cells[k][0], cells[k][1], cells[k][2])].push_back(static_cast<int>(k));
+  }
+  std::vector<std::pair<int, int>> found;
+  for (std::size_t a = 0; a < links.size(); ++a)
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dz = -1; dz <= 1; ++dz)
+        {
+          const auto it = grid.find(cellKey(cells[a][0] + dx, cells[a][1] + dy, cells[a][2] + dz));
+          if (it == grid.end())
+            continue;
+          for (const int b : it->second)
           {
-            const auto it =
-                grid.find(cellKey(cells[a][0] + dx, cells[a][1] + dy, cells[a][2] + dz));
-            if (it == grid.end())
+            // each pair once (links are listed by rope, then along it); a rope's links sharing
+            // a particle are neighbours
+            if (b <= static_cast<int>(a) ||
+                (links[b].rope == links[a].rope && links[b].index < links[a].index + 2))
               continue;
-            for (const int b : it->second)
-            {
-              if (b < a + 2)  // each pair once, and links sharing a particle are neighbours
-                continue;
-              const SegmentPairSample near =
-                  closestOnSegments(positions.col(p[a]), positions.col(p[a + 1]),
-                                    positions.col(p[b]), positions.col(p[b + 1]));
-              const Vec3 w =
-                  (1.0 - near.s) * positions.col(p[a]) + near.s * positions.col(p[a + 1]) -
-                  (1.0 - near.t) * positions.col(p[b]) - near.t * positions.col(p[b + 1]);
-              if (w.norm() <= reach)
-                found.emplace_back(a, b);
-            }
+            const Vec3 pi = positions.col(end(links[a], 0)), pj = positions.col(end(links[a], 1));
+            const Vec3 pk = positions.col(end(links[b], 0)), pl = positions.col(end(links[b], 1));
+            const SegmentPairSample near = closestOnSegments(pi, pj, pk, pl);
+            const Vec3 w = (1.0 - near.s) * pi + near.s * pj - (1.0 - near.t) * pk - near.t * pl;
+            const double reach =
+                collisions[links[a].rope].radius + collisions[links[b].rope].radius + margin;
+            if (w.norm() <= reach)
+              found.emplace_back(static_cast<int>(a), b);
           }
-    std::sort(found.begin(), found.end());
-    for (const auto& [a, b] : found)
-    {
-      LinkPairContact pair;
-      pair.first_a = p[a];
-      pair.second_a = p[a + 1];
-      pair.first_b = p[b];
-      pair.second_b = p[b + 1];
-      pair.radius = rope.radius;
-      pair.generated = true;
-      // a particle's ball: the link starting there holds it unless it touches the other link
-      // (or there is none), then the link ending there (a's start and b's are always held). Links
-      // one apart (b = a + 2) fold at the joint between them, p_{a+2}: p_{a+1}'s ball against b
-      // and p_{a+3}'s against link a + 1 are both that joint's angle (with the two links' rows,
-      // four rows on three degrees of freedom: J W J^T singular), so the first is left to the
-      // second's pair (a + 1, a + 3), where there is one
-      pair.holds_second_a = b == a + 2 ? !(a + 3 < links) : !(a + 1 < links && b - (a + 1) >= 2);
-      pair.holds_second_b = !(b + 1 < links);
-      pairs.push_back(pair);
-    }
+        }
+  std::sort(found.begin(), found.end());
+  std::vector<LinkPairContact> pairs;
+  pairs.reserve(found.size());
+  for (const auto& [a, b] : found)
+  {
+    const Link& la = links[a];
+    const Link& lb = links[b];
+    const int links_a = static_cast<int>(collisions[la.rope].particles.size()) - 1;
+    const int links_b = static_cast<int>(collisions[lb.rope].particles.size()) - 1;
+    LinkPairContact pair;
+    pair.first_a = end(la, 0);
+    pair.second_a = end(la, 1);
+    pair.first_b = end(lb, 0);
+    pair.second_b = end(lb, 1);
+    // C = |a(s*) - b(t*)| - 2 r with 2 r the two ropes' radii
+    pair.radius = 0.5 * (collisions[la.rope].radius + collisions[lb.rope].radius);
+    pair.generated = true;
+    // a particle's ball: the link starting there holds it unless it touches the other link
+    // (or there is none), then the link ending there (a's start and b's are always held). Links
+    // one apart on a rope (b = a + 2) fold at the joint between them, p_{a+2}: p_{a+1}'s ball
+    // against b and p_{a+3}'s against link a + 1 are both that joint's angle (with the two
+    // links' rows, four rows on three degrees of freedom: J W J^T singular), so the first is left
+    // to the second's pair (a + 1, a + 3), where there is one. Two ropes' links share nothing.
+    const int i = la.index, k = lb.index;
+    if (la.rope == lb.rope)
+      pair.holds_second_a =
+          k == i + 2 ? !(i + 3 < links_a) : !(i + 1 < links_a && k - (i + 1) >= 2);
+    else
+      pair.holds_second_a = !(i + 1 < links_a);
+    pair.holds_second_b = !(k + 1 < links_b);
+    pairs.push_back(pair);
   }
   return pairs;
 }
@@ -160,16 +179,24 @@ void validateSelfCollisions(const Scene& scene)
   // constraints, after this)
   std::vector<int> rope_of(n, -1);
   for (std::size_t k = 0; k < scene.self_collisions.size(); ++k)
-    for (const int particle : scene.self_collisions[k].particles)
+    for (std::size_t i = 0; i < scene.self_collisions[k].particles.size(); ++i)
+    {
+      const int particle = scene.self_collisions[k].particles[i];
+      if (rope_of[particle] >= 0)
+        throw InvalidInput(
+            "self_collisions[" + std::to_string(k) + "].particles[" + std::to_string(i) + "]",
+            "= " + std::to_string(particle) + " is in rope self_collisions[" +
+                std::to_string(rope_of[particle]) + "] too: a particle is on one rope");
       rope_of[particle] = static_cast<int>(k);
+    }
   for (std::size_t k = 0; k < scene.constraints.size(); ++k)
     if (const auto* pair = std::get_if<LinkPairContact>(&scene.constraints[k]);
         pair && !pair->generated && pair->first_a >= 0 && pair->first_a < n && pair->first_b >= 0 &&
-        pair->first_b < n && rope_of[pair->first_a] >= 0 &&
-        rope_of[pair->first_a] == rope_of[pair->first_b])
+        pair->first_b < n && rope_of[pair->first_a] >= 0 && rope_of[pair->first_b] >= 0)
       throw InvalidInput("constraints[" + std::to_string(k) + "]",
-                         "a link_pair_contact between links of rope self_collisions[" +
-                             std::to_string(rope_of[pair->first_a]) +
+                         "a link_pair_contact between links of ropes self_collisions[" +
+                             std::to_string(rope_of[pair->first_a]) + "] and [" +
+                             std::to_string(rope_of[pair->first_b]) +
                              "], whose pairs the simulator makes as they come near; remove it");
 }
 

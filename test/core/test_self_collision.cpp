@@ -67,6 +67,14 @@ std::vector<int> ropeOf(int n)
   return rope;
 }
 
+// The two features a pair's row stands for where it acts: a particle's ball (its index) or a
+// link's inside (-1 - its first particle), of link a and of link b
+std::pair<int, int> featuresOf(const LinkPairContact& c, const LinkPairFrame& f)
+{
+  return { f.s_at_end ? (f.s == 0 ? c.first_a : c.second_a) : -1 - c.first_a,
+           f.t_at_end ? (f.t == 0 ? c.first_b : c.second_b) : -1 - c.first_b };
+}
+
 TEST(SelfCollision, TheBroadPhaseFindsEveryPairWithinTheMargin)
 {
   Random random(3);
@@ -124,8 +132,7 @@ TEST(SelfCollision, EachBallAndLinkIsHeldByOneRowAndTheClosestByOne)
       const LinkPairFrame f = linkPairGeometry(c, p);
       if (!f.between)
         continue;
-      const int a = f.s_at_end ? (f.s == 0 ? c.first_a : c.second_a) : -1 - c.first_a;
-      const int b = f.t_at_end ? (f.t == 0 ? c.first_b : c.second_b) : -1 - c.first_b;
+      const auto [a, b] = featuresOf(c, f);
       EXPECT_EQ(++features[std::minmax(a, b)], 1) << "trial " << trial << ": " << a << ", " << b;
       // a ball against the link that starts or ends one link on: that joint's fold
       if (a >= 0 && b < 0 && (b == -1 - (a + 1) || b == -1 - (a - 2)))
@@ -251,13 +258,7 @@ TEST(SelfCollision, BadRopesAreRefusedNamingTheField)
   EXPECT_NE(refusal([&] { Model::compile(bad); }).find("equally long"), std::string::npos);
   // a pair listed on the rope's links would be the simulator's row twice
   bad = built.scene;
-  LinkPairContact listed;
-  listed.first_a = 0;
-  listed.second_a = 1;
-  listed.first_b = 3;
-  listed.second_b = 4;
-  listed.radius = 0.01;
-  bad.constraints.push_back(listed);
+  bad.constraints.push_back(LinkPairContact{ 0, 1, 3, 4, 0.01 });
   EXPECT_NE(refusal([&] { Model::compile(bad); })
                 .find("constraints[" + std::to_string(bad.constraints.size() - 1) + "]"),
             std::string::npos);
@@ -286,3 +287,161 @@ TEST(SelfCollision, ForcesChangeBeforeAndAfterTheLinksMeet)
 }
 
 }  // namespace
+
+// Two ropes (issue 48, item 2): every self-colliding rope's links collide with every other's.
+// The broad phase finds each pair of links, a rope's own and two ropes', within r_a + r_b + margin
+// (the pair's 2 r the two radii), and each ball or link of one rope against a ball or link of the
+// other is one acting row's, the closest two links' among them.
+TEST(SelfCollision, TwoRopesPairsAreFoundAndEachFeatureHeldByOneRow)
+{
+  Random random(11);
+  const double length = 0.04, radius_a = 0.008, radius_b = 0.005;
+  int crossing = 0;
+  for (int trial = 0; trial < 100; ++trial)
+  {
+    const int n = 10;
+    Points p(3, 2 * n);
+    p.leftCols(n) = foldedRope(random, n, length);
+    p.rightCols(n) = foldedRope(random, n, length).colwise() + random.unitVector() * 0.5 * length;
+    std::vector<int> second(n);
+    for (int i = 0; i < n; ++i)
+      second[i] = n + i;
+    const std::vector<SelfCollision> ropes = { { ropeOf(n), radius_a }, { second, radius_b } };
+    const double margin = random.uniform(0.0, 0.02);
+    std::set<std::tuple<int, int>> got, expected;
+    for (const LinkPairContact& c : nearLinkPairs(ropes, p, margin))
+    {
+      const bool across = (c.first_a < n) != (c.first_b < n);
+      EXPECT_DOUBLE_EQ(
+          c.radius, across ? 0.5 * (radius_a + radius_b) : (c.first_a < n ? radius_a : radius_b));
+      EXPECT_TRUE(got.emplace(c.first_a, c.first_b).second) << "listed twice";
+    }
+    auto distance = [&p](int a, int b)
+    {
+      const SegmentPairSample near =
+          closestOnSegments(p.col(a), p.col(a + 1), p.col(b), p.col(b + 1));
+      return ((1 - near.s) * p.col(a) + near.s * p.col(a + 1) - (1 - near.t) * p.col(b) -
+              near.t * p.col(b + 1))
+          .norm();
+    };
+    double closest = INFINITY;
+    for (int a = 0; a + 1 < 2 * n; ++a)
+      for (int b = a + 2; b + 1 < 2 * n; ++b)
+      {
+        if (a + 1 == n || b + 1 == n)  // no link joins the ropes
+          continue;
+        const bool across = a < n && b >= n;
+        const double reach = across ? radius_a + radius_b : 2 * (a < n ? radius_a : radius_b);
+        if (distance(a, b) <= reach + margin)
+          expected.emplace(a, b);
+        if (across)
+          closest = std::min(closest, distance(a, b));
+      }
+    EXPECT_EQ(got, expected) << trial;
+    // with every pair: each feature pair across the ropes one acting row's
+    std::map<std::pair<int, int>, int> features;
+    double closest_row = INFINITY;
+    for (const LinkPairContact& c : nearLinkPairs(ropes, p, 1e3))
+    {
+      if ((c.first_a < n) == (c.first_b < n))
+        continue;
+      const LinkPairFrame f = linkPairGeometry(c, p);
+      if (!f.between)
+        continue;
+      const auto [a, b] = featuresOf(c, f);
+      EXPECT_EQ(++features[std::minmax(a, b)], 1) << "trial " << trial << ": " << a << ", " << b;
+      closest_row = std::min(closest_row, f.gap + 2 * c.radius);
+      ++crossing;
+    }
+    const double bound = std::pow(LINK_END_FRACTION * length, 2) / (2 * (radius_a + radius_b));
+    EXPECT_GE(closest_row, closest - 1e-12) << trial;
+    EXPECT_LE(closest_row, closest + bound + 1e-12) << trial;
+  }
+  EXPECT_GT(crossing, 100);
+}
+
+// A thin rope (r = 5 mm) dropped across a thick one (r = 1 cm) lying on a floor: at every step no
+// link of one comes closer to a link of the other than r_a + r_b less the bound, with no failed
+// step, and the thin rope's middle ends on the thick one; with the thick rope alone
+// self-colliding (the thin one in no rope), the thin rope falls through it to the floor.
+TEST(SelfCollision, ARopeDroppedAcrossAnotherLiesOnIt)
+{
+  const std::string text = R"(
+shapes: {floor: {type: plane, position: [0, 0, 0]}}
+chains:
+  - {particles: 21, link_length: 0.05, start: [-0.5, 0, 0.01], direction: [1, 0, 0],
+     obstacles: [floor], radius: 0.01, friction: 0.3, self_collision: true}
+  - {particles: 21, link_length: 0.04, start: [0.025, -0.4, 0.08], direction: [0, 1, 0],
+     obstacles: [floor], radius: 0.005, friction: 0.3, self_collision: true}
+forces: [{type: gravity}]
+)";
+  const BuiltScene built = buildScene(parseScene(text, "crossing.yaml"));
+  ASSERT_EQ(built.scene.self_collisions.size(), 2u);
+  const int n = 21;
+  auto closestAcross = [n](const Points& p)
+  {
+    double least = INFINITY;
+    for (int a = 0; a + 1 < n; ++a)
+      for (int b = n; b + 1 < 2 * n; ++b)
+      {
+        const SegmentPairSample near =
+            closestOnSegments(p.col(a), p.col(a + 1), p.col(b), p.col(b + 1));
+        least = std::min(least, ((1 - near.s) * p.col(a) + near.s * p.col(a + 1) -
+                                 (1 - near.t) * p.col(b) - near.t * p.col(b + 1))
+                                    .norm());
+      }
+    return least;
+  };
+  const double touching = 0.01 + 0.005;
+  for (const char* integrator : { "rk4", "velocity_verlet" })
+  {
+    StepSettings settings;
+    settings.integrator = integrator;
+    Simulator simulator(built.scene, built.initial_state, settings);
+    double closest = INFINITY;
+    for (int k = 0; k < 1000; ++k)
+    {
+      ASSERT_EQ(simulator.step().failed_check, StepCheck::None) << integrator << " step " << k;
+      closest = std::min(closest, closestAcross(simulator.state().positions));
+    }
+    const double bound =
+        2 * settings.projection_tolerance + std::pow(LINK_END_FRACTION * 0.05, 2) / (2 * touching);
+    EXPECT_GE(closest, touching - bound) << integrator;
+    EXPECT_LT(closest, touching + 1e-3) << integrator;  // it lies on it
+    // the thin rope's middle (particle 10 of it) over the thick rope, not on the floor
+    EXPECT_GT(simulator.state().positions(2, n + 10), 0.02) << integrator;
+    std::cout << integrator << ": closest links of the two ropes " << std::setprecision(10)
+              << closest << " m (r_a + r_b " << touching << " m)\n";
+  }
+  Scene through = built.scene;
+  through.self_collisions.pop_back();
+  Simulator simulator(through, built.initial_state, StepSettings{});
+  double closest = INFINITY;
+  for (int k = 0; k < 1000; ++k)
+  {
+    simulator.step();
+    closest = std::min(closest, closestAcross(simulator.state().positions));
+  }
+  EXPECT_LT(closest, 0.01);
+  std::cout << "the thin rope in no rope: closest " << closest << " m\n";
+}
+
+// A particle on two ropes, and a pair listed between two ropes' links, are refused.
+TEST(SelfCollision, TwoRopesSharingAParticleOrAListedPairAreRefused)
+{
+  BuiltScene built = buildScene(parseScene(R"(
+chains:
+  - {particles: 6, link_length: 0.04, start: [0, 0, 1], self_collision: true, radius: 0.01}
+  - {particles: 6, link_length: 0.04, start: [0, 0.5, 1], self_collision: true, radius: 0.01}
+)",
+                                           "two.yaml"));
+  EXPECT_EQ(refusal([&] { Model::compile(built.scene); }), "(accepted)");
+  Scene bad = built.scene;
+  bad.self_collisions[1].particles[2] = 3;
+  EXPECT_NE(refusal([&] { Model::compile(bad); }).find("is in rope self_collisions[0] too"),
+            std::string::npos);
+  bad = built.scene;
+  bad.constraints.push_back(LinkPairContact{ 0, 1, 8, 9, 0.01 });
+  EXPECT_NE(refusal([&] { Model::compile(bad); }).find("ropes self_collisions[0] and [1]"),
+            std::string::npos);
+}

@@ -16,7 +16,7 @@ namespace constrained_particles
 /// One rope that cannot pass through itself: its links (consecutive particles of `particles`) are
 /// capsules of radius r, and no two links that share no particle come closer than 2 r
 /// (link_pair_contact.hpp). The Simulator keeps a row for each pair of its links a broad phase
-/// finds near (self_collision.hpp); two ropes do not collide with each other.
+/// finds near (self_collision.hpp); two such ropes' links collide too (their 2 r: r_a + r_b).
 struct SelfCollision
 {
   std::vector<int> particles;  ///< the rope's particles in order along it (at least 2)
