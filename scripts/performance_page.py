@@ -224,6 +224,20 @@ def cores_block(bench):
                    f"{float(r['max_position_difference_m']):.2g}"])
 
 
+def self_collision_block(bench):
+    return table_block(
+        bench, "self_collision",
+        ["n", "link pairs", "self-collision [us]", "floor only [us]", "free chain [us]",
+         "self-collision / free", "self-collision / floor only", "closest links - 2 r [m]"],
+        lambda r: [f"{int(r['n']):,}", f"{int(r['link_pairs']):,}",
+                   f"{float(r['self_collision_us_per_particle_step']):.3g}",
+                   f"{float(r['floor_only_us_per_particle_step']):.3g}",
+                   f"{float(r['free_us_per_particle_step']):.3g}",
+                   f"{float(r['self_collision_over_free']):.0f}",
+                   f"{float(r['self_collision_over_floor_only']):.1f}",
+                   f"{float(r['closest_links_less_2r_m']):.2g}"])
+
+
 def kernel_block(bench):
     def cells(r):
         checked = bool(r.get("checked_s_per_step"))
@@ -504,7 +518,8 @@ NOT_MEASURED = {"cores": "`bash scripts/bench.sh --cores BASE`",
                 "energy_sweep_stamp": "`bash scripts/energy_sweep.sh`",
                 "compare_methods": "`bash scripts/compare_methods_demo.sh`",
                 "tiers": "`bash scripts/tier_times.sh`",
-                "hard_cases": "`bash scripts/hard_cases.sh --csv docs/bench/hard_cases.csv`"}
+                "hard_cases": "`bash scripts/hard_cases.sh --csv docs/bench/hard_cases.csv`",
+                "self_collision": "`bash scripts/bench.sh --self-collision`"}
 BLOCKS = {"stability": stability_block, "scenes": scenes_block, "trees": trees_block, "orders": orders_block, "headline": headline_block, "peers": peers_block,
           "cores": cores_block, "kernel": kernel_block, "node_kernel": node_kernel_block,
           "node_engine": node_engine_block,
@@ -513,7 +528,7 @@ BLOCKS = {"stability": stability_block, "scenes": scenes_block, "trees": trees_b
           "default_substeps": default_substeps_block, "energy_sweep": energy_sweep_block,
           "energy_sweep_stamp": energy_sweep_stamp_block, "compare_methods": compare_methods_block,
           "reliability": reliability_block, "tiers": tiers_block,
-          "hard_cases": hard_cases_block}
+          "hard_cases": hard_cases_block, "self_collision": self_collision_block}
 
 
 def fill(root):
