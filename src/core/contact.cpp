@@ -545,6 +545,42 @@ void releaseContact(const Model& model, Data& data, int k)
   data.noteStateChange();
 }
 
+namespace
+{
+// Coulomb at an impact (issue 48, item 3): each landing contact's slip after the normal impulse
+// P_n (`impulses`: the row's, times |J|) is met by a tangential impulse of at most mu P_n against
+// it, which stops it where that is enough (a point's impact law, Brogliato 1999, "Nonsmooth
+// Mechanics", 4.3; Stronge 2000); then the velocities are projected onto the rows again, which
+// takes along what the particle's links carry. Staggered as the forces' friction is: each impulse
+// is its particle's own. It never adds energy: an impulse against the slip of at most the slip
+// times the mass lowers the particle's kinetic energy, and a projection in the mass metric does.
+void impactFriction(const Model& model, Data& data, const EffectContext& context,
+                    const Eigen::VectorXd& impulses, State& x)
+{
+  const auto& rows = model.unilateral();
+  const auto& w = model.inverseMasses();
+  bool changed = false;
+  for (int k = 0; k < model.numParticleContacts(); ++k)
+  {
+    ContactState& contact = data.contacts[k];
+    if (!contact.landing)
+      continue;
+    contact.landing = false;
+    const int i = rows[k].particles[0];
+    const ContactFrame frame = contactFrame(model, rows[k], context, x.positions, x.velocities);
+    const double normal_impulse = impulses[rows[k].row] * frame.normal.norm();
+    const Vec3 slip = frame.tangential(frame.relative(x.velocities.col(i)));
+    const double speed = slip.norm();
+    if (!(normal_impulse > 0.0) || !(speed > 0.0))
+      continue;
+    x.velocities.col(i) -= std::min(speed, rows[k].friction * normal_impulse * w[i]) / speed * slip;
+    changed = true;
+  }
+  if (changed)
+    projectVelocities(model, data, x.time, x.positions, x.velocities, false, false);
+}
+}  // namespace
+
 double resolveImpacts(const Model& model, Data& data, const StepSettings& settings, State& x)
 {
   const auto& rows = model.unilateral();
@@ -640,6 +676,7 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       }
     }
     // nothing below and nothing lifted: no contact impact to look for (each frame evaluated once)
+    bool rubbing = false;  // a landing contact with friction
     for (std::size_t k = 0; (lift || below) && k < contacts; ++k)
     {
       ContactState& contact = data.contacts[k];
@@ -651,6 +688,8 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       if (!(frame.gap < -settings.projection_tolerance))
         continue;
       contact.mode = ContactMode::Sliding;  // off until now, so with no friction (switchOff)
+      contact.landing = record.friction > 0.0;
+      rubbing = rubbing || contact.landing;
       impact = true;
       const Vec3 v = frame.relative(x.velocities.col(i));  // to the obstacle's point
       // slower than twice what the applied forces give in a step is a particle at rest
@@ -674,6 +713,10 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
     writeContactRows(model, data);
     projectStep(model, data, ForwardPath::Generic, x.time, x.positions, x.velocities,
                 settings.projection_tolerance, settings.projection_max_iterations);
+    // the velocity projection's multipliers: dv = -W J^T lambda, an impulse -lambda along each J
+    Eigen::VectorXd& impulses = data.impact_impulses;
+    if (rubbing)
+      impulses = -data.rhs;
     if (bounce)
     {
       // Newton's law: each bouncing row leaves at e times its rate in, every other row at rest
@@ -681,6 +724,8 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
       // (of these rows at these positions), and v += W J^T x
       data.solver().solveInPlace(restitution);
       addInverseMassJacobianTranspose(model, data.rows, restitution, 1.0, x.velocities);
+      if (rubbing)
+        impulses += restitution;
       for (std::size_t k = 0; k < contacts; ++k)  // only contacts (and segments) bounce
       {
         if (!acts(data.contacts[k]))
@@ -696,6 +741,8 @@ double resolveImpacts(const Model& model, Data& data, const StepSettings& settin
           switchOff(data.contacts[k]);
       writeContactRows(model, data);
     }
+    if (rubbing)
+      impactFriction(model, data, context, impulses, x);
     releaseSegmentsAtEnds(model, data, context, x);
     data.noteStateChange();
   }

@@ -52,6 +52,7 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   friction_accelerations.setZero(3, contact_n);
   frictionless_multipliers.setZero(model.numContacts() > 0 ? model.numRows() : 0);
   contact_rhs.setZero(model.numContacts() > 0 ? model.numRows() : 0);
+  impact_impulses.setZero(model.numContacts() > 0 ? model.numRows() : 0);
   const int carried_contacts = model.hasCarriers() ? model.numParticleContacts() : 0;
   contact_relative_velocities.setZero(3, carried_contacts);
   contact_surface_accelerations.setZero(3, carried_contacts);

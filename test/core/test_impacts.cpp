@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 
@@ -189,4 +190,56 @@ TEST(Impacts, EveryIntegratorLeavesADomeWhereTheEnergyBalanceSays)
               << expected << " R)\n";
     EXPECT_NEAR(left_at, expected, 1e-2 * radius) << integrator;
   }
+}
+
+// Friction at an impact (issue 48, item 3): a 1 kg particle landing on a plane with friction mu at
+// (2, 0, -3) m/s leaves its impact with its slip less mu times the normal impulse
+// P_n = (1 + e) |v_n| (a point's impact law; at least 0: mu = 1 stops it), then slides (e = 0,
+// friction mu g for the rest of the step) or flies (e = 0.5) to the step's end: the velocity at
+// the step's end as the closed form says, the impact met at its time t_i (the root of
+// z0 + v_z t - g t^2 / 2; velocity Verlet slides the rest of that step without friction); the
+// energy never rises. Without the impact's friction (before it) the
+// slip kept all of its 2 m/s through the impact.
+TEST(Impacts, AnImpactsFrictionTakesMuTimesTheNormalImpulseOffTheSlip)
+{
+  for (const double dt : { 1e-3, 1e-2 })
+    for (const char* integrator : { "rk4", "velocity_verlet" })
+      for (const auto& [mu, e] :
+           { std::make_pair(0.3, 0.0), std::make_pair(0.3, 0.5), std::make_pair(1.0, 0.0) })
+      {
+        Scene scene;
+        scene.masses = { 1.0 };
+        scene.surfaces = { makeSurface(SurfaceType::Plane, { 0.0, 0.0, 0.0 }) };
+        scene.forces = { GravityForce{} };
+        SurfaceContact contact = contactOf(0, e);
+        contact.friction = mu;
+        scene.constraints = { contact };
+        const double z0 = 1.2 * dt, vx = 2.0, vz = -3.0;  // lands 0.4 dt into the step
+        State start;
+        start.positions = Points::Zero(3, 1);
+        start.positions(2, 0) = z0;
+        start.velocities = Points::Zero(3, 1);
+        start.velocities(0, 0) = vx;
+        start.velocities(2, 0) = vz;
+        StepSettings settings;
+        settings.dt = dt;
+        settings.integrator = integrator;
+        Simulator sim(scene, start, settings);
+        const double before = energyOf(sim);
+        ASSERT_EQ(sim.step().failed_check, StepCheck::None);
+        const double t_i = (vz + std::sqrt(vz * vz + 2.0 * G * z0)) / G;  // z(t_i) = 0
+        const double v_in = -(vz - G * t_i);                              // |v_n| at it
+        const double slip = std::max(0.0, vx - mu * (1.0 + e) * v_in);
+        const double rest = dt - t_i;
+        // velocity Verlet holds the friction of its step's start over the step (physics.md,
+        // "Coulomb friction"): none, in the air, so the landing step ends at the impact's slip
+        const bool sliding_rest = e == 0.0 && std::string(integrator) != "velocity_verlet";
+        const double expected = sliding_rest ? std::max(0.0, slip - mu * G * rest) : slip;
+        const std::string what = std::string(integrator) + " dt " + std::to_string(dt) + " mu " +
+                                 std::to_string(mu) + " e " + std::to_string(e);
+        std::cout << what << ": v_x after the step " << std::setprecision(12)
+                  << sim.state().velocities(0, 0) << " m/s, closed form " << expected << "\n";
+        EXPECT_NEAR(sim.state().velocities(0, 0), expected, 1e-6) << what;
+        EXPECT_LE(energyOf(sim), before + 1e-12) << what;
+      }
 }

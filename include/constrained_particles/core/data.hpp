@@ -65,6 +65,9 @@ struct ContactState
   double friction_demand = 0.0;
   /// Switched on only to lift its particle out (resolveImpacts: in, but moving out)
   bool lifting = false;
+  /// Switched on by an impact this round, with friction: its slip meets an impulse
+  /// (resolveImpacts)
+  bool landing = false;
 };
 
 /// Stage buffers of the integrators, by name, each 3 x n.
@@ -284,9 +287,10 @@ public:
   /// Each unilateral row's mode and forces (Model::numContacts(); contact.hpp)
   std::vector<ContactState> contacts;
   /// The contact stage's buffers: friction forces [N] and W times them [m/s^2] (3 x n), the
-  /// frictionless multipliers and a solve's right-hand side (m); empty without contacts
+  /// frictionless multipliers, a solve's right-hand side and an impact's impulses along the rows
+  /// [N s per unit of the row's J] (m); empty without contacts
   Points friction_forces, friction_accelerations;
-  Eigen::VectorXd frictionless_multipliers, contact_rhs;
+  Eigen::VectorXd frictionless_multipliers, contact_rhs, impact_impulses;
   /// With carried shapes, per particle contact (3 x Model::numParticleContacts(), else empty):
   /// its particle's velocity relative to the obstacle's point under it [m/s] and that point's
   /// acceleration [m/s^2] at the contact stage's state, evaluated once per stage
