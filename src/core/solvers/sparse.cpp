@@ -90,7 +90,7 @@ private:
   void build(const Model& model, const std::vector<std::uint8_t>& inactive)
   {
     pattern_inactive_ = inactive;
-    auto acts = [&inactive](int row) { return inactive.empty() || !inactive[row]; };
+    auto acting = [&inactive](int row) { return inactive.empty() || !inactive[row]; };
     const int m = model.numRows();
     const auto& start = model.incidenceStart();
     const auto& incidence = model.incidence();
@@ -100,8 +100,8 @@ private:
     for (int i = 0; i < model.numParticles(); ++i)
       for (int a = start[i]; a < start[i + 1]; ++a)
         for (int b = start[i]; b < start[i + 1]; ++b)
-          if (incidence[b].row > incidence[a].row && acts(incidence[a].row) &&
-              acts(incidence[b].row))
+          if (incidence[b].row > incidence[a].row && acting(incidence[a].row) &&
+              acting(incidence[b].row))
             pattern.emplace_back(incidence[b].row, incidence[a].row, 0.0);
     matrix_.resize(m, m);
     matrix_.setFromTriplets(pattern.begin(), pattern.end());
@@ -116,8 +116,8 @@ private:
     for (int i = 0; i < model.numParticles(); ++i)
       for (int a = start[i]; a < start[i + 1]; ++a)
         for (int b = start[i]; b < start[i + 1]; ++b)
-          if (incidence[b].row >= incidence[a].row && acts(incidence[a].row) &&
-              acts(incidence[b].row))
+          if (incidence[b].row >= incidence[a].row && acting(incidence[a].row) &&
+              acting(incidence[b].row))
             terms_.push_back(Term{ slot(incidence[b].row, incidence[a].row), i, incidence[a].block,
                                    incidence[b].block });
     diagonal_slot_.resize(m);
