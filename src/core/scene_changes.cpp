@@ -218,8 +218,7 @@ ProjectionReport Simulator::setSurfaces(const std::vector<Surface>& surfaces)
 ProjectionReport Simulator::setObstacles(const std::vector<Constraint>& contacts)
 {
   for (std::size_t k = 0; k < contacts.size(); ++k)
-    if (!std::holds_alternative<ShapeContact>(contacts[k]) &&
-        !std::holds_alternative<SegmentContact>(contacts[k]))
+    if (!isObstacleContact(contacts[k]))
       throw InvalidInput("contacts[" + std::to_string(k) + "]",
                          "is a " + std::string(kindOf(contacts[k])) +
                              " record: only shape_contact and segment_contact records are "
@@ -230,8 +229,7 @@ ProjectionReport Simulator::setObstacles(const std::vector<Constraint>& contacts
   scene.constraints.erase(std::remove_if(scene.constraints.begin(), scene.constraints.end(),
                                          [](const Constraint& c)
                                          {
-                                           return std::holds_alternative<ShapeContact>(c) ||
-                                                  std::holds_alternative<SegmentContact>(c) ||
+                                           return isObstacleContact(c) ||
                                                   (std::holds_alternative<LinkPairContact>(c) &&
                                                    std::get<LinkPairContact>(c).generated);
                                          }),

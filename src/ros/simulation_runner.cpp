@@ -166,8 +166,7 @@ RunnerReply SimulationRunner::setObstacle(ObstacleChange change, const std::stri
         // attached at run time among it) is the simulator's own
         std::vector<Constraint> contacts;
         for (const Constraint& constraint : candidate.built.scene.constraints)
-          if (std::holds_alternative<ShapeContact>(constraint) ||
-              std::holds_alternative<SegmentContact>(constraint))
+          if (isObstacleContact(constraint))
             contacts.push_back(constraint);
         const ProjectionReport report = simulator_->setObstacles(contacts);
         session_.adoptChange(candidate.description);

@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include <memory>
+
 #include <limits>
 #include <map>
 #include <string>
@@ -90,6 +92,15 @@ SimState stateOf(Simulator& simulator, const SceneDescription& description)
   return msg;
 }
 
+// A simulator of `description` after 10 steps at the default settings
+std::unique_ptr<Simulator> afterTenSteps(const SceneDescription& description)
+{
+  const BuiltScene built = buildScene(description);
+  auto simulator = std::make_unique<Simulator>(built.scene, built.initial_state, StepSettings{});
+  simulator->step(10);
+  return simulator;
+}
+
 TEST(StateMessage, ALinkCapsuleTouchingAnObstacleIsListed)
 {
   const SceneDescription description = parseScene(R"(
@@ -109,10 +120,8 @@ forces:
   - {type: gravity}
 )",
                                                   "lever.yaml");
-  const BuiltScene built = buildScene(description);
-  Simulator simulator(built.scene, built.initial_state, StepSettings{});
-  simulator.step(10);
-  const SimState msg = stateOf(simulator, description);
+  const std::unique_ptr<Simulator> simulator = afterTenSteps(description);
+  const SimState msg = stateOf(*simulator, description);
   ASSERT_EQ(msg.segment_contact_first.size(), 1u);
   ASSERT_EQ(msg.segment_contact_second.size(), 1u);
   ASSERT_EQ(msg.segment_contact_fractions.size(), 1u);
@@ -147,10 +156,8 @@ forces:
   - {type: gravity}
 )",
                                                   "crossing.yaml");
-  const BuiltScene built = buildScene(description);
-  Simulator simulator(built.scene, built.initial_state, StepSettings{});
-  simulator.step(10);
-  const SimState msg = stateOf(simulator, description);
+  const std::unique_ptr<Simulator> simulator = afterTenSteps(description);
+  const SimState msg = stateOf(*simulator, description);
   ASSERT_EQ(msg.link_pair_particles.size(), 4u);
   ASSERT_EQ(msg.link_pair_fractions.size(), 2u);
   ASSERT_EQ(msg.link_pair_normal_forces.size(), 1u);
@@ -161,8 +168,8 @@ forces:
   EXPECT_TRUE(msg.segment_contact_first.empty());
   // rviz: one green arrow from link a's point over the lower link's middle, up, |f| scale long
   const visualization_msgs::MarkerArray arrows =
-      contactForceMarkers(std_msgs::Header(), simulator.model(), simulator.state().positions,
-                          simulator.data().contacts, 0.01, 0, nullptr, simulator.state().time);
+      contactForceMarkers(std_msgs::Header(), simulator->model(), simulator->state().positions,
+                          simulator->data().contacts, 0.01, 0, nullptr, simulator->state().time);
   int drawn = 0;
   for (const visualization_msgs::Marker& m : arrows.markers)
     if (m.action == visualization_msgs::Marker::ADD)

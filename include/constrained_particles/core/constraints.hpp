@@ -196,6 +196,14 @@ inline bool isTracked(const Constraint& constraint)
 
 /// A particle contact's (surface_contact, shape_contact) particle inside what it keeps out of:
 /// the record, its particle and how deep [m].
+/// True for an obstacle's contact record (shape_contact, segment_contact): what
+/// Simulator::setObstacles replaces.
+inline bool isObstacleContact(const Constraint& constraint)
+{
+  return std::holds_alternative<ShapeContact>(constraint) ||
+         std::holds_alternative<SegmentContact>(constraint);
+}
+
 struct BelowSurface
 {
   const Constraint* contact = nullptr;  ///< nullptr: none deeper than CONTACT_START_DEPTH
