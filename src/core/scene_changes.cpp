@@ -1,7 +1,7 @@
 /// @file scene_changes.cpp
-/// @brief The Simulator's scene changes between steps: reset, teleports, a new scene, new step
-/// settings, forces, constraints, surfaces and perturbations, each keeping what the change does
-/// not touch (simulator.cpp takes the steps).
+/// @brief The Simulator's construction (compile, install) and its scene changes between steps:
+/// reset, teleports, a new scene, new step settings, forces, constraints, surfaces and
+/// perturbations, each keeping what the change does not touch (simulator.cpp takes the steps).
 #include "constrained_particles/core/simulator.hpp"
 
 #include "contact.hpp"
@@ -44,6 +44,97 @@ std::pair<std::unique_ptr<Model>, std::unique_ptr<Data>> recompile(const Scene& 
 }
 
 }  // namespace
+
+Simulator::Compiled Simulator::compile(const Scene& scene, const State& initial_state,
+                                       const StepSettings& settings, SolveMethod method,
+                                       StagePaths paths)
+{
+  validateStepSettings(settings);
+  Compiled compiled;
+  compiled.model = std::make_unique<Model>(Model::compile(scene, method, paths));
+  const Model& model = *compiled.model;
+  model.validateState(initial_state, "initial_state");
+  compiled.data = std::make_unique<Data>(model);
+  restartTracks(model, *compiled.data, initial_state.positions);
+  compiled.initial_state = initial_state;
+  State& start = compiled.initial_state;
+  // a run starts at t = 0 (reset): driven motion is imposed at that time, not the state's
+  start.time = 0.0;
+  start.steps = 0;
+  const ProjectionReport projection =
+      projectPositions(model, *compiled.data, start.time, start.positions,
+                       settings.projection_tolerance, settings.projection_max_iterations);
+  if (!projection.converged)
+  {
+    // name the constraint left furthest from holding: it is (one of) those that cannot all hold
+    // (named by kind and particles: a scene file's indices differ, its chains' links come first)
+    const RowData& rows = compiled.data->rows;
+    const RowRecord* worst = nullptr;
+    double worst_violation = -1.0;
+    for (const RowRecord& record : model.rowRecords())
+      for (int r = record.first_row; r < record.first_row + record.rows; ++r)
+        if (worst_violation == worst_violation &&  // a NaN row is the worst and stays so
+            !(rows.violation[r] <= worst_violation))
+        {
+          worst_violation = rows.violation[r];
+          worst = &record;
+        }
+    std::string where = "(none)";
+    if (worst)
+    {
+      const Constraint& constraint = scene.constraints[worst->constraint];
+      where = std::string("a ") + kindOf(constraint) + " on particles";
+      std::visit(
+          [&](const auto& c)
+          {
+            using Kind = std::decay_t<decltype(c)>;
+            if constexpr (!Kind::ELIMINATED)
+              for (int particle : rowParticles(c))
+                where += " " + std::to_string(particle);
+          },
+          constraint);
+    }
+    throw InvalidInput("initial_state.positions",
+                       "cannot be projected onto the constraints: error " +
+                           formatValue(projection.max_position_error) + " m after " +
+                           std::to_string(projection.iterations) +
+                           " Newton iterations, largest at " + where +
+                           "; the constraints may not all hold at once (check lengths, angles "
+                           "and anchors against each other)");
+  }
+  projectVelocities(model, *compiled.data, start.time, start.positions, start.velocities, false,
+                    false);
+  if (!isFinite(start))
+    throw InvalidInput("initial_state.positions",
+                       "projection onto the constraints produced a non-finite state");
+  return compiled;
+}
+
+Simulator::Simulator(const Scene& scene, const State& initial_state, const StepSettings& settings,
+                     SolveMethod method, StagePaths paths)
+  : paths_(paths)
+{
+  Compiled compiled = compile(scene, initial_state, settings, method, paths_);
+  requested_method_ = method;
+  settings_ = settings;
+  substep_settings_ = settings;
+  integrator_ = &findIntegrator(settings.integrator);
+  stiff_ = &findIntegrator(STIFF_FALLBACK);
+  install(std::move(compiled.model), std::move(compiled.data));
+  initial_state_ = compiled.initial_state;
+  reset();
+}
+
+void Simulator::install(std::unique_ptr<Model> model, std::unique_ptr<Data> data)
+{
+  data_.reset();  // the old data refers to the old model: it goes first
+  model_ = std::move(model);
+  ++model_version_;
+  data_ = std::move(data);
+  readSceneKind();
+  diagnostic_rows_.resize(*model_);
+  diagnostic_rates_.setZero(model_->numRows());
+}
 
 void Simulator::reset()
 {

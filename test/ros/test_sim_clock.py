@@ -114,7 +114,10 @@ class SimClockTest(unittest.TestCase):
         self.pause()
         self.assertGreater(rate, 0.5)
         self.assertLess(rate, 1.5)
-        stamps = [s.header.stamp.to_sec() for s in self.states]
+        # from the third message on: roscpp's latched publisher may send the first message and
+        # one published as the subscriber connected twice or swapped (the transport's, not the
+        # node's stamps; test_tf_stamps.py says why)
+        stamps = [s.header.stamp.to_sec() for s in self.states[2:]]
         self.assertTrue(all(b > a for a, b in zip(stamps, stamps[1:])), "a ~state stamp repeated")
 
 
