@@ -19,6 +19,8 @@
 #include "constrained_particles/core/model.hpp"
 #include "constrained_particles/core/settings.hpp"
 
+#include <cmath>
+
 namespace constrained_particles
 {
 /// Normal or tangential speed below which a contact counts as at rest relative to its surface
@@ -128,5 +130,117 @@ void releaseContact(const Model& model, Data& data, int k);
 /// an approach speed over BOUNCE_SPEED the impulse is scaled by 1 + e and the contact switched
 /// off again. Returns the energy the impacts took out [J] (T + U before less after).
 double resolveImpacts(const Model& model, Data& data, const StepSettings& settings, State& state);
+
+/// Impacts and releases met at their time in one sub-step at most (takeContactSubstep); any
+/// later one is met at the sub-step's end.
+constexpr int MAX_IMPACT_SPLITS = 8;
+
+// ---- contact as a phase of the step (docs/architecture.md, "A step with contacts") ----
+// Simulator calls each of these at its place in every step, with contacts or without; in a
+// model with no unilateral rows each is a no-op (or takes the sub-step as it is), so the step
+// itself has no contact branches.
+
+/// The step's start: the active set (chooseContactModes), the kinetic energy a stick took out
+/// booked as dissipation, and whether the state's last solve still stands (it does unless a
+/// stick changed the velocities).
+void startContactStep(const Model& model, Data& data, const StepSettings& settings);
+
+/// An attempt's start, or a step put back: the contacts' modes the step started with
+/// (StepControl::start_contacts) written into the rows, and no impact loss yet.
+void restoreStartContacts(const Model& model, Data& data);
+
+/// The contacts' part of the ledger's powers at `x` [W]: friction only dissipates, against the
+/// slip; on a moving obstacle a contact's force (a particle's normal and friction, a segment's
+/// normal) does work through the obstacle's point, put in by its holder (`in`).
+void addContactPowers(const Model& model, const Data& data, const State& x, double& in,
+                      double& dissipated);
+
+/// One sub-step of length h ending at `end` with its contact events: `take_piece(length, end)`
+/// advances data.state by one piece (the integrator, then projection); without contacts that is
+/// all. With contacts, a row that the piece takes in (impactFraction) or an acting contact that
+/// should have let go (releaseFraction) is met at its time: the piece is taken again to there,
+/// the impact resolved or the contact released, and the rest taken from it, at most
+/// MAX_IMPACT_SPLITS times; what is still in at the end is resolved as it is. `start`: the
+/// step's start (kept whole where a step may be retaken: `at_step_start`, the step's first
+/// sub-step with max_substeps > 1); `sub`: the sub-step's settings (resolveImpacts reads its
+/// dt); the impacts' energy goes into StepControl::contact_loss.
+template <typename TakePiece>
+void takeContactSubstep(const Model& model, Data& data, const State& start, bool at_step_start,
+                        double h, double end, const StepSettings& sub, double tolerance,
+                        TakePiece&& take_piece)
+{
+  if (model.numContacts() == 0)
+  {
+    take_piece(h, end);
+    return;
+  }
+  State& x = data.state;
+  StepControl& control = data.control;
+  double from = x.time, length = h;
+  // the piece's start: a step's first sub-step starts where the step did, and the step's start
+  // is kept whole where it may be retaken (no copy then); a later one's is copied
+  const State* piece_start = at_step_start ? &start : &control.piece_start;
+  const std::vector<ContactState>* piece_contacts =
+      at_step_start ? &control.start_contacts : &control.piece_contacts;
+  if (!at_step_start)
+  {
+    control.piece_start.positions = x.positions;
+    control.piece_start.velocities = x.velocities;
+    control.piece_contacts = data.contacts;
+  }
+  for (int split = 0;; ++split)
+  {
+    // a piece put back fails no check of the attempt (a projection it did not converge, a
+    // singular solve, a forced internal step): those flags are the piece's start's again; its
+    // work stays counted (it was done)
+    const StepStatistics& now = data.statistics;
+    const bool solve_singular = now.solve.singular, converged = now.projection.converged,
+               projection_singular = now.projection.singular;
+    const long forced = now.forced_internal_steps;
+    take_piece(length, end);
+    // the piece is taken again to the first event in it: an impact, or a contact that should
+    // have let go (its force crossing 0) and was held on
+    double fraction = NAN;
+    int released = -1;
+    if (split < MAX_IMPACT_SPLITS)
+    {
+      fraction = impactFraction(model, data, piece_start->positions, piece_start->velocities, x,
+                                length, tolerance);
+      const double release = releaseFraction(model, data, *piece_contacts, x, sub, released);
+      if (release < fraction || (std::isnan(fraction) && release < 1.0))
+        fraction = release;
+      else
+        released = -1;
+    }
+    if (!(fraction < 1.0))
+      break;
+    x.positions = piece_start->positions;
+    x.velocities = piece_start->velocities;
+    x.time = from;
+    data.statistics.solve.singular = solve_singular;
+    data.statistics.projection.converged = converged;
+    data.statistics.projection.singular = projection_singular;
+    data.statistics.forced_internal_steps = forced;
+    data.contacts = *piece_contacts;
+    writeContactRows(model, data);
+    data.noteStateChange();
+    const double at = from + fraction * length;
+    if (fraction > 0.0)
+      take_piece(fraction * length, at);
+    if (released >= 0)
+      releaseContact(model, data, released);
+    else
+      control.contact_loss += resolveImpacts(model, data, sub, x);
+    length = end - at;
+    from = at;
+    control.piece_start.positions = x.positions;
+    control.piece_start.velocities = x.velocities;
+    control.piece_contacts = data.contacts;
+    piece_start = &control.piece_start;
+    piece_contacts = &control.piece_contacts;
+  }
+  // what is still in (a row in at the sub-step's start, or past the splits): as it is
+  control.contact_loss += resolveImpacts(model, data, sub, x);
+}
 
 }  // namespace constrained_particles

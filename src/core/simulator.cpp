@@ -99,36 +99,7 @@ void ledgerPowers(const Model& model, const Data& data, const State& x, double& 
                  else
                    in += p;
                });
-  // friction, at its last stage's value (contact.hpp; the step start's under velocity Verlet and
-  // fast projection; a contact off holds none): it only dissipates, against the slip
-  const auto& contacts = model.unilateral();
-  const EffectContext context = contextAt(model, data, x.time);
-  for (int k = 0; k < model.numParticleContacts(); ++k)
-  {
-    const ContactState& contact = data.contacts[k];
-    const Vec3 v = x.velocities.col(contacts[k].particles[0]);
-    if (!model.hasCarriers() || contact.mode == ContactMode::Separated)
-    {
-      dissipated -= contact.friction_force.dot(v);
-      continue;
-    }
-    // on a moving obstacle the slip is relative to its point, and the contact force (normal and
-    // friction) does work through that point's motion: the obstacle's holder puts it in
-    const ContactFrame frame = contactFrame(model, contacts[k], context, x.positions, x.velocities);
-    const Vec3 force = contact.normal_force * frame.normal.normalized() + contact.friction_force;
-    dissipated -= contact.friction_force.dot(frame.relative(v));
-    in += force.dot(frame.surface_velocity);
-  }
-  // a segment's normal force on a moving obstacle likewise (frictionless)
-  for (int k = model.numParticleContacts(); model.hasCarriers() && k < model.numContacts(); ++k)
-  {
-    if (contacts[k].kind != UnilateralKind::SegmentContact ||
-        data.contacts[k].mode == ContactMode::Separated)
-      continue;
-    const SegmentFrame s = segmentFrame(unilateralRecord<SegmentContact>(model, contacts[k]),
-                                        context, x.positions, x.velocities);
-    in += data.contacts[k].normal_force * s.frame.normal.dot(s.frame.surface_velocity);
-  }
+  addContactPowers(model, data, x, in, dissipated);
 }
 
 // energyScale() at the current state with the forces acting now, the model's and the
@@ -212,13 +183,7 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
   data.statistics = StepStatistics{};
   data.statistics.solve.method = model.solveMethod();
   const StepStatistics& taken = data.statistics;
-  if (model.numContacts() > 0)
-  {
-    // every attempt starts from the modes the step started with (chooseContactModes)
-    data.contacts = data.control.start_contacts;
-    writeContactRows(model, data);
-    data.control.contact_loss = 0.0;
-  }
+  restoreStartContacts(model, data);  // every attempt starts from the step start's modes
   // one piece of a sub-step: `length` from the state, ending at `end`
   auto takePiece = [&](double length, double end)
   {
@@ -244,86 +209,14 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     x.time = end;
     sub.dt = h;  // resolveImpacts reads the sub-step's length
   };
-  StepControl& control = data.control;
   for (int j = 1; j <= substeps; ++j)
   {
     // each sub-step takes h exactly (dt / 2^k is exact; (t + dt) - t is not, and its round-off
     // would jitter every step's length), and the last ends where one step of dt would
     const double end = j == substeps ? start.time + settings_.dt : start.time + j * h;
-    if (model.numContacts() == 0)
-      takePiece(h, end);
-    else
-    {
-      // a row off that the sub-step takes in is met at its time of impact, not a sub-step late
-      // (contact.hpp, impactFraction): the sub-step is taken again to there, the impact
-      // resolved, and the rest taken from it; a handful of impacts in one sub-step at most
-      double from = x.time, length = h;
-      // the piece's start: a step's first sub-step starts where the step did, and the step's
-      // start is kept whole where it may be retaken (no copy then); a later one's is copied
-      const bool at_step_start = j == 1 && settings_.max_substeps > 1;
-      const State* piece_start = at_step_start ? &start : &control.piece_start;
-      const std::vector<ContactState>* piece_contacts =
-          at_step_start ? &control.start_contacts : &control.piece_contacts;
-      if (!at_step_start)
-      {
-        control.piece_start.positions = x.positions;
-        control.piece_start.velocities = x.velocities;
-        control.piece_contacts = data.contacts;
-      }
-      for (int split = 0;; ++split)
-      {
-        // a piece put back fails no check of the attempt (a projection it did not converge, a
-        // singular solve, a forced internal step): those flags are the piece's start's again;
-        // its work stays counted (it was done)
-        const StepStatistics& now = data.statistics;
-        const bool solve_singular = now.solve.singular, converged = now.projection.converged,
-                   projection_singular = now.projection.singular;
-        const long forced = now.forced_internal_steps;
-        takePiece(length, end);
-        // the piece is taken again to the first event in it: an impact, or a contact that
-        // should have let go (its force crossing 0) and was held on
-        double fraction = NAN;
-        int released = -1;
-        if (split < MAX_IMPACT_SPLITS)
-        {
-          fraction = impactFraction(model, data, piece_start->positions, piece_start->velocities, x,
-                                    length, settings_.projection_tolerance);
-          const double release = releaseFraction(model, data, *piece_contacts, x, sub, released);
-          if (release < fraction || (std::isnan(fraction) && release < 1.0))
-            fraction = release;
-          else
-            released = -1;
-        }
-        if (!(fraction < 1.0))
-          break;
-        x.positions = piece_start->positions;
-        x.velocities = piece_start->velocities;
-        x.time = from;
-        data.statistics.solve.singular = solve_singular;
-        data.statistics.projection.converged = converged;
-        data.statistics.projection.singular = projection_singular;
-        data.statistics.forced_internal_steps = forced;
-        data.contacts = *piece_contacts;
-        writeContactRows(model, data);
-        data.noteStateChange();
-        const double at = from + fraction * length;
-        if (fraction > 0.0)
-          takePiece(fraction * length, at);
-        if (released >= 0)
-          releaseContact(model, data, released);
-        else
-          control.contact_loss += resolveImpacts(model, data, sub, x);
-        length = end - at;
-        from = at;
-        control.piece_start.positions = x.positions;
-        control.piece_start.velocities = x.velocities;
-        control.piece_contacts = data.contacts;
-        piece_start = &control.piece_start;
-        piece_contacts = &control.piece_contacts;
-      }
-      // what is still in (a row in at the sub-step's start, or past the splits): as it is
-      control.contact_loss += resolveImpacts(model, data, sub, x);
-    }
+    // its impacts and releases met at their time (contact.hpp); without contacts, one piece
+    takeContactSubstep(model, data, start, j == 1 && settings_.max_substeps > 1, h, end, sub,
+                       settings_.projection_tolerance, takePiece);
     // one sweep for the finiteness and energy checks (the same values as three)
     const StepCheckSums sums =
         conservative_ ? stepCheckSums(model, x, data.applied_forces, appliedForceSum(data))
@@ -494,19 +387,20 @@ void Simulator::forwardAtState(bool settle)
 {
   Data& data = *data_;
   data.control.end_energies_current = false;  // the applied forces are evaluated anew
-  if (!settle || model_->numContacts() == 0)
+  if (settle)
   {
-    // on copies: forward() imposes the eliminated motion on the positions it is given
-    data.stages.p_stage = data.state.positions;
-    data.stages.v_stage = data.state.velocities;
-    forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
-            data.accelerations);
+    // complementary forces: a row an impact at a step's end switched on beside one it takes the
+    // load from (a lever's end on its face) would pull until the next step chose the modes
+    // again. Without contacts this is the one forward stage below
+    SolveReport solved;
+    settleActiveSet(*model_, data, settings_, solved);
     return;
   }
-  // complementary forces: a row an impact at a step's end switched on beside one it takes the
-  // load from (a lever's end on its face) would pull until the next step chose the modes again
-  SolveReport solved;
-  settleActiveSet(*model_, data, settings_, solved);
+  // on copies: forward() imposes the eliminated motion on the positions it is given
+  data.stages.p_stage = data.state.positions;
+  data.stages.v_stage = data.state.velocities;
+  forward(*model_, data, settings_, data.state.time, data.stages.p_stage, data.stages.v_stage,
+          data.accelerations);
 }
 
 void Simulator::evaluateCurrentState(StepStatistics& total)
@@ -688,11 +582,7 @@ void Simulator::putBack(const EnergyLedger& ledger_before)
   data.setState(data.control.start);  // the state stays the last accepted one
   data.ledger = ledger_before;
   data.control.multipliers_current = false;
-  if (model_->numContacts() > 0)  // and the contacts' modes the step started with
-  {
-    data.contacts = data.control.start_contacts;
-    writeContactRows(*model_, data);
-  }
+  restoreStartContacts(*model_, data);  // and the contacts' modes the step started with
 }
 
 void Simulator::acceptStep(const StepPlan& plan, const StepOutcome& outcome, StepStatistics& total)
@@ -740,14 +630,7 @@ StepStatistics Simulator::step(int count)
   {
     updateLinkPairs();  // may replace the model and its data (self-collision's pairs)
     Data& data = *data_;
-    if (model_->numContacts() > 0)
-    {
-      // the active set at the step's start; stopping a sticking contact's slide is dissipation
-      data.ledger.dissipated += chooseContactModes(*model_, data, settings_);
-      // its last solve is the state's (forwardAtState's), unless a stick changed the velocities
-      data.control.multipliers_current = data.control.forward_version == data.stateVersion();
-      data.control.end_energies_current = false;
-    }
+    startContactStep(*model_, data, settings_);  // the active set at the step's start
     StepPlan plan = planStep(total);
     markStart();
     const StepOutcome outcome = takeStep(plan, total);

@@ -22,21 +22,28 @@ void evaluateKind(const std::vector<KindRecord<Kind>>& table, const Model& model
     const auto& particle = model.blockParticle();
     for (const KindRecord<Kind>& entry : table)
     {
+      if constexpr (IsUnilateral<Kind>::value)
+      {
+        static_assert(Kind::ROWS == 1, "a unilateral kind's row switches on and off whole");
+        // switched off: an identity row (contact.hpp), not evaluated (most of a folded rope's
+        // near link pairs, a chain's contacts in flight)
+        const int row = entry.first_row;
+        if (rows.inactive[row])
+        {
+          rows.value[row] = rows.jdot_v[row] = rows.violation[row] = rows.time_rate[row] = 0.0;
+          for (int k = 0; k < Kind::PARTICLES; ++k)
+            rows.jacobian[entry.first_block + k].setZero();
+          if (diagonals)
+            rows.diagonal[row] = 1.0;  // the identity row's (sparse.cpp's and dense.cpp's too)
+          continue;
+        }
+      }
       evaluateRows(
           entry.record, context, positions, velocities,
           RowBlock{ rows.value.data() + entry.first_row, rows.jdot_v.data() + entry.first_row,
                     rows.violation.data() + entry.first_row,
                     rows.jacobian.data() + entry.first_block,
                     rows.time_rate.data() + entry.first_row });
-      if constexpr (IsUnilateral<Kind>::value)
-        for (int r = 0; r < Kind::ROWS; ++r)
-          if (rows.inactive[entry.first_row + r])  // switched off: an identity row (contact.hpp)
-          {
-            const int row = entry.first_row + r;
-            rows.value[row] = rows.jdot_v[row] = rows.violation[row] = rows.time_rate[row] = 0.0;
-            for (int k = 0; k < Kind::PARTICLES; ++k)
-              rows.jacobian[entry.first_block + r * Kind::PARTICLES + k].setZero();
-          }
       for (int r = 0; r < Kind::ROWS; ++r)
       {
         const int row = entry.first_row + r, first = entry.first_block + r * Kind::PARTICLES;
@@ -47,9 +54,6 @@ void evaluateKind(const std::vector<KindRecord<Kind>>& table, const Model& model
         double diagonal = 0.0;
         for (int k = 0; k < Kind::PARTICLES; ++k)
           diagonal += w[particle[first + k]] * rows.jacobian[first + k].squaredNorm();
-        if constexpr (IsUnilateral<Kind>::value)
-          if (rows.inactive[row])
-            diagonal = 1.0;  // the identity row's (sparse.cpp's and dense.cpp's too)
         rows.diagonal[row] = diagonal;
       }
     }

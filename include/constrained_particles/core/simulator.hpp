@@ -204,9 +204,6 @@ public:
   /// A conservative scene's energy may rise in one sub-step by this fraction of energyScale() at
   /// its start plus the energy it exchanged (|dT| + |dU|).
   static constexpr double ENERGY_RISE_TOLERANCE = 1e-3;
-  /// Impacts met at their time in one sub-step at most (attemptStep); any later one is met at
-  /// the sub-step's end.
-  static constexpr int MAX_IMPACT_SPLITS = 8;
   /// The stiff-safe method a step falls back to (integrators.hpp).
   static constexpr const char* STIFF_FALLBACK = "fast_projection";
   /// Most sub-steps the stability estimate computes when it decides on the fallback.

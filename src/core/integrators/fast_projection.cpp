@@ -34,8 +34,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
   const auto& w = model.inverseMasses();
   for (int i = 0; i < model.numParticles(); ++i)
     v.col(i) += (dt * w[i]) * data.applied_forces.col(i);
-  if (model.numContacts() > 0)  // friction as it stood at the step's start (contact.hpp)
-    kickFriction(model, data, dt, v);
+  kickFriction(model, data, dt, v);  // friction as it stood at the step's start (contact.hpp)
   p += dt * v;
   s.p_unprojected = p;  // p*
   const ProjectionReport report =

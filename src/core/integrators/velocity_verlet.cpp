@@ -19,8 +19,7 @@ void halfKick(const Model& model, Data& data, double dt, Points& velocities)
   const auto& w = model.inverseMasses();
   for (int i = 0; i < model.numParticles(); ++i)
     velocities.col(i) += (0.5 * dt * w[i]) * data.applied_forces.col(i);
-  if (model.numContacts() > 0)
-    kickFriction(model, data, 0.5 * dt, velocities);
+  kickFriction(model, data, 0.5 * dt, velocities);  // none without contacts
 }
 
 void step(const Model& model, Data& data, const StepSettings& settings)
