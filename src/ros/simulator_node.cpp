@@ -237,8 +237,9 @@ std::optional<ros::Time> SimulatorNode::stampFor(const Snapshot& snap, const ros
   const ros::Time stamp = stampOf(snap, now);
   if (!parameters_.publish_clock && stamp.isZero())
   {
-    // /use_sim_time and no /clock: every stamp would be 0, repeated (TF_REPEATED_DATA)
-    if (!waiting_for_clock_.exchange(true))
+    // /use_sim_time and no /clock: every stamp would be 0, repeated (TF_REPEATED_DATA). On wall
+    // time a 0 is a state the runner has not paced yet (its first batch): sent at the next tick
+    if ((ros::Time::isSimTime() || parameters_.follow_clock) && !waiting_for_clock_.exchange(true))
       ROS_WARN("simulator: %s", waitMessage());
     return std::nullopt;
   }

@@ -123,6 +123,25 @@ class MasterStartTest(WallClockWaits, unittest.TestCase):
                         "the node registering once the master came up", STARTUP)
         self.assert_running(node, "when the master came up")
 
+    def test_wall_time_start_with_a_holder_says_nothing_of_a_missing_clock(self):
+        # a scene with a holder on wall time: the snapshots before the runner paces its first batch
+        # are stamped 0, skipped until it does; that is not /use_sim_time's missing /clock, which
+        # the node used to warn of here
+        self.start("rosmaster", "--core", "-p", str(self.port))
+        node = self.start("rosrun", "constrained_particles", "simulator_node", "__name:=simulator",
+                          "_scenario:=hold_the_rope", "_status_period:=0")
+        self.wait_until(lambda: node.poll() is not None or
+                        "/simulator/reset" in (self.services() or []),
+                        "the node registering", STARTUP)
+        self.assert_running(node, "at start")
+        # three ~state messages: it publishes
+        done = subprocess.run(["rostopic", "echo", "-n", "3", "/simulator/state/steps"],
+                              env=self.env, capture_output=True, text=True, timeout=STARTUP)
+        self.assertEqual(done.stdout.count("---"), 3, done.stdout + done.stderr)
+        self.assert_running(node, "while publishing")
+        self.assertNotIn("no /clock has arrived", self.output(node))
+        self.assertNotIn("use_sim_time", self.output(node))
+
 
 if __name__ == "__main__":
     rostest.rosrun("constrained_particles", "master_start", MasterStartTest)
