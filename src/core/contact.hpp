@@ -102,7 +102,7 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
 /// integrators' own paths are to their order), by bisection to 1e-12 of the sub-step. NaN where
 /// no row off is in by more than `tolerance` at x, or every such row was already in at p0 (its
 /// impact is at the sub-step's start: resolveImpacts takes it as it is). The impacts can then be
-/// met at their time (Simulator::attemptStep): a particle found a sub-step late is depth d in,
+/// met at their time (takeContactSubstep): a particle found a sub-step late is depth d in,
 /// and projecting it out lifts it by d with the speed of falling that far kept, which adds
 /// energy (m g d a bounce).
 double impactFraction(const Model& model, Data& data, const Points& p0, const Points& v0,
@@ -138,7 +138,8 @@ constexpr int MAX_IMPACT_SPLITS = 8;
 // ---- contact as a phase of the step (docs/architecture.md, "A step with contacts") ----
 // Simulator calls each of these at its place in every step, with contacts or without; in a
 // model with no unilateral rows each is a no-op (or takes the sub-step as it is), so the step
-// itself has no contact branches.
+// branches on contacts only here (it still reads whether there are any where it chooses a
+// forward stage, the energy budget and whether its multipliers are current).
 
 /// The step's start: the active set (chooseContactModes), the kinetic energy a stick took out
 /// booked as dissipation, and whether the state's last solve still stands (it does unless a

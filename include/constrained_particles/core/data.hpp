@@ -126,7 +126,7 @@ struct StepControl
   std::vector<double> step_normal_forces;
   /// Energy the contacts' velocity jumps (impacts) took out in this attempt [J], for the ledger
   double contact_loss = 0.0;
-  /// A sub-step split at an impact (Simulator::attemptStep): the state and contact modes the
+  /// A sub-step split at an impact (takeContactSubstep, contact.hpp): the state and contact modes the
   /// piece being taken started from, and the positions the time of impact is sought along
   /// (impactFraction, contact.hpp); sized once, with contacts only
   State piece_start;

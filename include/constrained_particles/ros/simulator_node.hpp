@@ -81,7 +81,8 @@ private:
   /// The stamp of what publish() sends for `snap` (stampOf). Empty when nothing may go out: the
   /// stamp has not advanced past the last one sent (tf2 drops a repeat: TF_REPEATED_DATA); it
   /// is 0 because /use_sim_time is set and no /clock has arrived (then says so once, and in
-  /// /diagnostics); or, following /clock, it is ahead of the newest clock (a state of the epoch
+  /// /diagnostics), or on wall time because the runner has not paced its first batch (quietly);
+  /// or, following /clock, it is ahead of the newest clock (a state of the epoch
   /// before the clock went back: a tf2 listener would keep it as its newest for a whole loop).
   /// Following /clock, a new epoch (Snapshot::epoch) starts a new timeline; otherwise a stamp
   /// earlier than the last one sent (a foreign clock restarted) does, with a warning. Caller
