@@ -11,8 +11,9 @@
 /// most negative multiplier, solve again), and at the velocity level at an impact (Moreau 1988:
 /// the inelastic impulse is the projection of the velocities onto the active rows; Newton's
 /// restitution scales it by 1 + e). Friction is a force in the tangent plane, iterated with the
-/// solve to a fixed point (Kaufman, Sueda, James, Pai 2008, staggered projections), so the
-/// matrix stays J W J^T of the rows (symmetric, a chain's still a forest).
+/// solve to a fixed point (Kaufman, Sueda, James, Pai 2008, staggered projections; each iterate
+/// mixed from the last few by Anderson acceleration, fixed_point.hpp), so the matrix stays J W
+/// J^T of the rows (symmetric, a chain's still a forest).
 #pragma once
 
 #include "constrained_particles/core/data.hpp"
@@ -44,6 +45,18 @@ constexpr double FRICTION_REPORT_TOLERANCE = 1e-9;
 /// point there (two sticking contacts joined by straight links; docs/physics.md, "Contact").
 /// Where it converges, each change is about 0.75 of the last on test_contact's chains.
 constexpr double FRICTION_STALL_RATIO = 0.98;
+/// Friction iterates and images the Anderson mixing remembers (fixed_point.hpp).
+constexpr int FRICTION_HISTORY = 5;
+/// Below this change, a fraction of the largest normal force, the friction iteration takes plain
+/// steps (next = G(x)) to FRICTION_TOLERANCE: the mixing's fit there reads rounding, and the
+/// plain steps keep a free split (two sticking contacts joined by links) where it is.
+constexpr double FRICTION_MIXING_FLOOR = 1e-9;
+/// The friction iteration mixes its iterates (Anderson) only after this many solves in a row
+/// whose change fell below FRICTION_STALL_RATIO of the one before, each to a new least: where the
+/// plain iteration contracts. Elsewhere (a clamp switching, a split left free, no fixed point)
+/// the mixing's extrapolation was measured to send a rope over a box's edge into 185 sub-steps a
+/// step, and the plain steps stay.
+constexpr int FRICTION_MIXING_STEADY = 2;
 
 /// A contact touches if its gap is at most this [m]: 10 projection tolerances, so a contact the
 /// projection holds on its surface is touching.
@@ -51,6 +64,16 @@ inline double contactGap(const StepSettings& settings)
 {
   return 10.0 * settings.projection_tolerance;
 }
+
+/// Whether a contact's row acts (any mode but ContactMode::Separated).
+inline bool acts(const ContactState& contact)
+{
+  return contact.mode != ContactMode::Separated;
+}
+
+/// Each unilateral row's force from the multipliers into data.contacts (a contact's normal force,
+/// a slack link's tension [N]); friction zeroed where none acts.
+void recordNormalForces(const Model& model, Data& data);
 
 /// Every contact off, its forces 0 (and so at the step's start: StepControl::start_contacts): the
 /// state was replaced from outside (a reset, a teleport), so the next step's start chooses again.

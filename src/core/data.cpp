@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "contact.hpp"
+#include "fixed_point.hpp"
 #include "integrators/dopri5.hpp"
 #include "solvers/solver.hpp"
 
@@ -53,6 +55,10 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   frictionless_multipliers.setZero(model.numContacts() > 0 ? model.numRows() : 0);
   contact_rhs.setZero(model.numContacts() > 0 ? model.numRows() : 0);
   impact_impulses.setZero(model.numContacts() > 0 ? model.numRows() : 0);
+  friction_iterate.setZero(3 * model.numParticleContacts());
+  friction_image.setZero(3 * model.numParticleContacts());
+  friction_mixed.setZero(3 * model.numParticleContacts());
+  resizeHistory(friction_history, 3 * model.numParticleContacts(), FRICTION_HISTORY);
   const int carried_contacts = model.hasCarriers() ? model.numParticleContacts() : 0;
   contact_relative_velocities.setZero(3, carried_contacts);
   contact_surface_accelerations.setZero(3, carried_contacts);

@@ -2,8 +2,10 @@
 /// @brief Obstacle shapes (shapes.hpp) and shape_contact against finite differences and closed
 /// forms: each shape's signed distance has the gradient and Hessian its differences give, in
 /// every region (face, edge, corner, cap, rim, inside); a bead leaves a sphere obstacle where the
-/// energy balance says; a rope over a frictionless cylinder balances equal weights; a ball
+/// energy balance says; a rope over a frictionless cylinder balances equal weights, and over one
+/// with friction holds the capstan ratio e^(mu theta) and no more; a ball
 /// bounces off a box to e^2 of its height; scene files read shapes and name what is wrong.
+#include "capstan_rope.hpp"
 #include "test_helpers.hpp"
 
 #include "constrained_particles/core/diagnostics.hpp"
@@ -217,6 +219,28 @@ TEST(ShapeContact, RopeOverAFrictionlessCylinderBalancesEqualWeights)
   uneven.step(100);
   EXPECT_LT(uneven.state().positions(2, n - 1), points.back().z() - 1e-3);
   EXPECT_GT(uneven.state().positions(2, 0), points.front().z() + 1e-3);
+}
+
+// The capstan equation: a rope over a fixed cylinder with friction mu, pulled down at both ends
+// (no gravity, light particles), holds while the tension ratio is under e^(mu theta) and slips
+// above it. On the particles' arc each contact turns the rope by delta (the end ones by delta /
+// 2) and holds at most (1 + mu tan(delta / 2)) / (1 - mu tan(delta / 2)); their product is
+// e^(mu pi) to 6e-4 here. At 0.999 of it the rope stays (its sticking friction solved, not left
+// short), at 1.001 it slips.
+TEST(ShapeContact, RopeOverACylinderHoldsTheCapstanRatio)
+{
+  const double mu = 0.3;
+  EXPECT_NEAR(capstanRope(mu, 1.0).ratio / std::exp(mu * M_PI), 1.0, 1e-3);
+  // how far the heavier end moves in 0.5 s at `load` times the ratio [m]
+  auto slipAt = [mu](double load)
+  {
+    const CapstanRope rope = capstanRope(mu, load);
+    Simulator sim(rope.scene, rope.start, settingsOf(1e-3));
+    EXPECT_EQ(sim.step(500).failed_check, StepCheck::None) << load;
+    return (sim.state().positions.col(0) - rope.start.positions.col(0)).norm();
+  };
+  EXPECT_LT(slipAt(1.0 - 1e-3), 1e-9) << "after 0.5 s";
+  EXPECT_GT(slipAt(1.0 + 1e-3), 1e-3) << "after 0.5 s";
 }
 
 // A ball dropped on a box (turned about z, so its top stays level) bounces to e^2 of its height,

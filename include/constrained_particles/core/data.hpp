@@ -126,8 +126,8 @@ struct StepControl
   std::vector<double> step_normal_forces;
   /// Energy the contacts' velocity jumps (impacts) took out in this attempt [J], for the ledger
   double contact_loss = 0.0;
-  /// A sub-step split at an impact (takeContactSubstep, contact.hpp): the state and contact modes the
-  /// piece being taken started from, and the positions the time of impact is sought along
+  /// A sub-step split at an impact (takeContactSubstep, contact.hpp): the state and contact modes
+  /// the piece being taken started from, and the positions the time of impact is sought along
   /// (impactFraction, contact.hpp); sized once, with contacts only
   State piece_start;
   std::vector<ContactState> piece_contacts;
@@ -194,6 +194,17 @@ struct FactorizationCache
   std::uint64_t state_version = 0;  ///< Data::stateVersion() it was taken at; 0: none kept
   double time = 0.0;                ///< its time [s] (eliminated motion imposed then)
   double min_pivot_ratio = 1.0;     ///< its smallest pivot / diagonal entry
+};
+
+/// An Anderson-accelerated fixed point's memory (fixed_point.hpp): the last iterate x and its
+/// residual r = G(x) - x, and the differences of the last few of each (dimension x depth).
+struct FixedPointHistory
+{
+  Eigen::VectorXd last_x, last_r;  ///< the iterate before and its residual
+  Eigen::MatrixXd dx, dr;          ///< columns: x_{j+1} - x_j and r_{j+1} - r_j, a ring
+  int count = 0;                   ///< columns held (<= depth)
+  int next = 0;                    ///< the ring's column to write next
+  bool has_last = false;           ///< last_x and last_r hold an iterate
 };
 
 /// The fused stages' buffers (chain_stages.cpp, tree_stages.cpp).
@@ -291,6 +302,11 @@ public:
   /// [N s per unit of the row's J] (m); empty without contacts
   Points friction_forces, friction_accelerations;
   Eigen::VectorXd frictionless_multipliers, contact_rhs, impact_impulses;
+  /// The friction iteration's iterate, its image and the next iterate mixed from the last few,
+  /// each particle contact's force stacked (3 Model::numParticleContacts()) [N], and its
+  /// Anderson memory (contact.hpp, fixed_point.hpp)
+  Eigen::VectorXd friction_iterate, friction_image, friction_mixed;
+  FixedPointHistory friction_history;
   /// With carried shapes, per particle contact (3 x Model::numParticleContacts(), else empty):
   /// its particle's velocity relative to the obstacle's point under it [m/s] and that point's
   /// acceleration [m/s^2] at the contact stage's state, evaluated once per stage

@@ -1,0 +1,215 @@
+/// @file contact_friction.cpp
+/// @brief Coulomb friction at the contacts (contact.hpp): the constraint-force stage of a scene
+/// with contacts, its friction iterated to a fixed point with the rows' factorisation (staggered,
+/// Anderson-mixed where it contracts: fixed_point.hpp), and the friction kick of the integrators
+/// that solve no stages. docs/physics.md, "Contact".
+#include "contact.hpp"
+
+#include "fixed_point.hpp"
+#include "solvers/solver.hpp"
+#include "stages.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace constrained_particles
+{
+namespace
+{
+// The friction force [N] an acting contact exerts at multiplier `lambda` (its row's J `normal`):
+// sliding, mu |f_n| against the tangential part of `v` (relative to the obstacle; below
+// CONTACT_SPEED along its slip direction); sticking, minus the tangential part of `other` (the
+// particle's other forces), at most mu |f_n| (its demand, the ratio, kept in `contact`)
+Vec3 frictionForce(const UnilateralRecord& record, ContactState& contact, const Vec3& normal,
+                   double lambda, const Vec3& v, const Vec3& other)
+{
+  const double normal_force = std::max(lambda, 0.0) * normal.norm();
+  const double limit = record.friction * normal_force;
+  auto tangential = [&normal](const Vec3& x) { return tangentialPart(normal, x); };
+  if (contact.mode == ContactMode::Sliding)
+  {
+    const Vec3 v_t = tangential(v);
+    const double speed = v_t.norm();
+    if (speed > CONTACT_SPEED)
+    {
+      contact.slip_direction = -v_t / speed;  // where friction pulls if it slows below
+      return limit * contact.slip_direction;
+    }
+    const Vec3 slip = tangential(contact.slip_direction);
+    return slip.norm() > 0.0 ? Vec3(limit / slip.norm() * slip) : Vec3::Zero();
+  }
+  const Vec3 needed = -tangential(other);
+  const double size = needed.norm();
+  contact.friction_demand =
+      size == 0.0 ? 0.0 : (limit > 0.0 ? size / limit : std::numeric_limits<double>::infinity());
+  return contact.friction_demand > 1.0 ? Vec3(limit / size * needed) : needed;
+}
+
+// Each particle's friction force [N] (3 x n) from the contacts' stacked ones `stacked` (3 per
+// particle contact, Data::friction_iterate's layout)
+void spreadFriction(const Model& model, const Eigen::VectorXd& stacked, Points& forces)
+{
+  forces.setZero();
+  const auto& table = model.unilateral();
+  for (int k = 0; k < model.numParticleContacts(); ++k)
+    forces.col(table[k].particles[0]) += stacked.segment<3>(3 * k);
+}
+
+}  // namespace
+
+SolveReport contactForceStage(const Model& model, Data& data, double time, const Points& positions,
+                              const Points& velocities, const Eigen::VectorXd* bias)
+{
+  const SolveReport report = constraintForceStage(model, data, bias);
+  const auto& table = model.unilateral();
+  const std::size_t contacts = static_cast<std::size_t>(model.numParticleContacts());
+  bool friction = false;
+  for (std::size_t k = 0; k < contacts; ++k)
+    friction = friction || (acts(data.contacts[k]) && table[k].friction > 0.0);
+  if (!friction)
+  {
+    recordNormalForces(model, data);
+    return report;
+  }
+  // friction enters as a force f: (J W J^T) lambda = b - J W f, so lambda = lambda_0 - (J W
+  // J^T)^-1 J W f with the factorisation already made; iterated to a fixed point (staggered)
+  const int m = model.numRows();
+  const auto& w = model.inverseMasses();
+  if (model.hasCarriers())
+  {
+    // on a carried shape the slip is relative to the shape's point under the particle, and a
+    // stick must give the particle that point's acceleration: both fixed over the iteration
+    const EffectContext context = contextAt(model, data, time);
+    for (std::size_t k = 0; k < contacts; ++k)
+      if (acts(data.contacts[k]) && table[k].friction > 0.0)
+      {
+        const ContactFrame frame = contactFrame(model, table[k], context, positions, velocities);
+        data.contact_relative_velocities.col(k) =
+            frame.relative(velocities.col(table[k].particles[0]));
+        data.contact_surface_accelerations.col(k) = frame.surface_acceleration;
+      }
+  }
+  data.frictionless_multipliers = data.multipliers.head(m);
+  // x: the friction the multipliers were solved with (none yet); g = G(x), each contact's force
+  // from them. Anderson's mixing (fixed_point.hpp) takes the next x from the last few (x, g).
+  Eigen::VectorXd& x = data.friction_iterate;
+  Eigen::VectorXd& g = data.friction_image;
+  x.setZero();
+  clearHistory(data.friction_history);
+  bool converged = false;
+  double last_change = 0.0, last_scale = 0.0, least_change = 0.0;
+  int slow = 0;    // solves in a row whose change fell by less than FRICTION_STALL_RATIO
+  int steady = 0;  // solves in a row whose change fell by more, to a new least
+  for (int iteration = 0; iteration < MAX_FRICTION_ITERATIONS; ++iteration)
+  {
+    double change = 0.0, scale = 0.0, largest = 0.0;
+    g.setZero();
+    for (std::size_t k = 0; k < contacts; ++k)
+    {
+      ContactState& contact = data.contacts[k];
+      const UnilateralRecord& record = table[k];
+      if (!acts(contact) || record.friction == 0.0)
+        continue;
+      const int i = record.particles[0];
+      const Vec3& normal = data.rows.jacobian[record.block];
+      const double lambda = data.multipliers[record.row];
+      // the particle's other forces: applied and J^T lambda (data.constraint_forces has no
+      // friction yet), less this contact's own normal force, which has no tangential part
+      Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
+      Vec3 v = velocities.col(i);
+      if (model.hasCarriers())  // m a_s less its other forces: what a stick must give
+      {
+        v = data.contact_relative_velocities.col(k);
+        other -= data.contact_surface_accelerations.col(k) / w[i];
+      }
+      const Vec3 f = frictionForce(record, contact, normal, lambda, v, other);
+      change = std::max(change, (f - x.segment<3>(3 * k)).norm());
+      largest = std::max(largest, f.norm());
+      scale = std::max(scale, std::max(lambda, 0.0) * normal.norm());
+      contact.friction_force = f;
+      g.segment<3>(3 * k) = f;
+    }
+    // the multipliers are of the forces x (none yet, or the last round's); friction at
+    // rounding's level (a chain at rest on a level plane) is none
+    if (iteration == 0 && largest <= FRICTION_TOLERANCE * scale)
+    {
+      g.setZero();
+      for (ContactState& contact : data.contacts)
+        contact.friction_force.setZero();
+      converged = true;
+    }
+    else if (iteration > 0 && change <= FRICTION_TOLERANCE * scale)
+      converged = true;
+    if (converged)
+    {
+      x = g;
+      break;
+    }
+    // two solves in a row that barely shrink the change: no fixed point to reach (two sticking
+    // contacts joined by straight links, docs/physics.md), further solves only drift it
+    slow = iteration > 1 && change > FRICTION_STALL_RATIO * last_change ? slow + 1 : 0;
+    const bool stalled = slow >= 2 && change > FRICTION_REPORT_TOLERANCE * scale;
+    // the mixing steps only where the iteration shrinks steadily: solves in a row whose change
+    // fell (below FRICTION_STALL_RATIO of the one before), none of them above the least yet
+    steady =
+        iteration > 0 && change < FRICTION_STALL_RATIO * last_change && !(change > least_change)
+            ? steady + 1
+            : 0;
+    least_change = iteration == 0 ? change : std::min(least_change, change);
+    last_change = change;
+    last_scale = scale;
+    // the last solve, stalled or at the limit, is of g itself: within each cone, the forces the
+    // contacts hold. Below FRICTION_MIXING_FLOOR the plain steps finish: there the differences
+    // near rounding would steer the fit, and two solves of the same scene (another elimination
+    // order) part where a stick's split between linked particles is free (test_stage_paths)
+    if (stalled || iteration + 1 == MAX_FRICTION_ITERATIONS ||
+        change <= FRICTION_MIXING_FLOOR * scale || steady < FRICTION_MIXING_STEADY)
+    {
+      // a change that does not fall starts the mixing afresh: between cone clamps the map is
+      // only piecewise linear, and differences across a clamp's switch (or a split left free)
+      // mislead the fit
+      if (steady < FRICTION_MIXING_STEADY)
+        clearHistory(data.friction_history);
+      x = g;
+    }
+    else
+    {
+      andersonStep(data.friction_history, x, g, data.friction_mixed);
+      x.swap(data.friction_mixed);
+    }
+    spreadFriction(model, x, data.friction_forces);
+    for (int i = 0; i < model.numParticles(); ++i)
+      data.friction_accelerations.col(i) = w[i] * data.friction_forces.col(i);
+    multiplyJacobian(model, data.rows, data.friction_accelerations, data.contact_rhs);
+    data.solver().solveInPlace(data.contact_rhs);
+    data.multipliers.head(m) = data.frictionless_multipliers - data.contact_rhs;
+    data.constraint_forces.setZero();
+    addJacobianTranspose(model, data.rows, data.multipliers.head(m), 1.0, data.constraint_forces);
+    addEliminatedReactions(model, data);
+    if (stalled)  // after the solve: the multipliers are of the friction kept
+      break;
+  }
+  spreadFriction(model, x, data.friction_forces);
+  // stalled or at the limit the last iterate stands; a change above FRICTION_REPORT_TOLERANCE is
+  // reported
+  if (!converged && !(last_change <= FRICTION_REPORT_TOLERANCE * last_scale))
+    ++data.control.unconverged_friction;
+  data.constraint_forces += data.friction_forces;  // on free particles only: no reaction changes
+  recordNormalForces(model, data);
+  return report;
+}
+
+void kickFriction(const Model& model, const Data& data, double dt, Points& velocities)
+{
+  const auto& table = model.unilateral();
+  const auto& w = model.inverseMasses();
+  for (std::size_t k = 0; k < static_cast<std::size_t>(model.numParticleContacts()); ++k)
+    if (acts(data.contacts[k]) && table[k].friction > 0.0)
+    {
+      const int i = table[k].particles[0];
+      velocities.col(i) += (dt * w[i]) * data.contacts[k].friction_force;
+    }
+}
+
+}  // namespace constrained_particles
