@@ -20,6 +20,8 @@
 #include "constrained_particles/core/model.hpp"
 #include "constrained_particles/core/settings.hpp"
 
+#include "fixed_point.hpp"
+
 #include <cmath>
 
 namespace constrained_particles
@@ -45,8 +47,10 @@ constexpr double FRICTION_REPORT_TOLERANCE = 1e-9;
 /// point there (two sticking contacts joined by straight links; docs/physics.md, "Contact").
 /// Where it converges, each change is about 0.75 of the last on test_contact's chains.
 constexpr double FRICTION_STALL_RATIO = 0.98;
-/// Friction iterates and images the Anderson mixing remembers (fixed_point.hpp).
+/// Differences of friction iterates (and of their residuals) the Anderson mixing fits with
+/// (fixed_point.hpp).
 constexpr int FRICTION_HISTORY = 5;
+static_assert(FRICTION_HISTORY <= MAX_ANDERSON_DEPTH, "the fit's normal equations are fixed-size");
 /// Below this change, a fraction of the largest normal force, the friction iteration takes plain
 /// steps (next = G(x)) to FRICTION_TOLERANCE: the mixing's fit there reads rounding, and the
 /// plain steps keep a free split (two sticking contacts joined by links) where it is.
@@ -54,8 +58,8 @@ constexpr double FRICTION_MIXING_FLOOR = 1e-9;
 /// The friction iteration mixes its iterates (Anderson) only after this many solves in a row
 /// whose change fell below FRICTION_STALL_RATIO of the one before, each to a new least: where the
 /// plain iteration contracts. Elsewhere (a clamp switching, a split left free, no fixed point)
-/// the mixing's extrapolation was measured to send a rope over a box's edge into 185 sub-steps a
-/// step, and the plain steps stay.
+/// the mixing's extrapolation split rope_over_edge's steps into many sub-steps (docs/physics.md),
+/// and the plain steps stay.
 constexpr int FRICTION_MIXING_STEADY = 2;
 
 /// A contact touches if its gap is at most this [m]: 10 projection tolerances, so a contact the

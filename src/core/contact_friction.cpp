@@ -99,8 +99,9 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
   clearHistory(data.friction_history);
   bool converged = false;
   double last_change = 0.0, last_scale = 0.0, least_change = 0.0;
-  int slow = 0;    // solves in a row whose change fell by less than FRICTION_STALL_RATIO
-  int steady = 0;  // solves in a row whose change fell by more, to a new least
+  int slow = 0;        // solves in a row whose change fell by less than FRICTION_STALL_RATIO
+  int steady = 0;      // solves in a row whose change fell by more, to a new least
+  bool mixed = false;  // x came from a mixing step (Anderson's), not x = g
   for (int iteration = 0; iteration < MAX_FRICTION_ITERATIONS; ++iteration)
   {
     double change = 0.0, scale = 0.0, largest = 0.0;
@@ -146,9 +147,10 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
       x = g;
       break;
     }
-    // two solves in a row that barely shrink the change: no fixed point to reach (two sticking
-    // contacts joined by straight links, docs/physics.md), further solves only drift it
-    slow = iteration > 1 && change > FRICTION_STALL_RATIO * last_change ? slow + 1 : 0;
+    // two plain solves in a row that barely shrink the change: no fixed point to reach (two
+    // sticking contacts joined by straight links, docs/physics.md), further solves only drift it
+    // (a mixed step's change may rise and says nothing of the plain map's)
+    slow = iteration > 1 && !mixed && change > FRICTION_STALL_RATIO * last_change ? slow + 1 : 0;
     const bool stalled = slow >= 2 && change > FRICTION_REPORT_TOLERANCE * scale;
     // the mixing steps only where the iteration shrinks steadily: solves in a row whose change
     // fell (below FRICTION_STALL_RATIO of the one before), none of them above the least yet
@@ -166,17 +168,17 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
     if (stalled || iteration + 1 == MAX_FRICTION_ITERATIONS ||
         change <= FRICTION_MIXING_FLOOR * scale || steady < FRICTION_MIXING_STEADY)
     {
-      // a change that does not fall starts the mixing afresh: between cone clamps the map is
-      // only piecewise linear, and differences across a clamp's switch (or a split left free)
-      // mislead the fit
-      if (steady < FRICTION_MIXING_STEADY)
-        clearHistory(data.friction_history);
+      // a plain step starts the mixing afresh: between cone clamps the map is only piecewise
+      // linear, and differences across a clamp's switch (or a split left free) mislead the fit
+      clearHistory(data.friction_history);
       x = g;
+      mixed = false;
     }
     else
     {
       andersonStep(data.friction_history, x, g, data.friction_mixed);
       x.swap(data.friction_mixed);
+      mixed = true;
     }
     spreadFriction(model, x, data.friction_forces);
     for (int i = 0; i < model.numParticles(); ++i)

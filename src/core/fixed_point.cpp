@@ -9,19 +9,18 @@ namespace constrained_particles
 {
 namespace
 {
-// The largest history kept: the normal equations are fixed-size at most this (no allocation)
-constexpr int MAX_DEPTH = 8;
-using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MAX_DEPTH, MAX_DEPTH>;
-using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, MAX_DEPTH, 1>;
-// Tikhonov's weight on gamma, a fraction of the normal matrix's trace: it bounds the mixing's gain
-// where a fit's columns are all but parallel (1e-6 held test_contact's capstan rope at rest where
-// 1e-10 let its friction stop short)
+using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, MAX_ANDERSON_DEPTH,
+                            MAX_ANDERSON_DEPTH>;
+using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, MAX_ANDERSON_DEPTH, 1>;
+// Tikhonov's weight on gamma, a fraction of the normal matrix's trace plus the residual's square:
+// it bounds the mixing's gain where a fit's columns are all but parallel, or all but 0 (1e-6 held
+// test_shapes' capstan rope at rest where 1e-10 let its friction stop short)
 constexpr double REGULARISATION = 1e-6;
 }  // namespace
 
 void resizeHistory(FixedPointHistory& history, int dimension, int depth)
 {
-  depth = std::clamp(depth, 1, MAX_DEPTH);
+  depth = std::clamp(depth, 1, MAX_ANDERSON_DEPTH);
   history.last_x.setZero(dimension);
   history.last_r.setZero(dimension);
   history.dx.setZero(dimension, depth);
@@ -32,13 +31,14 @@ void resizeHistory(FixedPointHistory& history, int dimension, int depth)
 void andersonStep(FixedPointHistory& history, const Eigen::VectorXd& x, const Eigen::VectorXd& g,
                   Eigen::VectorXd& next)
 {
+  eigen_assert(&next != &x && &next != &g);
   const int depth = static_cast<int>(history.dx.cols());
   next = g - x;  // the residual r, held in next until the fit (then next is written from g)
   if (history.has_last)
   {
-    history.dx.col(history.next) = x - history.last_x;
-    history.dr.col(history.next) = next - history.last_r;
-    history.next = (history.next + 1) % depth;
+    history.dx.col(history.head) = x - history.last_x;
+    history.dr.col(history.head) = next - history.last_r;
+    history.head = (history.head + 1) % depth;
     history.count = std::min(history.count + 1, depth);
   }
   history.last_x = x;

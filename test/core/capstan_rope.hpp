@@ -21,10 +21,10 @@ namespace constrained_particles
 struct CapstanRope
 {
   Scene scene;
-  State start;   ///< at rest, on the cylinder and hanging straight
-  double ratio;  ///< the discrete capstan ratio (the product of the contacts' limits)
-  Shape cylinder;
-  double rope_radius;
+  State start;         ///< at rest, on the cylinder and hanging straight
+  double ratio;        ///< the discrete capstan ratio (the product of the contacts' limits)
+  Shape cylinder;      ///< the obstacle, fixed, its axis along the world y
+  double rope_radius;  ///< r [m]: each contact's
 };
 
 /// The rope with Coulomb friction `mu` at each arc contact, its first particle pulled by `load`

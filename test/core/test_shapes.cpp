@@ -225,8 +225,8 @@ TEST(ShapeContact, RopeOverAFrictionlessCylinderBalancesEqualWeights)
 // (no gravity, light particles), holds while the tension ratio is under e^(mu theta) and slips
 // above it. On the particles' arc each contact turns the rope by delta (the end ones by delta /
 // 2) and holds at most (1 + mu tan(delta / 2)) / (1 - mu tan(delta / 2)); their product is
-// e^(mu pi) to 6e-4 here. At 0.999 of it the rope stays (its sticking friction solved, not left
-// short), at 1.001 it slips.
+// e^(mu pi) to 6e-4 here (capstan_rope.hpp). At 0.999 of it the rope's end stays within 1e-9 m
+// (the friction iteration crept 8.7 mm before its Anderson mixing), at 1.001 it slips.
 TEST(ShapeContact, RopeOverACylinderHoldsTheCapstanRatio)
 {
   const double mu = 0.3;

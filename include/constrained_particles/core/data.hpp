@@ -203,7 +203,7 @@ struct FixedPointHistory
   Eigen::VectorXd last_x, last_r;  ///< the iterate before and its residual
   Eigen::MatrixXd dx, dr;          ///< columns: x_{j+1} - x_j and r_{j+1} - r_j, a ring
   int count = 0;                   ///< columns held (<= depth)
-  int next = 0;                    ///< the ring's column to write next
+  int head = 0;                    ///< the ring's column to write next
   bool has_last = false;           ///< last_x and last_r hold an iterate
 };
 
@@ -303,7 +303,7 @@ public:
   Points friction_forces, friction_accelerations;
   Eigen::VectorXd frictionless_multipliers, contact_rhs, impact_impulses;
   /// The friction iteration's iterate, its image and the next iterate mixed from the last few,
-  /// each particle contact's force stacked (3 Model::numParticleContacts()) [N], and its
+  /// each particle contact's force stacked (3 x Model::numParticleContacts()) [N], and its
   /// Anderson memory (contact.hpp, fixed_point.hpp)
   Eigen::VectorXd friction_iterate, friction_image, friction_mixed;
   FixedPointHistory friction_history;
