@@ -151,7 +151,7 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
     // sticking contacts joined by straight links, docs/physics.md), further solves only drift it
     // (a mixed step's change may rise and says nothing of the plain map's)
     slow = iteration > 1 && !mixed && change > FRICTION_STALL_RATIO * last_change ? slow + 1 : 0;
-    const bool stalled = slow >= 2 && change > FRICTION_REPORT_TOLERANCE * scale;
+    const bool stalled = slow >= 2;
     // the mixing steps only where the iteration shrinks steadily: solves in a row whose change
     // fell (below FRICTION_STALL_RATIO of the one before), none of them above the least yet
     steady =
