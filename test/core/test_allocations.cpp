@@ -5,6 +5,8 @@
 #include "constrained_particles/core/simulator.hpp"
 #include "test_helpers.hpp"
 
+#include "fixed_point.hpp"
+
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -274,6 +276,34 @@ TEST(Allocations, SteadyStepsAllocateNothingOnTheLinearTimePaths)
   EXPECT_GT(fused, 0);
   EXPECT_GT(by_rows, 0);
   EXPECT_GT(by_particles, 0);
+}
+
+// The friction iteration's Anderson mixing (fixed_point.hpp), once its history and vectors have
+// their sizes (Data's), touches no heap: its normal equations are fixed-size, and a mixed step,
+// a plain one and a cleared history's first all run in place
+TEST(Allocations, AndersonMixingAllocatesNothing)
+{
+  const int dimension = 30;
+  FixedPointHistory history;
+  resizeHistory(history, dimension, 5);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(dimension), g(dimension), next(dimension);
+  long mixed = 0;
+  const long count = allocationsIn(
+      [&]
+      {
+        for (int k = 0; k < 12; ++k)
+        {
+          if (k == 8)
+            clearHistory(history);
+          for (int i = 0; i < dimension; ++i)
+            g[i] = 0.9 * x[(i + 1) % dimension] + 1.0 / (1.0 + i);
+          andersonStep(history, x, g, next);
+          mixed += next != g;
+          x.swap(next);
+        }
+      });
+  EXPECT_EQ(count, 0);
+  EXPECT_GE(mixed, 8);  // the steps after each history's first were mixed, not plain
 }
 
 // the sparse path (cycles: a zig-zag of links and angles), and the tree's sparse fallback, keep
