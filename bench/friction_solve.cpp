@@ -4,11 +4,11 @@
 // cylinder pulled at both ends at 0.999 and 1.001 of the capstan ratio (the discrete one, within
 // 6e-4 of e^(mu pi)) for 0.5 s: how far its heavier end moved (held: under 1e-9 m; slipped: mm).
 // Usage: bench_friction [SCENES_DIR]   (about 1 minute on 2 cores)
+#include "bench_common.hpp"
 #include "capstan_rope.hpp"
 #include "constrained_particles/core/simulator.hpp"
 #include "constrained_particles/scenes/scene_file.hpp"
 
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -38,14 +38,19 @@ Run runOf(const Scene& scene, const State& start, const StepSettings& settings, 
            (sim.state().positions.col(0) - start.positions.col(0)).norm() };
 }
 
+// `runOf` three times: the median wall time a step (bench_common.hpp's median), the rest of the
+// last run (the counts are the same in every run: the steps are deterministic)
 Run medianOf3(const Scene& scene, const State& start, const StepSettings& settings, long steps)
 {
-  std::vector<Run> runs;
+  std::vector<double> times;
+  Run run{};
   for (int k = 0; k < 3; ++k)
-    runs.push_back(runOf(scene, start, settings, steps));
-  std::sort(runs.begin(), runs.end(),
-            [](const Run& a, const Run& b) { return a.step_us < b.step_us; });
-  return runs[1];
+  {
+    run = runOf(scene, start, settings, steps);
+    times.push_back(run.step_us);
+  }
+  run.step_us = bench::median(times);
+  return run;
 }
 
 // the capstan rope (capstan_rope.hpp) at `load` times its ratio, 0.5 s at dt 1 ms (rk4)

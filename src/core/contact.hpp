@@ -40,8 +40,8 @@ constexpr int MAX_FRICTION_ITERATIONS = 100;
 constexpr double FRICTION_TOLERANCE = 1e-13;
 /// A stage whose friction still changed by more than this fraction of the largest normal force
 /// where it stopped (stalled, or at MAX_FRICTION_ITERATIONS) is counted
-/// (StepStatistics::unconverged_friction); a stall below it stops the iteration uncounted
-/// (before, it ran on to MAX_FRICTION_ITERATIONS with its change standing still).
+/// (StepStatistics::unconverged_friction); a stall below it stops the iteration uncounted (run
+/// on, its change would stand still to MAX_FRICTION_ITERATIONS).
 constexpr double FRICTION_REPORT_TOLERANCE = 1e-9;
 /// The friction iteration stops, stalled, after two solves in a row whose change is over this
 /// fraction of the one before (its multipliers solved for the friction kept): it has no fixed

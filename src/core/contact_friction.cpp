@@ -101,7 +101,7 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
   double last_change = 0.0, last_scale = 0.0, least_change = 0.0;
   int slow = 0;        // solves in a row whose change fell by less than FRICTION_STALL_RATIO
   int steady = 0;      // solves in a row whose change fell by more, to a new least
-  bool mixed = false;  // x came from a mixing step (Anderson's), not x = g
+  bool mixed = false;  // x came from andersonStep (its first call after a clear is plain)
   for (int iteration = 0; iteration < MAX_FRICTION_ITERATIONS; ++iteration)
   {
     double change = 0.0, scale = 0.0, largest = 0.0;
