@@ -17,7 +17,7 @@ PACKAGES=(
   libactionlib-dev libactionlib-msgs-dev python3-actionlib python3-actionlib-msgs
   libsensor-msgs-dev python3-sensor-msgs python3-matplotlib
   libinteractive-markers-dev python3-interactive-markers python3-yaml
-  liburdfdom-dev
+  liburdfdom-dev libfcl-dev libassimp-dev
 )
 # Optional extras: rviz and Xvfb (WITH_RVIZ=1); the benchmark's peers and plots (WITH_BENCH=1);
 # clang with libFuzzer for scripts/fuzz.sh (WITH_FUZZ=1).

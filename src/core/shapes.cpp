@@ -12,8 +12,8 @@ namespace constrained_particles
 {
 namespace
 {
-const char* const SHAPE_NAMES[] = { "plane", "sphere", "box", "capsule", "cylinder" };
-constexpr int NUM_SHAPE_TYPES = 5;
+const char* const SHAPE_NAMES[] = { "plane", "sphere", "box", "capsule", "cylinder", "mesh" };
+constexpr int NUM_SHAPE_TYPES = 6;
 
 using Mat3 = Eigen::Matrix3d;
 
@@ -105,6 +105,47 @@ ShapeSample boxDistance(const Vec3& q, const Vec3& half)
   return s;
 }
 
+// A closed mesh's signed distance at q (local): the nearest triangle's nearest feature, signed by
+// its pseudonormal (triangle_mesh.hpp). A face is flat (H = 0); an edge curves across it only,
+// a vertex every way, as a box's edges and corners (roundDistance's forms, signed)
+ShapeSample meshDistance(const TriangleMesh& mesh, const Vec3& q)
+{
+  const int t = mesh.index ? mesh.index->nearest(mesh, q) : nearestTriangleByScan(mesh, q);
+  const TriangleFeature near = nearestOnTriangle(mesh, t, q);
+  const auto& v = mesh.triangles[t];
+  const Vec3 w = q - near.point;
+  ShapeSample s;
+  // a point over an edge or vertex along the face's normal is over the face too (where two
+  // coplanar triangles meet, the edge's own region is only that line: the distance is flat there)
+  if (near.feature == 0 || w.cross(mesh.face_normals[t]).norm() <= 1e-9 * w.norm())
+  {
+    s.normal = mesh.face_normals[t];
+    s.distance = s.normal.dot(w);
+    return s;
+  }
+  const Vec3 pseudonormal = near.feature <= 3 ? mesh.edge_normals[t][near.feature - 1]
+                                              : mesh.vertex_normals[v[near.feature - 4]];
+  const double r = w.norm();
+  const double sign = w.dot(pseudonormal) < 0.0 ? -1.0 : 1.0;
+  s.distance = sign * r;
+  if (!(r > 0.0))
+  {
+    s.normal = pseudonormal.normalized();  // on the edge or vertex itself
+    return s;
+  }
+  s.normal = sign * w / r;
+  Mat3 projector = Mat3::Identity();
+  if (near.feature <= 3)  // no curvature along the edge
+  {
+    const int k = near.feature - 1;
+    const Vec3 e = (mesh.vertices[v[(k + 1) % 3]] - mesh.vertices[v[k]]).normalized();
+    projector -= e * e.transpose();
+  }
+  s.hessian =
+      sign * (projector - s.normal * s.normal.transpose()) / std::max(r, MIN_CURVATURE_RADIUS);
+  return s;
+}
+
 }  // namespace
 
 ShapePose fixedPose(const Shape& shape)
@@ -147,6 +188,9 @@ ShapeSample evaluateShape(const Shape& shape, const ShapePose& pose, const Vec3&
     }
     case ShapeType::Cylinder:
       local = cylinderDistance(q, shape.radius, 0.5 * shape.length);
+      break;
+    case ShapeType::Mesh:
+      local = meshDistance(*shape.mesh, q);
       break;
   }
   ShapeSample world;
@@ -253,6 +297,12 @@ void validateShape(const Shape& shape, const std::string& field)
     case ShapeType::Cylinder:
       requireInRange(field + ".radius", shape.radius, limits::SHAPE_SIZE);
       requireInRange(field + ".length", shape.length, limits::SHAPE_SIZE);
+      break;
+    case ShapeType::Mesh:
+      if (!shape.mesh)
+        throw InvalidInput(field + ".file",
+                           "is missing: a mesh shape reads its triangles from "
+                           "a file (STL, OBJ or DAE)");
       break;
   }
 }

@@ -327,6 +327,18 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
           add(shape, visualization_msgs::Marker::SPHERE, shape.position + end * shape.length * axis,
               Vec3(d, d, d));
         break;
+      case ShapeType::Mesh:
+      {
+        // its triangles, in its own frame (rviz reads no file: a ROS-less path draws too)
+        const std::size_t before = array.markers.size();
+        add(shape, visualization_msgs::Marker::TRIANGLE_LIST, shape.position, Vec3::Ones());
+        if (array.markers.size() > before && shape.mesh)
+          for (const auto& triangle : shape.mesh->triangles)
+            for (const int v : triangle)
+              array.markers.back().points.push_back(
+                  tf2::toMsg(Eigen::Vector3d(shape.mesh->vertices[v])));
+        break;
+      }
     }
   }
   return array;

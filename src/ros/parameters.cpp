@@ -242,4 +242,13 @@ void validateNodeParameters(const NodeParameters& p)
                        "or publishes it, not both");
 }
 
+SceneInputs sceneInputs(const NodeParameters& parameters)
+{
+  SceneInputs inputs;
+  inputs.robot_description = parameters.robot_description;
+  inputs.files.package_path = [](const std::string& package)
+  { return ros::package::getPath(package); };
+  return inputs;
+}
+
 }  // namespace constrained_particles

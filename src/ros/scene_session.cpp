@@ -7,7 +7,7 @@ namespace constrained_particles
 SceneSession::SceneSession(const NodeParameters& parameters, const SceneDescription& scene)
   : max_particles_(parameters.max_particles)
   , scene_directory_(parameters.scene_directory)
-  , inputs_{ parameters.robot_description }
+  , inputs_(sceneInputs(parameters))
 {
   chosen_step_.values = parameters.step;
   chosen_step_.given = parameters.step_given;
@@ -61,7 +61,7 @@ SceneSession::Candidate SceneSession::forObstacle(ObstacleChange change, const s
                                                   const StepSettings& current) const
 {
   SceneDescription changed = *scene_;
-  changeObstacle(changed, change, name, shape);
+  changeObstacle(changed, change, name, shape, inputs_.files);
   return build(changed, current, false);
 }
 

@@ -73,7 +73,7 @@ SimulatorNode::SimulatorNode(const ros::NodeHandle& private_nh)
   ros::NodeHandle().getParam("robot_description", parameters_.robot_description);
   SceneDescription scene =
       loadSceneFile(resolveScene(parameters_.scenario, parameters_.scene_directory, "~scenario"),
-                    SceneInputs{ parameters_.robot_description });
+                    sceneInputs(parameters_));
   for (const std::string& warning : parameters_.overrides.applyTo(scene))
     ROS_WARN("simulator: %s", warning.c_str());
   runner_ = std::make_unique<SimulationRunner>(parameters_, scene);

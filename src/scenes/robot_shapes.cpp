@@ -2,6 +2,8 @@
 /// @brief robotLinkShapes: URDF collision elements (urdfdom) to obstacle shapes.
 #include "constrained_particles/scenes/robot_shapes.hpp"
 
+#include "constrained_particles/scenes/mesh_file.hpp"
+
 #include "constrained_particles/core/limits.hpp"
 #include "constrained_particles/core/types.hpp"
 
@@ -24,8 +26,10 @@ void placeAt(const urdf::Pose& pose, Shape& shape)
   shape.rotation = Eigen::Quaterniond(w, x, y, z).normalized().toRotationMatrix();
 }
 
-// One collision element of link `link` as a shape, or a refusal naming `field`
-Shape shapeOf(const urdf::Collision& collision, const std::string& link, const std::string& field)
+// One collision element of link `link` as a shape, or a refusal naming `field`; a mesh's file
+// found by `files`
+Shape shapeOf(const urdf::Collision& collision, const std::string& link, const std::string& field,
+              const FileResolver& files)
 {
   if (!collision.geometry)
     throw InvalidInput(field, "= '" + link + "': a collision element has no geometry");
@@ -54,18 +58,29 @@ Shape shapeOf(const urdf::Collision& collision, const std::string& link, const s
       break;
     }
     case urdf::Geometry::MESH:
-      throw InvalidInput(field, "= '" + link + "': its collision geometry is a mesh ('" +
-                                    static_cast<const urdf::Mesh&>(*collision.geometry).filename +
-                                    "'), which cannot be an obstacle yet (issue 48: meshes); "
-                                    "give the link a box, sphere or cylinder collision, or "
-                                    "leave it out");
+    {
+      const auto& mesh = static_cast<const urdf::Mesh&>(*collision.geometry);
+      shape.type = ShapeType::Mesh;
+      try
+      {
+        shape.mesh = loadMeshFile(files.resolve(mesh.filename, "file"),
+                                  Vec3(mesh.scale.x, mesh.scale.y, mesh.scale.z), "");
+      }
+      catch (const InvalidInput& e)  // the mesh's file or scale, said for this link
+      {
+        const std::string message = e.what();
+        throw InvalidInput(field, "= '" + link + "': its collision mesh '" + mesh.filename +
+                                      "': " + message.substr(e.field().size() + 1));
+      }
+      break;
+    }
   }
   return shape;
 }
 }  // namespace
 
 std::vector<Shape> robotLinkShapes(const std::string& urdf, const std::vector<std::string>& links,
-                                   const std::string& field)
+                                   const std::string& field, const FileResolver& files)
 {
   if (links.empty())
     return {};
@@ -97,7 +112,7 @@ std::vector<Shape> robotLinkShapes(const std::string& urdf, const std::vector<st
       throw InvalidInput(at, "= '" + name + "' has no collision geometry");
     for (std::size_t k = 0; k < elements.size(); ++k)
     {
-      Shape shape = shapeOf(*elements[k], name, at);
+      Shape shape = shapeOf(*elements[k], name, at, files);
       shape.name = elements.size() == 1 ? name : name + "_" + std::to_string(k);
       validateShape(shape, at + " (" + shape.name + ")");
       shapes.push_back(shape);

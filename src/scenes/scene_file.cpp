@@ -232,7 +232,7 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
       for (const Shape& earlier : d.shapes)
         if (earlier.name == name)
           fail(top / "shapes" / name, entry.first, "appears twice among the shapes");
-      d.shapes.push_back(parseShape(top / "shapes" / name, entry.second, name));
+      d.shapes.push_back(parseShape(top / "shapes" / name, entry.second, name, inputs.files));
     }
     if (!limits::SHAPES.contains(static_cast<double>(d.shapes.size())))
       fail(top / "shapes", shapes,
@@ -250,7 +250,7 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
     std::vector<Shape> robot;
     try
     {
-      robot = robotLinkShapes(inputs.robot_description, names, "robot_links");
+      robot = robotLinkShapes(inputs.robot_description, names, "robot_links", inputs.files);
     }
     catch (const InvalidInput& e)
     {
@@ -311,6 +311,12 @@ SceneDescription parseSceneNodes(const std::string& yaml, const std::string& sou
         {
           failAt(at, chains[k]["radius"] ? chains[k]["radius"] : chains[k], e);
         }
+        if (chain.capsules && shape.type == ShapeType::Mesh)
+          fail(at / "capsules", chains[k]["capsules"],
+               "= true with mesh '" + shape.name +
+                   "' among its obstacles: a link's nearest point is found on a convex shape "
+                   "(one minimum along it), and a mesh is not one; its particles keep out of it "
+                   "with capsules: false");
         if (std::find(chain.obstacles.begin(), chain.obstacles.begin() + o, chain.obstacles[o]) !=
             chain.obstacles.begin() + o)
           fail((at / "obstacles")[o], chains[k]["obstacles"][o],
@@ -496,7 +502,11 @@ SceneDescription loadSceneFile(const std::string& path, const SceneInputs& input
   file.seekg(0);
   std::stringstream text;
   text << file.rdbuf();
-  SceneDescription d = parseScene(text.str(), path, inputs);
+  // a mesh's relative `file` is from the scene file's directory
+  SceneInputs here = inputs;
+  if (here.files.directory.empty() && path.find('/') != std::string::npos)
+    here.files.directory = path.substr(0, path.find_last_of('/'));
+  SceneDescription d = parseScene(text.str(), path, here);
   if (d.name.empty())
   {
     const std::size_t slash = path.find_last_of('/');

@@ -42,7 +42,8 @@ Surface parseSurface(const Where& where, const YAML::Node& node)
 }
 
 // An obstacle: its type, then the keys that type reads (ShapeSpec's), each in its range
-Shape parseShape(const Where& where, const YAML::Node& node, const std::string& name)
+Shape parseShape(const Where& where, const YAML::Node& node, const std::string& name,
+                 const FileResolver& files)
 {
   requireMap(where, node, "a shape");
   if (!node["type"])
@@ -59,6 +60,11 @@ Shape parseShape(const Where& where, const YAML::Node& node, const std::string& 
     keys.push_back("radius");
   if (shape.type == ShapeType::Capsule || shape.type == ShapeType::Cylinder)
     keys.push_back("length");
+  if (shape.type == ShapeType::Mesh)
+  {
+    keys.push_back("file");
+    keys.push_back("scale");
+  }
   checkKeys(where, node, keys, std::string("a ") + shapeTypeName(shape.type));
   // read first (a wrong type names its key and line itself), then checked against the ranges
   Vec3 rpy = Vec3::Zero();
@@ -77,6 +83,28 @@ Shape parseShape(const Where& where, const YAML::Node& node, const std::string& 
     shape.frame = readString(where / "frame", node["frame"]);
   if (node["topic"])
     shape.topic = readString(where / "topic", node["topic"]);
+  if (shape.type == ShapeType::Mesh)
+  {
+    if (!node["file"])
+      fail(where / "file", node,
+           "is missing: a mesh reads its triangles from a file (STL, OBJ, DAE)");
+    Vec3 scale = Vec3::Ones();
+    if (node["scale"])
+      scale = readVector(where / "scale", node["scale"]);
+    try
+    {
+      const std::string file = files.resolve(readString(where / "file", node["file"]), "file");
+      shape.mesh = loadMeshFile(file, scale, "");
+    }
+    catch (const InvalidInput& e)  // ".file", ".scale" or "file": named at its line
+    {
+      std::string key = e.field();
+      if (!key.empty() && key[0] == '.')
+        key = key.substr(1);
+      const std::string message = e.what();
+      fail(where / key, node[key], message.substr(e.field().size() + 1));
+    }
+  }
   try
   {
     requireInRange("rpy", rpy, limits::SHAPE_ANGLE);
@@ -127,13 +155,13 @@ bool namesShape(Constraint& constraint, const std::string& name, const Shape* re
 }
 
 // The shape ~set_obstacle's `shape` field writes, as a scene file writes one under `shapes`.
-Shape parseObstacle(const std::string& yaml, const std::string& name)
+Shape parseObstacle(const std::string& yaml, const std::string& name, const FileResolver& files)
 {
   static const std::string SOURCE = "shape";
   Shape shape;
   try
   {
-    shape = scene_yaml::parseShape(scene_yaml::Where{ SOURCE, "" }, YAML::Load(yaml), name);
+    shape = scene_yaml::parseShape(scene_yaml::Where{ SOURCE, "" }, YAML::Load(yaml), name, files);
   }
   catch (const YAML::Exception& e)  // not YAML, or a value yaml-cpp cannot convert
   {
@@ -150,7 +178,7 @@ Shape parseObstacle(const std::string& yaml, const std::string& name)
 }  // namespace
 
 void changeObstacle(SceneDescription& d, ObstacleChange change, const std::string& name,
-                    const std::string& shape_yaml)
+                    const std::string& shape_yaml, const FileResolver& files)
 {
   if (name.empty())
     throw InvalidInput("name", "is empty: name the shape (its key under `shapes`)");
@@ -186,7 +214,7 @@ void changeObstacle(SceneDescription& d, ObstacleChange change, const std::strin
         d.constraints.end());
     return;
   }
-  const Shape shape = parseObstacle(shape_yaml, name);
+  const Shape shape = parseObstacle(shape_yaml, name, files);
   // a box's or cylinder's sharp edges against a point: refused as a scene file's are
   for (std::size_t k = 0; k < d.chains.size(); ++k)
   {

@@ -235,8 +235,10 @@ void readFields(const Where& where, const YAML::Node& node, Record& record,
 Surface parseSurface(const Where& where, const YAML::Node& node);
 
 /// An obstacle under `shapes` named `name`: its type, then the keys that type reads, each in its
-/// range. @throws InvalidInput at `where`, naming the key and its valid range
-Shape parseShape(const Where& where, const YAML::Node& node, const std::string& name);
+/// range; a mesh's `file` found by `files` and read (mesh_file.hpp). @throws InvalidInput at
+/// `where`, naming the key and its valid range
+Shape parseShape(const Where& where, const YAML::Node& node, const std::string& name,
+                 const FileResolver& files = {});
 
 }  // namespace scene_yaml
 }  // namespace constrained_particles

@@ -308,7 +308,8 @@ TEST(RobotLinks, CollisionElementsBecomeShapesOnTheLinksFrames)
   EXPECT_EQ(shapes[3].type, ShapeType::Cylinder);
 }
 
-// Refusals name robot_links and say why: no description, a link not in it, a mesh, twice.
+// Refusals name robot_links and say why: no description, a link not in it, a mesh file not
+// found, twice.
 TEST(RobotLinks, RefusalsNameTheFieldAndWhy)
 {
   const std::string urdf = testRobot();
@@ -321,7 +322,7 @@ TEST(RobotLinks, RefusalsNameTheFieldAndWhy)
   };
   expectRefused("[forearm]", "", "robot_description");
   expectRefused("[elbow]", urdf, "'elbow' is not a link of robot 'test_arm'");
-  expectRefused("[camera]", urdf, "mesh");
+  expectRefused("[camera]", urdf, "package 'test_arm' is not found");  // its mesh file
   expectRefused("[forearm, forearm]", urdf, "named twice");
   expectRefused("[forearm]", "<robot", "not a URDF");
   EXPECT_EQ(refusal("robot_links: [forearm]\n", urdf), "");

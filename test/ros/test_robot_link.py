@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """A rope dropped onto a URDF link (issue 48, item 1): the test robot's forearm box, from
 robot_description, on its tf frame (/tf_static); the rope never inside it, at rest on its top,
-the link's ~obstacle_wrench carrying the rope's weight."""
+the link's ~obstacle_wrench carrying the rope's weight, ~obstacles drawing it on its frame. With
+~mesh true (robot_mesh_link.test) the box is the link's <mesh>: drawn as its 12 triangles."""
 import math
 import time
 import unittest
@@ -13,6 +14,7 @@ from constrained_particles.msg import SimState
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TransformStamped, WrenchStamped
 from rosgraph_msgs.msg import Clock
+from visualization_msgs.msg import Marker, MarkerArray
 from topic_recorder import Recorder
 from wall_clock import WallClockWaits
 
@@ -49,6 +51,7 @@ class RobotLinkTest(WallClockWaits, unittest.TestCase):
         cls.states = Recorder(f"{NODE}/state", SimState, keep=5000)
         cls.diagnostics = Recorder("/diagnostics", DiagnosticArray, keep=50)
         cls.wrenches = Recorder(f"{NODE}/obstacle_wrench/forearm", WrenchStamped, keep=2000)
+        cls.obstacles = Recorder(f"{NODE}/obstacles", MarkerArray, keep=10)
         cls.clock = rospy.Publisher("/clock", Clock, queue_size=100)
         cls.tf = tf2_ros.StaticTransformBroadcaster()
 
@@ -103,6 +106,22 @@ class RobotLinkTest(WallClockWaits, unittest.TestCase):
                       if w.header.stamp == last_state.header.stamp)
         f = wrench.wrench.force
         self.assertLess(math.dist((f.x, f.y, f.z), (0.0, 0.0, -weight)), 1e-9 * weight, f)
+        # ~obstacles draws the link on its frame: a CUBE of its size, or its mesh's triangles
+        drawn = self.wait_until(
+            lambda: next((m for a in reversed(self.obstacles.since(0.0)) for m in a.markers
+                          if m.ns == "obstacles" and m.action == Marker.ADD), None),
+            "the forearm in ~obstacles")
+        self.assertEqual(drawn.header.frame_id, "forearm")
+        if rospy.get_param("~mesh", False):
+            self.assertEqual(drawn.type, Marker.TRIANGLE_LIST)
+            self.assertEqual(len(drawn.points), 36)
+            for q in drawn.points:  # a corner of the box, in its own frame
+                for c, h in zip((q.x, q.y, q.z), HALF):
+                    self.assertAlmostEqual(abs(c), h, delta=1e-12)
+        else:
+            self.assertEqual(drawn.type, Marker.CUBE)
+            for size, h in zip((drawn.scale.x, drawn.scale.y, drawn.scale.z), HALF):
+                self.assertAlmostEqual(size, 2 * h, delta=1e-12)
         print(f"deepest {deepest:.3g} m over {len(states)} states; at rest on the forearm, "
               f"its wrench ({f.x:.3g}, {f.y:.3g}, {f.z:.12f}) N against weight {weight} N")
 

@@ -105,6 +105,10 @@ constexpr Range SHAPE_SIZE{ 1e-6, false, 1e3, "m", false };
 constexpr Range SHAPE_ANGLE{ -1e3, false, 1e3, "rad", false };
 /// Obstacle shapes in one scene (its `shapes`, with robot_links', and those ~set_obstacle adds).
 constexpr Range SHAPES{ 0.0, false, 256.0, "1", true };
+/// Triangles in a mesh obstacle (triangle_mesh.hpp): a closed surface has at least 4.
+constexpr Range MESH_TRIANGLES{ 4.0, false, 1e6, "1", true };
+/// A mesh file's scale along each local axis [1] (URDF's <mesh scale>; 0.001 for a file in mm).
+constexpr Range MESH_SCALE{ 1e-6, false, 1e6, "1", false };
 /// A particle's radius against obstacles [m] (a rope's thickness / 2); 0: a point.
 constexpr Range PARTICLE_RADIUS{ 0.0, false, 10.0, "m", false };
 /// A self-colliding rope's radius [m] (its links' against each other): over 0, as links of no

@@ -1,19 +1,23 @@
 /// @file shapes.hpp
 /// @brief Obstacle shapes a particle cannot enter: plane, sphere, box, capsule and cylinder, each
 /// a closed-form signed distance with its gradient and Hessian (the contact row's J and Jdot v are
-/// read from them, exactly). Conventions are URDF's and FCL's: a shape sits at `position`, turned
+/// read from them, exactly), and a closed triangle mesh (triangle_mesh.hpp: exact too, from its
+/// nearest feature). Conventions are URDF's and FCL's: a shape sits at `position`, turned
 /// by roll-pitch-yaw `rpy`; a box's `size` is its full sides, a cylinder's and a capsule's axis is
 /// their local z with `length` the straight part, centred. docs/physics.md, "Obstacles".
 ///
 /// Why closed forms and not FCL: these five shapes' distances are exact in a few lines and their
-/// Hessians (which the row's Jdot v needs) are not something FCL gives; meshes and URDF geometry,
-/// where a library earns its keep, go through FCL when they land (issue 48, item 1).
+/// Hessians (which the row's Jdot v needs) are not something FCL gives. A mesh's nearest triangle
+/// is found by FCL's bounding-volume tree (src/scenes/mesh_index.cpp), where a library earns its
+/// keep; its distance from that triangle's feature is closed-form here.
 #pragma once
 
+#include "constrained_particles/core/triangle_mesh.hpp"
 #include "constrained_particles/core/types.hpp"
 
 #include <Eigen/Geometry>
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -27,6 +31,7 @@ enum class ShapeType
   Box,       ///< size: full side lengths along the local x, y, z
   Capsule,   ///< radius, length: a segment of `length` along the local z, thickened by radius
   Cylinder,  ///< radius, length: along the local z, flat ends
+  Mesh,      ///< mesh: a closed triangle mesh in the local frame (triangle_mesh.hpp)
 };
 
 /// One obstacle: fixed in the world frame, or carried by a holder outside the core (a tf frame,
@@ -40,6 +45,8 @@ struct Shape
   double radius = 0.5;                                     ///< sphere, capsule, cylinder [m]
   double length = 1.0;       ///< capsule's segment, cylinder's height [m]
   Vec3 size = Vec3::Ones();  ///< box's full sides [m]
+  /// A mesh's triangles (shared, const; null for the other types)
+  std::shared_ptr<const TriangleMesh> mesh;
   /// The tf frame that carries it (position and rotation are then in that frame), or empty
   std::string frame;
   /// A geometry_msgs/PoseStamped topic that carries it instead, or empty
@@ -92,7 +99,10 @@ constexpr double MIN_CURVATURE_RADIUS = 1e-6;
 /// Outside, the distance is C1 (its Hessian jumps between a face and an edge); inside, it is the
 /// nearest face's (a box, a cylinder: their pieces meet at edges). Where the gradient is undefined
 /// the normal is taken as the local +z (a sphere's or a capsule's centre, a point on a box's
-/// surface) or the local +x (a cylinder's axis, its side nearest). Stateless; no allocation.
+/// surface) or the local +x (a cylinder's axis, its side nearest). A mesh: the distance from its
+/// nearest triangle's nearest feature (a face: flat; an edge or a vertex: round, rounded by
+/// MIN_CURVATURE_RADIUS as a box's), signed by that feature's pseudonormal; on the surface, the
+/// face's normal. Stateless; no allocation.
 ShapeSample evaluateShape(const Shape& shape, const Vec3& p);
 /// The same with the shape at `pose` (its own position and rotation ignored).
 ShapeSample evaluateShape(const Shape& shape, const ShapePose& pose, const Vec3& p);
@@ -112,7 +122,8 @@ struct SegmentSample
 };
 
 /// The point of segment a-b [m] (world) nearest `shape` at `pose`, s within [low, high] (0 <=
-/// low < high <= 1): a shape's signed distance is convex (each is convex), so along the segment
+/// low < high <= 1): a shape's signed distance is convex (each is convex, but a mesh, which
+/// segment contacts refuse: segment_contact.hpp), so along the segment
 /// it has one minimum, found where d/ds = n . (b - a) changes sign, by Newton's steps on
 /// d2/ds2 = (b - a)^T H (b - a) kept inside a bracket (bisection where they leave it), to
 /// rounding. Stateless; no allocation.

@@ -141,6 +141,10 @@ int tfFrameCount(int particles, int tf_frames);
 /// @throws InvalidInput naming the parameter ("~chain/link_length") and its valid range
 NodeParameters readParameters(const ros::NodeHandle& private_nh);
 
+/// What scene files draw on from the node: its robot_description, and ROS packages' directories
+/// (roslib's ros::package::getPath) for `package://` mesh files.
+SceneInputs sceneInputs(const NodeParameters& parameters);
+
 /// Checks every setting against its range and the node's own rules (frames, scenario).
 /// @throws InvalidInput naming the parameter ("~dt")
 void validateNodeParameters(const NodeParameters& parameters);

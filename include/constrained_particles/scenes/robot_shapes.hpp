@@ -5,6 +5,7 @@
 #pragma once
 
 #include "constrained_particles/core/shapes.hpp"
+#include "constrained_particles/scenes/mesh_file.hpp"
 
 #include <string>
 #include <vector>
@@ -15,12 +16,14 @@ namespace constrained_particles
 /// parser ROS's urdf package wraps: a well-kept library for a format that is not our trade). Each
 /// collision element of a link is one shape: `frame` the link's name (robot_state_publisher's tf
 /// frame for it), `position` and `rotation` the element's `<origin>` in it, a `<box>`, `<sphere>`
-/// or `<cylinder>` as the shape of that type and size (URDF's conventions are shapes.hpp's). Named
-/// by the link, or `<link>_<k>` (k from 0, document order) where a link has several.
+/// or `<cylinder>` as the shape of that type and size (URDF's conventions are shapes.hpp's), a
+/// `<mesh>` as a mesh shape read from its file (`files` finds `package://` and relative names;
+/// its `scale` applied; mesh_file.hpp). Named by the link, or `<link>_<k>` (k from 0, document
+/// order) where a link has several.
 /// @throws InvalidInput naming `field` (e.g. "robot_links") or `field[i]`: the URDF empty or not
-/// parseable, a link not in it, named twice, with no collision element, or one that is a
-/// `<mesh>` (meshes are not obstacles yet), or a size out of limits::SHAPE_SIZE
+/// parseable, a link not in it, named twice, with no collision element, a size out of
+/// limits::SHAPE_SIZE, or a mesh file not found, unreadable or not a closed surface
 std::vector<Shape> robotLinkShapes(const std::string& urdf, const std::vector<std::string>& links,
-                                   const std::string& field);
+                                   const std::string& field, const FileResolver& files = {});
 
 }  // namespace constrained_particles

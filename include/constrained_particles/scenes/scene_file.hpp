@@ -10,6 +10,7 @@
 #include "constrained_particles/core/model.hpp"
 #include "constrained_particles/core/scene.hpp"
 #include "constrained_particles/core/settings.hpp"
+#include "constrained_particles/scenes/mesh_file.hpp"
 
 #include <optional>
 #include <string>
@@ -200,6 +201,9 @@ struct SceneInputs
 {
   /// The robot's URDF (the node's robot_description parameter), for `robot_links`; empty: none
   std::string robot_description;
+  /// Where `package://` mesh files are (a mesh shape's `file`, a URDF's `<mesh>`); relative paths
+  /// are from the scene file's directory (loadSceneFile sets it)
+  FileResolver files;
 };
 
 /// Parses a scene from YAML text.
@@ -259,13 +263,13 @@ enum class ObstacleChange
 /// Applies `change` to the fixed obstacle `name`. `shape_yaml` is the shape as a scene file
 /// writes it under `shapes` (a YAML map: "{type: sphere, position: [0, 0, 0.5], radius: 0.1}"),
 /// for Add and Replace; empty for Remove. An added shape is kept out by each chain with the
-/// chain's radius, friction, restitution and capsules.
+/// chain's radius, friction, restitution and capsules. A mesh's `file` is found by `files`.
 /// @throws InvalidInput naming `name` (empty; taken, for Add; not a shape of the scene, or one a
 /// frame or topic carries, for Replace and Remove), `shape` (its key and line, as a scene file's
 /// are named; a frame or topic in it; present for Remove) or `operation` (Add in a scene with no
 /// chain, or over limits::SHAPES shapes); `description` is then unchanged
 void changeObstacle(SceneDescription& description, ObstacleChange change, const std::string& name,
-                    const std::string& shape_yaml);
+                    const std::string& shape_yaml, const FileResolver& files = {});
 
 /// Replaces the scene's first surface. @throws InvalidInput if it has none
 void setFirstSurface(SceneDescription& description, const Surface& surface);

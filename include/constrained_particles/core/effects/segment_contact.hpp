@@ -211,6 +211,13 @@ inline void validate(const SegmentContact& contact, int num_particles, int num_s
                            "', a plane: a segment's nearest point to a plane is always an end, "
                            "which its particle's shape_contact holds; name a sphere, box, capsule "
                            "or cylinder");
+  if (contact.shape.type == ShapeType::Mesh)
+    throw InvalidInput(prefix + ".shape",
+                       "= '" + contact.shape.name +
+                           "', a mesh: a segment's nearest point is found on a convex shape's "
+                           "distance (one minimum along it), and a mesh's has several; its "
+                           "particles' shape_contacts keep them out of it (a chain's capsules: "
+                           "false)");
 }
 
 }  // namespace constrained_particles

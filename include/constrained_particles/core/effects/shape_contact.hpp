@@ -157,13 +157,16 @@ inline double penetration(const ShapeContact& contact, const EffectContext& cont
                                             .distance);
 }
 
-/// A point (radius 0) against a box or a cylinder is refused: their edges and rim are sharp, and a
-/// point's contact normal turns through 90 degrees on one, within a step (it launched a particle
-/// through the box); a ball of radius r rolls over them, its centre on a surface rounded by r.
+/// A point (radius 0) against a box, a cylinder or a mesh is refused: their edges and rim are
+/// sharp, and a point's contact normal turns through 90 degrees on one, within a step (it launched
+/// a particle through the box); a ball of radius r rolls over them, its centre on a surface rounded
+/// by r.
 /// @throws InvalidInput naming `field`
 inline void requireRoundedEdges(const Shape& shape, double radius, const std::string& field)
 {
-  if ((shape.type == ShapeType::Box || shape.type == ShapeType::Cylinder) && !(radius > 0.0))
+  if ((shape.type == ShapeType::Box || shape.type == ShapeType::Cylinder ||
+       shape.type == ShapeType::Mesh) &&
+      !(radius > 0.0))
     throw InvalidInput(field, "= " + formatValue(radius) + " against " + shapeTypeName(shape.type) +
                                   " '" + shape.name + "', must be > 0 (in (0, " +
                                   formatValue(limits::PARTICLE_RADIUS.high) +
