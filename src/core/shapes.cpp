@@ -115,9 +115,13 @@ ShapeSample meshDistance(const TriangleMesh& mesh, const Vec3& q)
   const auto& v = mesh.triangles[t];
   const Vec3 w = q - near.point;
   ShapeSample s;
-  // a point over an edge or vertex along the face's normal is over the face too (where two
-  // coplanar triangles meet, the edge's own region is only that line: the distance is flat there)
-  if (near.feature == 0 || w.cross(mesh.face_normals[t]).norm() <= 1e-9 * w.norm())
+  // over a face; or over an edge or a vertex between coplanar faces (the distance is flat across
+  // them), or along the face's normal (on the face's region too)
+  const bool flat = near.feature == 0 ||
+                    (near.feature <= 3 ? mesh.flat_edges[t][near.feature - 1]
+                                       : mesh.flat_vertices[v[near.feature - 4]] != 0) ||
+                    w.cross(mesh.face_normals[t]).norm() <= 1e-9 * w.norm();
+  if (flat)
   {
     s.normal = mesh.face_normals[t];
     s.distance = s.normal.dot(w);
@@ -125,14 +129,9 @@ ShapeSample meshDistance(const TriangleMesh& mesh, const Vec3& q)
   }
   const Vec3 pseudonormal = near.feature <= 3 ? mesh.edge_normals[t][near.feature - 1]
                                               : mesh.vertex_normals[v[near.feature - 4]];
-  const double r = w.norm();
+  const double r = w.norm();  // > 0: w = 0 is flat above
   const double sign = w.dot(pseudonormal) < 0.0 ? -1.0 : 1.0;
   s.distance = sign * r;
-  if (!(r > 0.0))
-  {
-    s.normal = pseudonormal.normalized();  // on the edge or vertex itself
-    return s;
-  }
   s.normal = sign * w / r;
   Mat3 projector = Mat3::Identity();
   if (near.feature <= 3)  // no curvature along the edge

@@ -20,9 +20,86 @@ double cornerAngle(const Vec3& a, const Vec3& b, const Vec3& c)
   return std::atan2((b - a).cross(c - a).norm(), (b - a).dot(c - a));
 }
 
+using EdgeMap = std::map<std::pair<int, int>, int>;  // directed edge -> its triangle
+
+// A vertex's place, for messages: its index and coordinates
+std::string vertexText(const std::vector<Vec3>& vertices, int v)
+{
+  const Vec3& p = vertices[v];
+  return "vertex " + std::to_string(v) + " (" + formatValue(p.x()) + ", " + formatValue(p.y()) +
+         ", " + formatValue(p.z()) + ")";
+}
+
+// Each directed edge's triangle; refused (naming `field`) unless every edge is wound once each
+// way: a closed, consistently wound surface
+EdgeMap edgesOf(const std::vector<Vec3>& vertices, const std::vector<std::array<int, 3>>& triangles,
+                const std::string& where, const std::string& field)
+{
+  EdgeMap edge_of;
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+  {
+    const auto& v = triangles[t];
+    for (int k = 0; k < 3; ++k)
+    {
+      const auto edge = std::make_pair(v[k], v[(k + 1) % 3]);
+      if (!edge_of.emplace(edge, static_cast<int>(t)).second)
+        throw InvalidInput(
+            field, where + ": the edge from " + vertexText(vertices, edge.first) + " to " +
+                       vertexText(vertices, edge.second) + " is wound the same way by triangles " +
+                       std::to_string(edge_of.at(edge)) + " and " + std::to_string(t) +
+                       " (or borders more than two): not a consistently "
+                       "oriented, closed surface");
+    }
+  }
+  for (const auto& [edge, t] : edge_of)
+    if (!edge_of.count({ edge.second, edge.first }))
+      throw InvalidInput(field, where + ": the edge from " + vertexText(vertices, edge.first) +
+                                    " to " + vertexText(vertices, edge.second) + " (triangle " +
+                                    std::to_string(t) +
+                                    ") borders one triangle only: the mesh is not closed, so it "
+                                    "has no inside to keep particles out of");
+  return edge_of;
+}
+
+// Each shell (triangles joined by edges) whose enclosed volume is negative turned outward
+void turnShellsOut(const std::vector<Vec3>& vertices, std::vector<std::array<int, 3>>& triangles,
+                   const EdgeMap& edge_of)
+{
+  std::vector<int> shell(triangles.size(), -1);
+  for (std::size_t seed = 0; seed < triangles.size(); ++seed)
+  {
+    if (shell[seed] >= 0)
+      continue;
+    std::vector<int> members{ static_cast<int>(seed) };
+    shell[seed] = static_cast<int>(seed);
+    double volume = 0.0;  // six times the enclosed volume (divergence theorem)
+    for (std::size_t m = 0; m < members.size(); ++m)
+    {
+      const auto& v = triangles[members[m]];
+      volume += vertices[v[0]].dot(
+          (vertices[v[1]] - vertices[v[0]]).cross(vertices[v[2]] - vertices[v[0]]));
+      for (int k = 0; k < 3; ++k)
+      {
+        const int across = edge_of.at({ v[(k + 1) % 3], v[k] });
+        if (shell[across] < 0)
+        {
+          shell[across] = static_cast<int>(seed);
+          members.push_back(across);
+        }
+      }
+    }
+    if (volume < 0.0)
+      for (const int t : members)
+        std::swap(triangles[t][1], triangles[t][2]);
+  }
+}
+
 // Normals of a checked mesh: each face's, each edge's (its two faces' summed, in one order for
-// both so that either triangle gives the same), each vertex's (angle-weighted), and the bounds
-void completeNormals(TriangleMesh& mesh, const std::map<std::pair<int, int>, int>& edge_of)
+// both so that either triangle gives the same), each vertex's (angle-weighted), the edges and
+// vertices between coplanar faces, and the bounds; two faces back to back (a sheet of no
+// thickness, no inside) refused naming `field`
+void completeNormals(TriangleMesh& mesh, const EdgeMap& edge_of, const std::string& where,
+                     const std::string& field)
 {
   const std::size_t f = mesh.triangles.size();
   mesh.face_normals.resize(f);
@@ -33,22 +110,37 @@ void completeNormals(TriangleMesh& mesh, const std::map<std::pair<int, int>, int
                        .cross(mesh.vertices[v[2]] - mesh.vertices[v[0]]);
     mesh.face_normals[t] = n.normalized();
   }
+  constexpr double COPLANAR = 1.0 - 1e-12;  // cosine between two faces' normals
   mesh.edge_normals.resize(f);
+  mesh.flat_edges.resize(f);
   mesh.vertex_normals.assign(mesh.vertices.size(), Vec3::Zero());
+  mesh.flat_vertices.assign(mesh.vertices.size(), 1);
+  std::vector<int> first_face(mesh.vertices.size(), -1);
   for (std::size_t t = 0; t < f; ++t)
   {
     const auto& v = mesh.triangles[t];
+    const Vec3& n = mesh.face_normals[t];
     for (int k = 0; k < 3; ++k)
     {
       const int a = v[k], b = v[(k + 1) % 3];
       const int other = edge_of.at({ b, a });  // the triangle across the edge
       const int first = std::min<int>(static_cast<int>(t), other),
                 second = std::max<int>(static_cast<int>(t), other);
-      mesh.edge_normals[t][k] = mesh.face_normals[first] + mesh.face_normals[second];
-      const Vec3& p = mesh.vertices[v[k]];
-      mesh.vertex_normals[v[k]] +=
-          cornerAngle(p, mesh.vertices[v[(k + 1) % 3]], mesh.vertices[v[(k + 2) % 3]]) *
-          mesh.face_normals[t];
+      const Vec3 sum = mesh.face_normals[first] + mesh.face_normals[second];
+      if (!(sum.norm() > 1e-9))
+        throw InvalidInput(
+            field, where + ": triangles " + std::to_string(first) + " and " +
+                       std::to_string(second) + " lie back to back along the edge from " +
+                       vertexText(mesh.vertices, a) + " to " + vertexText(mesh.vertices, b) +
+                       ": a sheet of no thickness has no inside");
+      mesh.edge_normals[t][k] = sum;
+      mesh.flat_edges[t][k] = n.dot(mesh.face_normals[other]) > COPLANAR;
+      mesh.vertex_normals[a] +=
+          cornerAngle(mesh.vertices[a], mesh.vertices[b], mesh.vertices[v[(k + 2) % 3]]) * n;
+      if (first_face[a] < 0)
+        first_face[a] = static_cast<int>(t);
+      else if (!(n.dot(mesh.face_normals[first_face[a]]) > COPLANAR))
+        mesh.flat_vertices[a] = 0;
     }
   }
   mesh.low = mesh.high = mesh.vertices[mesh.triangles[0][0]];
@@ -79,9 +171,6 @@ std::shared_ptr<const TriangleMesh> makeTriangleMesh(std::vector<Vec3> vertices,
       throw InvalidInput(field, where + ": vertex " + std::to_string(k) + " is outside " +
                                     limits::COORDINATE.text() + " or not finite");
   const int n = static_cast<int>(vertices.size());
-  // each directed edge once: a closed surface, consistently wound
-  std::map<std::pair<int, int>, int> edge_of;
-  double volume = 0.0;  // six times the enclosed volume (divergence theorem)
   for (std::size_t t = 0; t < triangles.size(); ++t)
   {
     const auto& v = triangles[t];
@@ -94,40 +183,19 @@ std::shared_ptr<const TriangleMesh> makeTriangleMesh(std::vector<Vec3> vertices,
                                     (vertices[v[2]] - vertices[v[0]]).squaredNorm(),
                                     (vertices[v[2]] - vertices[v[1]]).squaredNorm() });
     if (!(normal.norm() > 1e-12 * scale))
-      throw InvalidInput(field, where + ": triangle " + std::to_string(t) +
-                                    " has no area (its vertices are on one line)");
-    volume += vertices[v[0]].dot(normal);
-    for (int k = 0; k < 3; ++k)
-      if (!edge_of.emplace(std::make_pair(v[k], v[(k + 1) % 3]), static_cast<int>(t)).second)
-        throw InvalidInput(field, where + ": the edge from vertex " + std::to_string(v[k]) +
-                                      " to " + std::to_string(v[(k + 1) % 3]) +
-                                      " is wound the same way by two triangles (" +
-                                      std::to_string(edge_of.at({ v[k], v[(k + 1) % 3] })) +
-                                      " and " + std::to_string(t) +
-                                      "): not a consistently oriented, closed surface");
+      throw InvalidInput(field, where + ": triangle " + std::to_string(t) + " (" +
+                                    vertexText(vertices, v[0]) + ", " + vertexText(vertices, v[1]) +
+                                    ", " + vertexText(vertices, v[2]) +
+                                    ") has no area: its corners are on one line");
   }
-  for (const auto& [edge, t] : edge_of)
-    if (!edge_of.count({ edge.second, edge.first }))
-      throw InvalidInput(field, where + ": the edge from vertex " + std::to_string(edge.first) +
-                                    " to " + std::to_string(edge.second) + " (triangle " +
-                                    std::to_string(t) +
-                                    ") borders one triangle only: the mesh is not closed, so it "
-                                    "has no inside to keep particles out of");
-  if (volume < 0.0)  // wound inward: turned outward
-  {
-    for (auto& v : triangles)
-      std::swap(v[1], v[2]);
-    std::map<std::pair<int, int>, int> turned;
-    for (const auto& [edge, t] : edge_of)
-      turned.emplace(std::make_pair(edge.second, edge.first), t);
-    edge_of.swap(turned);
-  }
+  turnShellsOut(vertices, triangles, edgesOf(vertices, triangles, where, field));
+  const EdgeMap edge_of = edgesOf(vertices, triangles, where, field);  // as turned
   auto mesh = std::make_shared<TriangleMesh>();
   mesh->source = source;
   mesh->vertices = std::move(vertices);
   mesh->triangles = std::move(triangles);
   mesh->index = std::move(index);
-  completeNormals(*mesh, edge_of);
+  completeNormals(*mesh, edge_of, where, field);
   return mesh;
 }
 

@@ -234,6 +234,9 @@ bool topicCarriedShapes(const Model& model)
   return false;
 }
 
+// Triangles a mesh obstacle's marker lists at most; a larger mesh is drawn as its bounding box.
+constexpr std::size_t MESH_MARKER_TRIANGLES = 20000;
+
 visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const Model& model,
                                                 const Vec3& low, const Vec3& high,
                                                 const std::vector<AnchorTrack>* carriers,
@@ -329,14 +332,25 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
         break;
       case ShapeType::Mesh:
       {
-        // its triangles, in its own frame (rviz reads no file: a ROS-less path draws too)
+        // its triangles in its own frame (rviz reads no file: a mesh from any path draws); one
+        // of more than MESH_MARKER_TRIANGLES as its bounding box (a marker of 3 points a
+        // triangle, sent at every change, and each tick where a topic carries it)
+        if (!shape.mesh)
+          break;
+        const TriangleMesh& mesh = *shape.mesh;
+        if (mesh.triangles.size() > MESH_MARKER_TRIANGLES)
+        {
+          add(shape, visualization_msgs::Marker::CUBE,
+              shape.position + shape.rotation * (0.5 * (mesh.low + mesh.high)),
+              mesh.high - mesh.low);
+          break;
+        }
         const std::size_t before = array.markers.size();
         add(shape, visualization_msgs::Marker::TRIANGLE_LIST, shape.position, Vec3::Ones());
-        if (array.markers.size() > before && shape.mesh)
-          for (const auto& triangle : shape.mesh->triangles)
+        if (array.markers.size() > before)
+          for (const auto& triangle : mesh.triangles)
             for (const int v : triangle)
-              array.markers.back().points.push_back(
-                  tf2::toMsg(Eigen::Vector3d(shape.mesh->vertices[v])));
+              array.markers.back().points.push_back(tf2::toMsg(Eigen::Vector3d(mesh.vertices[v])));
         break;
       }
     }

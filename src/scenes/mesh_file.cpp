@@ -10,11 +10,12 @@
 #include <assimp/scene.h>
 
 #include <fcl/geometry/bvh/BVH_model.h>
-#include <fcl/geometry/shape/sphere.h>
-#include <fcl/narrowphase/distance.h>
+#include <fcl/math/bv/AABB.h>
 
 #include <array>
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <tuple>
 #include <vector>
@@ -23,14 +24,17 @@ namespace constrained_particles
 {
 namespace
 {
-// FCL's nearest triangle: the distance from a sphere of radius 0 at q to the tree's triangles
-// (exact: rel_err = abs_err = 0); on a triangle FCL says -1 with that triangle
+// The nearest triangle by FCL's tree of axis-aligned boxes (FCL builds it: its splits are a
+// well-kept library's): down the tree nearer child first, a subtree skipped where its box is no
+// nearer than the best triangle so far, each leaf's triangle measured by the core's
+// nearestOnTriangle (the scan's measure, exact). FCL's own distance query is not used: its
+// sphere-triangle leaf reads an unset distance for a point on a triangle (FCL 0.7,
+// sphere_triangle-inl.h), where a particle at rest on a face may lie.
 class FclTriangleIndex : public TriangleIndex
 {
 public:
   explicit FclTriangleIndex(const TriangleMesh& mesh)
-    : tree_(std::make_shared<fcl::BVHModel<fcl::OBBRSSd>>())
-    , point_(std::make_shared<fcl::Sphered>(0.0))
+    : tree_(std::make_shared<fcl::BVHModel<fcl::AABBd>>())
     , triangles_(static_cast<int>(mesh.triangles.size()))
   {
     std::vector<fcl::Vector3d> vertices(mesh.vertices.begin(), mesh.vertices.end());
@@ -45,25 +49,63 @@ public:
 
   int nearest(const TriangleMesh& mesh, const Vec3& q) const override
   {
-    fcl::DistanceRequestd request;
-    request.gjk_solver_type = fcl::GST_INDEP;  // its sphere-triangle distance is closed-form
-    fcl::DistanceResultd result;
-    fcl::distance(tree_.get(), fcl::Transform3d::Identity(), point_.get(),
-                  fcl::Transform3d(Eigen::Translation3d(q)), request, result);
-    // a triangle FCL did not name (an empty result) falls back to the scan
-    return result.b1 >= 0 && result.b1 < triangles_ ? result.b1 : nearestTriangleByScan(mesh, q);
+    if (static_cast<int>(mesh.triangles.size()) != triangles_)  // another mesh's tree
+      return nearestTriangleByScan(mesh, q);
+    Nearest best{ 0, std::numeric_limits<double>::infinity() };
+    descend(0, mesh, q, best);
+    return best.triangle;
   }
 
 private:
-  std::shared_ptr<fcl::BVHModel<fcl::OBBRSSd>> tree_;
-  std::shared_ptr<fcl::Sphered> point_;
+  struct Nearest
+  {
+    int triangle;
+    double squared_distance;  // [m^2]
+  };
+
+  // the squared distance from q to node's box [m^2]: no triangle under it is nearer
+  double boxDistance(int node, const Vec3& q) const
+  {
+    const fcl::AABBd& box = tree_->getBV(node).bv;
+    const Vec3 out = (box.min_ - q).cwiseMax(q - box.max_).cwiseMax(0.0);
+    return out.squaredNorm();
+  }
+
+  void descend(int node, const TriangleMesh& mesh, const Vec3& q, Nearest& best) const
+  {
+    const fcl::BVNode<fcl::AABBd>& here = tree_->getBV(node);
+    if (here.isLeaf())
+    {
+      const int t = here.primitiveId();
+      const double d = nearestOnTriangle(mesh, t, q).squared_distance;
+      if (d < best.squared_distance)
+        best = { t, d };
+      return;
+    }
+    int near = here.leftChild(), far = here.rightChild();
+    double d_near = boxDistance(near, q), d_far = boxDistance(far, q);
+    if (d_far < d_near)
+    {
+      std::swap(near, far);
+      std::swap(d_near, d_far);
+    }
+    if (d_near < best.squared_distance)
+      descend(near, mesh, q, best);
+    if (d_far < best.squared_distance)
+      descend(far, mesh, q, best);
+  }
+
+  std::shared_ptr<fcl::BVHModel<fcl::AABBd>> tree_;
   int triangles_;
 };
 
-// Every triangle under `node`, in the file's frame (`to_file`: the node's transform so far)
+// Every triangle under `node`, in the file's frame (`to_file`: the node's transform so far),
+// coincident vertices joined and a triangle with two of them dropped (it has no area, and the
+// surface stays closed without it); a vertex not finite is refused naming `field`
 void collect(const aiScene& scene, const aiNode& node, const aiMatrix4x4& to_file,
              const Vec3& scale, std::map<std::tuple<double, double, double>, int>& index_of,
-             std::vector<Vec3>& vertices, std::vector<std::array<int, 3>>& triangles)
+             std::vector<Vec3>& vertices, std::vector<std::array<int, 3>>& triangles,
+             const std::string& field)
 {
   const aiMatrix4x4 transform = to_file * node.mTransformation;
   for (unsigned m = 0; m < node.mNumMeshes; ++m)
@@ -74,6 +116,8 @@ void collect(const aiScene& scene, const aiNode& node, const aiMatrix4x4& to_fil
     {
       const aiVector3D p = transform * mesh.mVertices[v];
       const Vec3 scaled = scale.cwiseProduct(Vec3(p.x, p.y, p.z));
+      if (!scaled.allFinite())  // before the map: NaN has no order
+        throw InvalidInput(field, "has a vertex that is not finite");
       const auto [at, added] = index_of.emplace(std::make_tuple(scaled.x(), scaled.y(), scaled.z()),
                                                 static_cast<int>(vertices.size()));
       if (added)
@@ -81,13 +125,18 @@ void collect(const aiScene& scene, const aiNode& node, const aiMatrix4x4& to_fil
       joined[v] = at->second;
     }
     for (unsigned f = 0; f < mesh.mNumFaces; ++f)
-      if (mesh.mFaces[f].mNumIndices == 3)  // points and lines are no surface
-        triangles.push_back({ joined[mesh.mFaces[f].mIndices[0]],
-                              joined[mesh.mFaces[f].mIndices[1]],
-                              joined[mesh.mFaces[f].mIndices[2]] });
+    {
+      if (mesh.mFaces[f].mNumIndices != 3)  // points and lines are no surface
+        continue;
+      const std::array<int, 3> t = { joined[mesh.mFaces[f].mIndices[0]],
+                                     joined[mesh.mFaces[f].mIndices[1]],
+                                     joined[mesh.mFaces[f].mIndices[2]] };
+      if (t[0] != t[1] && t[1] != t[2] && t[2] != t[0])
+        triangles.push_back(t);
+    }
   }
   for (unsigned c = 0; c < node.mNumChildren; ++c)
-    collect(scene, *node.mChildren[c], transform, scale, index_of, vertices, triangles);
+    collect(scene, *node.mChildren[c], transform, scale, index_of, vertices, triangles, field);
 }
 }  // namespace
 
@@ -101,18 +150,26 @@ std::string FileResolver::resolve(const std::string& uri, const std::string& fie
     const std::string rest = uri.substr(PACKAGE.size());
     const std::size_t slash = rest.find('/');
     const std::string package = rest.substr(0, slash);
-    const std::string directory = package_path ? package_path(package) : std::string();
+    if (!package_path)
+      throw InvalidInput(field, "= '" + uri +
+                                    "': package:// names are found through ROS's package path, "
+                                    "which is not given here");
+    const std::string directory = package_path(package);
     if (directory.empty())
-      throw InvalidInput(field, "= '" + uri + "': package '" + package +
-                                    "' is not found (no ROS package path here)");
+      throw InvalidInput(
+          field, "= '" + uri + "': package '" + package + "' is not found on ROS's package path");
     return directory + (slash == std::string::npos ? "" : rest.substr(slash));
   }
   if (uri.find("://") != std::string::npos)
     throw InvalidInput(field, "= '" + uri +
                                   "': only file://, package:// and plain paths name a "
                                   "mesh file");
-  if (uri.empty() || uri.front() == '/' || directory.empty())
+  if (!uri.empty() && uri.front() == '/')
     return uri;
+  if (directory.empty())
+    throw InvalidInput(field, "= '" + uri +
+                                  "': a relative path needs a scene file to be relative to; give "
+                                  "an absolute path, file:///... or package://...");
   return directory + "/" + uri;
 }
 
@@ -124,11 +181,12 @@ std::shared_ptr<const TriangleIndex> makeMeshIndex(const TriangleMesh& mesh)
 std::shared_ptr<const TriangleMesh> loadMeshFile(const std::string& path, const Vec3& scale,
                                                  const std::string& field)
 {
-  for (int axis = 0; axis < 3; ++axis)
-    if (!limits::MESH_SCALE.contains(scale[axis]))
-      throw InvalidInput(field + ".scale", "= " + formatValue(scale[axis]) + " along " +
-                                               std::string(1, "xyz"[axis]) + ", must be in " +
-                                               limits::MESH_SCALE.text());
+  for (int axis = 0; axis < 3; ++axis)  // a negative factor mirrors: its size is checked
+    if (!limits::MESH_SCALE.contains(std::abs(scale[axis])))
+      throw InvalidInput(field + ".scale",
+                         "= " + formatValue(scale[axis]) + " along " + std::string(1, "xyz"[axis]) +
+                             ": its size must be in " + limits::MESH_SCALE.text() +
+                             " (a negative factor mirrors)");
   if (!std::ifstream(path).good())
     throw InvalidInput(field + ".file", "= '" + path + "': no such file (or not readable)");
   Assimp::Importer importer;
@@ -141,8 +199,9 @@ std::shared_ptr<const TriangleMesh> loadMeshFile(const std::string& path, const 
   std::vector<Vec3> vertices;
   std::vector<std::array<int, 3>> triangles;
   std::map<std::tuple<double, double, double>, int> index_of;
-  collect(*scene, *scene->mRootNode, aiMatrix4x4(), scale, index_of, vertices, triangles);
-  // a mirroring scale (an odd number of negative factors) is refused by the range: no winding flip
+  collect(*scene, *scene->mRootNode, aiMatrix4x4(), scale, index_of, vertices, triangles,
+          field + ".file");
+  // a mirroring scale winds every triangle inward: makeTriangleMesh turns each shell out
   std::shared_ptr<const TriangleMesh> mesh =
       makeTriangleMesh(std::move(vertices), std::move(triangles), path, field + ".file");
   return withIndex(*mesh, makeMeshIndex(*mesh));

@@ -68,9 +68,12 @@ Shape shapeOf(const urdf::Collision& collision, const std::string& link, const s
       }
       catch (const InvalidInput& e)  // the mesh's file or scale, said for this link
       {
+        // "file = '...': no such file" -> "its collision <mesh> filename = '...': no such file"
         const std::string message = e.what();
-        throw InvalidInput(field, "= '" + link + "': its collision mesh '" + mesh.filename +
-                                      "': " + message.substr(e.field().size() + 1));
+        const bool scale = e.field().find("scale") != std::string::npos;
+        throw InvalidInput(field, "= '" + link + "': its collision <mesh> " +
+                                      (scale ? "scale " : "filename ") +
+                                      message.substr(e.field().size() + 1));
       }
       break;
     }

@@ -504,8 +504,9 @@ SceneDescription loadSceneFile(const std::string& path, const SceneInputs& input
   text << file.rdbuf();
   // a mesh's relative `file` is from the scene file's directory
   SceneInputs here = inputs;
-  if (here.files.directory.empty() && path.find('/') != std::string::npos)
-    here.files.directory = path.substr(0, path.find_last_of('/'));
+  if (here.files.directory.empty())
+    here.files.directory =
+        path.find('/') == std::string::npos ? "." : path.substr(0, path.find_last_of('/'));
   SceneDescription d = parseScene(text.str(), path, here);
   if (d.name.empty())
   {

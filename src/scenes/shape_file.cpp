@@ -215,13 +215,19 @@ void changeObstacle(SceneDescription& d, ObstacleChange change, const std::strin
     return;
   }
   const Shape shape = parseObstacle(shape_yaml, name, files);
-  // a box's or cylinder's sharp edges against a point: refused as a scene file's are
+  // a box's, cylinder's or mesh's sharp edges against a point, and capsule links against a mesh:
+  // refused as a scene file's are
   for (std::size_t k = 0; k < d.chains.size(); ++k)
   {
     const ChainSpec& chain = d.chains[k];
-    if (change == ObstacleChange::Add ||
-        std::find(chain.obstacles.begin(), chain.obstacles.end(), name) != chain.obstacles.end())
-      requireRoundedEdges(shape, chain.radius, "chains[" + std::to_string(k) + "].radius");
+    if (change != ObstacleChange::Add &&
+        std::find(chain.obstacles.begin(), chain.obstacles.end(), name) == chain.obstacles.end())
+      continue;
+    requireRoundedEdges(shape, chain.radius, "chains[" + std::to_string(k) + "].radius");
+    if (chain.capsules && shape.type == ShapeType::Mesh)
+      throw InvalidInput("shape", "is a mesh, and chain " + std::to_string(k) +
+                                      " keeps its links out of its obstacles as capsules "
+                                      "(capsules: true), which a mesh cannot be (not convex)");
   }
   if (change == ObstacleChange::Replace)
   {

@@ -322,7 +322,7 @@ TEST(RobotLinks, RefusalsNameTheFieldAndWhy)
   };
   expectRefused("[forearm]", "", "robot_description");
   expectRefused("[elbow]", urdf, "'elbow' is not a link of robot 'test_arm'");
-  expectRefused("[camera]", urdf, "package 'test_arm' is not found");  // its mesh file
+  expectRefused("[camera]", urdf, "package://test_arm/camera.stl");  // its mesh file, unfound
   expectRefused("[forearm, forearm]", urdf, "named twice");
   expectRefused("[forearm]", "<robot", "not a URDF");
   EXPECT_EQ(refusal("robot_links: [forearm]\n", urdf), "");

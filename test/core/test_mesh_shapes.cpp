@@ -5,6 +5,7 @@
 /// edge too; FCL's search (mesh_file.hpp) finds a nearest triangle wherever the scan does; a
 /// rope draped over a mesh box and a ball rolling off its edge move as over the box itself; files
 /// are read (STL, OBJ, scaled) and an open, mis-wound or missing one refused, naming the field.
+#include "mesh_builders.hpp"
 #include "test_helpers.hpp"
 
 #include "constrained_particles/core/diagnostics.hpp"
@@ -22,25 +23,14 @@
 #include <random>
 
 using namespace constrained_particles;
+using constrained_particles::testing::boxTriangles;
+using constrained_particles::testing::icosphereTriangles;
+using constrained_particles::testing::lPrism;
 using constrained_particles::testing::shapeOf;
+using constrained_particles::testing::Triangles;
 
 namespace
 {
-using Triangles = std::vector<std::array<int, 3>>;
-
-// The box [-h, h] as 8 vertices and 12 outward triangles
-std::pair<std::vector<Vec3>, Triangles> boxTriangles(const Vec3& h)
-{
-  std::vector<Vec3> v;
-  for (int k = 0; k < 8; ++k)
-    v.emplace_back((k & 1 ? 1 : -1) * h.x(), (k & 2 ? 1 : -1) * h.y(), (k & 4 ? 1 : -1) * h.z());
-  // each face as two triangles, counter-clockwise seen from outside
-  const Triangles t = { { 0, 2, 3 }, { 0, 3, 1 }, { 4, 5, 7 }, { 4, 7, 6 },    // z = -h, +h
-                        { 0, 1, 5 }, { 0, 5, 4 }, { 2, 6, 7 }, { 2, 7, 3 },    // y = -h, +h
-                        { 0, 4, 6 }, { 0, 6, 2 }, { 1, 3, 7 }, { 1, 7, 5 } };  // x = -h, +h
-  return { v, t };
-}
-
 Shape meshShape(std::shared_ptr<const TriangleMesh> mesh, const Vec3& position = Vec3::Zero(),
                 const Vec3& rpy = Vec3::Zero())
 {
@@ -51,31 +41,6 @@ Shape meshShape(std::shared_ptr<const TriangleMesh> mesh, const Vec3& position =
   shape.position = position;
   shape.rotation = rotationFromRpy(rpy);
   return shape;
-}
-
-// An L-shaped prism: the L (0,0)-(2,0)-(2,1)-(1,1)-(1,2)-(0,2), z in [0, 1]; its edge at (1, 1)
-// is reflex (concave seen from outside)
-std::shared_ptr<const TriangleMesh> lPrism()
-{
-  const double xy[6][2] = { { 0, 0 }, { 2, 0 }, { 2, 1 }, { 1, 1 }, { 1, 2 }, { 0, 2 } };
-  std::vector<Vec3> v;
-  for (int z = 0; z < 2; ++z)
-    for (const auto& p : xy)
-      v.emplace_back(p[0], p[1], z);
-  Triangles t;
-  const int fan[4][3] = { { 3, 4, 5 }, { 3, 5, 0 }, { 3, 0, 1 }, { 3, 1, 2 } };  // from the reflex
-  for (const auto& f : fan)
-  {
-    t.push_back({ 6 + f[0], 6 + f[1], 6 + f[2] });  // top, seen from +z
-    t.push_back({ f[0], f[2], f[1] });              // bottom, seen from -z
-  }
-  for (int i = 0; i < 6; ++i)
-  {
-    const int j = (i + 1) % 6;
-    t.push_back({ i, j, 6 + j });
-    t.push_back({ i, 6 + j, 6 + i });
-  }
-  return makeTriangleMesh(v, t, "L prism", "mesh");
 }
 
 StepSettings rk4(double dt)
@@ -95,40 +60,106 @@ std::string writeFile(const std::string& name, const std::string& text)
 }  // namespace
 
 // The box's 12 triangles, turned and moved, against the box shape at 4,000 points from 0.3 m
-// inside to 0.6 m outside: the same distance and gradient (1e-12) and Hessian (1e-9 relative) in
-// every region, but where two faces are equally near inside (the gradient's choice is then free).
+// inside to 0.6 m outside and 600 over and under its faces' diagonals (where two coplanar
+// triangles meet, within 1e-9 m of the line): the same distance and gradient (1e-12) and Hessian
+// (1e-9 relative; flat over the diagonals) in every region, but where two faces are equally near
+// inside (the gradient's choice is then free). The same with every triangle wound inward (turned
+// out), and with the tree's search (FCL's).
 TEST(MeshShapes, ABoxsTrianglesAreTheBox)
 {
   const Vec3 half(0.2, 0.3, 0.4);
   const auto [vertices, triangles] = boxTriangles(half);
   const Vec3 at(0.1, -0.2, 0.3), rpy(0.3, -0.2, 0.7);
-  const Shape mesh = meshShape(makeTriangleMesh(vertices, triangles, "box", "mesh"), at, rpy);
+  Triangles inward = triangles;
+  for (auto& t : inward)
+    std::swap(t[1], t[2]);
+  const auto plain = makeTriangleMesh(vertices, triangles, "box", "mesh");
   Shape box = shapeOf(ShapeType::Box, at, rpy);
   box.size = 2.0 * half;
   std::mt19937 random(7);
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  int compared = 0, inside = 0, edges = 0;
+  std::vector<Vec3> points;
   for (int k = 0; k < 4000; ++k)
+    points.emplace_back(0.8 * uniform(random), 0.9 * uniform(random), 1.0 * uniform(random));
+  for (int k = 0; k < 100; ++k)  // over the diagonal from (-h, -h, h) to (h, h, h) of each face
+    for (int axis = 0; axis < 3; ++axis)
+      for (const double side : { -1.0, 1.0 })
+      {
+        const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+        const double s = uniform(random), across = 1e-9 * uniform(random);
+        Vec3 q;
+        q[u] = s * half[u] + across;
+        q[w] = s * half[w] - across;
+        q[axis] = side * (half[axis] + 0.3 * uniform(random));
+        points.push_back(q);
+      }
+  for (const auto& made : { plain, makeTriangleMesh(vertices, inward, "inward box", "mesh"),
+                            withIndex(*plain, makeMeshIndex(*plain)) })
   {
-    const Vec3 q(0.8 * uniform(random), 0.9 * uniform(random), 1.0 * uniform(random));
-    const Vec3 p = at + box.rotation * q;
-    const ShapeSample a = evaluateShape(mesh, p), b = evaluateShape(box, p);
-    ASSERT_NEAR(a.distance, b.distance, 1e-12) << "at local " << q.transpose();
-    // inside, two faces equally near (within 1e-9) may give either normal
-    Vec3 depth = half - q.cwiseAbs();
-    std::sort(depth.data(), depth.data() + 3);
-    if (b.distance < 0.0 && depth[1] - depth[0] < 1e-9)
-      continue;
-    ++compared;
-    inside += b.distance < 0.0;
-    edges += b.hessian.norm() > 0.0;
-    EXPECT_LE((a.normal - b.normal).norm(), 1e-12) << "at local " << q.transpose();
-    EXPECT_LE((a.hessian - b.hessian).norm(), 1e-9 * (1.0 + b.hessian.norm()))
-        << "at local " << q.transpose();
+    const Shape mesh = meshShape(made, at, rpy);
+    int compared = 0, inside = 0, edges = 0;
+    for (const Vec3& q : points)
+    {
+      const Vec3 p = at + box.rotation * q;
+      const ShapeSample a = evaluateShape(mesh, p), b = evaluateShape(box, p);
+      ASSERT_NEAR(a.distance, b.distance, 1e-12) << "at local " << q.transpose();
+      // inside, two faces equally near (within 1e-9) may give either normal
+      Vec3 depth = half - q.cwiseAbs();
+      std::sort(depth.data(), depth.data() + 3);
+      if (b.distance < 0.0 && depth[1] - depth[0] < 1e-9)
+        continue;
+      ++compared;
+      inside += b.distance < 0.0;
+      edges += b.hessian.norm() > 0.0;
+      EXPECT_LE((a.normal - b.normal).norm(), 1e-12) << made->source << " at " << q.transpose();
+      EXPECT_LE((a.hessian - b.hessian).norm(), 1e-9 * (1.0 + b.hessian.norm()))
+          << made->source << " at local " << q.transpose();
+    }
+    EXPECT_GT(compared, 4400) << made->source;
+    EXPECT_GT(inside, 100) << made->source;
+    EXPECT_GT(edges, 1000) << made->source;  // outside an edge or a corner: curved
   }
-  EXPECT_GT(compared, 3900);
-  EXPECT_GT(inside, 100);
-  EXPECT_GT(edges, 1000);  // outside an edge or a corner: curved
+}
+
+// Two boxes as one file's two shells, one wound inward: each is turned out, and the distance is
+// the nearer box's; two squares back to back (closed, but no inside) are refused.
+TEST(MeshShapes, EachShellIsTurnedOutAndASheetRefused)
+{
+  auto [vertices, triangles] = boxTriangles(Vec3(0.1, 0.1, 0.1));
+  const auto [second, second_triangles] = boxTriangles(Vec3(0.2, 0.1, 0.1));
+  for (auto t : second_triangles)
+  {
+    std::swap(t[1], t[2]);  // inward
+    for (int& v : t)
+      v += 8;
+    triangles.push_back(t);
+  }
+  for (const Vec3& v : second)
+    vertices.push_back(v + Vec3(1.0, 0.0, 0.0));
+  const Shape both = meshShape(makeTriangleMesh(vertices, triangles, "two boxes", "mesh"));
+  Shape near_box = shapeOf(ShapeType::Box), far_box = shapeOf(ShapeType::Box, Vec3(1, 0, 0));
+  near_box.size = Vec3(0.2, 0.2, 0.2);
+  far_box.size = Vec3(0.4, 0.2, 0.2);
+  for (const Vec3& p : { Vec3(0.0, 0.0, 0.05), Vec3(0.3, 0.05, 0.0), Vec3(0.95, 0.0, 0.02),
+                         Vec3(1.5, 0.3, -0.2), Vec3(0.6, 0.0, 0.0) })
+    EXPECT_NEAR(evaluateShape(both, p).distance,
+                std::min(evaluateShape(near_box, p).distance, evaluateShape(far_box, p).distance),
+                1e-12)
+        << p.transpose();
+  const std::vector<Vec3> square = { Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0) };
+  // the front split along one diagonal, the back (wound the other way) along the other: every
+  // edge wound once each way
+  const Triangles sheet = { { 0, 1, 2 }, { 0, 2, 3 }, { 0, 3, 1 }, { 1, 3, 2 } };
+  try
+  {
+    makeTriangleMesh(square, sheet, "sheet", "shapes.sheet.file");
+    ADD_FAILURE() << "a sheet of no thickness accepted";
+  }
+  catch (const InvalidInput& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("shapes.sheet.file"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("back to back"), std::string::npos) << e.what();
+  }
 }
 
 // A non-convex closed mesh (an L prism): at a face, a convex edge and corner outside, the reflex
@@ -174,39 +205,12 @@ TEST(MeshShapes, DerivativesMatchFiniteDifferencesOnANonConvexMesh)
   EXPECT_LT(reflex.hessian.trace(), -1.0);
 }
 
-// FCL's tree (mesh_file.hpp) against the scan on a 1,280-triangle sphere and the L prism: at
+// FCL's tree (mesh_file.hpp) against the scan on a 2,048-triangle sphere and the L prism: at
 // random points inside, outside and on the surface (vertices, face centres), the triangle it
 // names is as near as the scan's (1e-12 m).
 TEST(MeshShapes, FclFindsANearestTriangleWhereverTheScanDoes)
 {
-  // an icosphere: the octahedron's 8 faces split 4 times, pushed onto the unit sphere
-  std::vector<Vec3> v = { Vec3::UnitX(),  -Vec3::UnitX(), Vec3::UnitY(),
-                          -Vec3::UnitY(), Vec3::UnitZ(),  -Vec3::UnitZ() };
-  Triangles t = { { 0, 2, 4 }, { 2, 1, 4 }, { 1, 3, 4 }, { 3, 0, 4 },
-                  { 2, 0, 5 }, { 1, 2, 5 }, { 3, 1, 5 }, { 0, 3, 5 } };
-  for (int level = 0; level < 4; ++level)
-  {
-    std::map<std::pair<int, int>, int> middle;
-    auto mid = [&](int a, int b)
-    {
-      const auto key = std::minmax(a, b);
-      const auto found = middle.find(key);
-      if (found != middle.end())
-        return found->second;
-      v.push_back((v[a] + v[b]).normalized());
-      return middle[key] = static_cast<int>(v.size()) - 1;
-    };
-    Triangles finer;
-    for (const auto& f : t)
-    {
-      const int ab = mid(f[0], f[1]), bc = mid(f[1], f[2]), ca = mid(f[2], f[0]);
-      finer.push_back({ f[0], ab, ca });
-      finer.push_back({ ab, f[1], bc });
-      finer.push_back({ ca, bc, f[2] });
-      finer.push_back({ ab, bc, ca });
-    }
-    t = finer;
-  }
+  const auto [v, t] = icosphereTriangles(4, 1.0);
   ASSERT_EQ(t.size(), 2048u);
   std::mt19937 random(11);
   std::uniform_real_distribution<double> uniform(-2.0, 2.0);
@@ -234,15 +238,17 @@ TEST(MeshShapes, FclFindsANearestTriangleWhereverTheScanDoes)
 }
 
 // A rope (12 particles, radius 1 cm, mu 0.3) dropped across a box's top edge and one across its
-// 12 triangles: the same motion over 0.6 s (1e-9 m), sliding, sticking and draped over the edge;
-// a ball rolling off the box's edge likewise, its contact let go there.
+// 12 triangles (searched by the tree, as a file's are): the same motion over 0.6 s (1e-9 m),
+// sliding, sticking and draped over the edge; a ball rolling off the box's edge likewise, its
+// contact let go there.
 TEST(MeshShapes, ARopeAndABallMoveOverAMeshBoxAsOverTheBox)
 {
   const Vec3 half(0.2, 0.2, 0.2);
   const auto [vertices, triangles] = boxTriangles(half);
   Shape box = shapeOf(ShapeType::Box, Vec3(0.0, 0.0, 0.0), Vec3(0.0, 0.0, 0.2));
   box.size = 2.0 * half;
-  const Shape mesh = meshShape(makeTriangleMesh(vertices, triangles, "box", "mesh"), box.position,
+  const auto triangulated = makeTriangleMesh(vertices, triangles, "box", "mesh");
+  const Shape mesh = meshShape(withIndex(*triangulated, makeMeshIndex(*triangulated)), box.position,
                                Vec3(0.0, 0.0, 0.2));
   auto rope = [](const Shape& obstacle)
   {
@@ -297,7 +303,8 @@ TEST(MeshShapes, ARopeAndABallMoveOverAMeshBoxAsOverTheBox)
 
 // Files: an ASCII STL box (each triangle's own vertices, joined), scaled from mm, and an OBJ are
 // read as the box; a scene file's mesh shape is found relative to the scene file; an open mesh, a
-// mis-wound one, a missing file, a bad scale and capsule links against a mesh are refused, each
+// mis-wound one, a missing file, a bad scale, a relative file with no scene file, capsule links
+// against a mesh (in a scene file and by ~set_obstacle) and a point against one are refused, each
 // naming its field and saying why.
 TEST(MeshShapes, FilesAreReadAndBadOnesRefusedNamingTheField)
 {
@@ -365,6 +372,11 @@ TEST(MeshShapes, FilesAreReadAndBadOnesRefusedNamingTheField)
   const std::string scale = refusal([&] { loadMeshFile(stl_path, Vec3(1, 0, 1), "shapes.m"); });
   EXPECT_NE(scale.find("shapes.m.scale"), std::string::npos) << scale;
   EXPECT_NE(scale.find(limits::MESH_SCALE.text()), std::string::npos) << scale;
+  // a mirroring scale winds the triangles inward: turned out, the same (symmetric) box
+  const auto mirrored = loadMeshFile(stl_path, Vec3(-0.001, 0.001, 0.001), "shape");
+  for (const Vec3& p : { Vec3(0.3, 0.05, 0.02), Vec3(-0.25, 0.2, -0.3), Vec3(0.01, 0.02, 0.03) })
+    EXPECT_NEAR(evaluateShape(meshShape(mirrored), p).distance, evaluateShape(box, p).distance,
+                1e-12);
 
   // a scene file names the mesh relative to itself
   const std::string scene_path = writeFile(
@@ -406,6 +418,25 @@ TEST(MeshShapes, FilesAreReadAndBadOnesRefusedNamingTheField)
   const std::string no_file =
       refusal([&] { parseScene("shapes:\n  block: {type: mesh}\n", "inline.yaml"); });
   EXPECT_NE(no_file.find("shapes.block.file"), std::string::npos) << no_file;
+  // a scene given as text has no directory for a relative file
+  const std::string relative = refusal(
+      [&] { parseScene("shapes:\n  block: {type: mesh, file: cp_box.stl}\n", "inline.yaml"); });
+  EXPECT_NE(relative.find("shapes.block.file"), std::string::npos) << relative;
+  EXPECT_NE(relative.find("relative path"), std::string::npos) << relative;
+  // ~set_obstacle's mesh against a chain whose links are capsules: refused, the scene unchanged
+  SceneDescription with_capsules = parseScene(
+      "shapes:\n  post: {type: sphere, radius: 0.05, position: [0, 0, 0]}\nchains:\n  - "
+      "{particles: 3, link_length: 0.05, particle_mass: 0.01, start: [0, 0, 0.5], "
+      "obstacles: [post], radius: 0.01, capsules: true}\n",
+      "inline.yaml");
+  const std::string added = refusal(
+      [&]
+      {
+        changeObstacle(with_capsules, ObstacleChange::Add, "block",
+                       "{type: mesh, file: " + stl_path + ", scale: [0.001, 0.001, 0.001]}");
+      });
+  EXPECT_NE(added.find("capsules"), std::string::npos) << added;
+  EXPECT_EQ(with_capsules.shapes.size(), 1u);
 }
 
 // A URDF link's <mesh> collision is a mesh shape carried by the link's frame, scaled as the URDF
@@ -436,14 +467,21 @@ TEST(MeshShapes, AUrdfMeshIsAShapeOnItsLink)
   ASSERT_TRUE(shapes[0].mesh != nullptr);
   EXPECT_NEAR(shapes[0].mesh->high.z(), 0.3, 1e-12);
   EXPECT_NEAR(shapes[0].mesh->low.y(), -0.2, 1e-12);
-  try
-  {
-    robotLinkShapes(urdf, { "arm" }, "robot_links");
-    ADD_FAILURE() << "a package:// mesh found with no resolver";
-  }
-  catch (const InvalidInput& e)
-  {
-    EXPECT_NE(std::string(e.what()).find("package 'cp_test' is not found"), std::string::npos)
-        << e.what();
-  }
+  // no package path given, and a package not on it: refused, naming the link and saying why
+  FileResolver elsewhere;
+  elsewhere.package_path = [](const std::string&) { return std::string(); };
+  for (const auto& [resolver, words] :
+       { std::make_pair(FileResolver{}, "ROS's package path, which is not given here"),
+         std::make_pair(elsewhere, "package 'cp_test' is not found on ROS's package path") })
+    try
+    {
+      robotLinkShapes(urdf, { "arm" }, "robot_links", resolver);
+      ADD_FAILURE() << "a package:// mesh found without its package";
+    }
+    catch (const InvalidInput& e)
+    {
+      EXPECT_NE(std::string(e.what()).find("robot_links[0] = 'arm'"), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
 }

@@ -107,7 +107,8 @@ constexpr Range SHAPE_ANGLE{ -1e3, false, 1e3, "rad", false };
 constexpr Range SHAPES{ 0.0, false, 256.0, "1", true };
 /// Triangles in a mesh obstacle (triangle_mesh.hpp): a closed surface has at least 4.
 constexpr Range MESH_TRIANGLES{ 4.0, false, 1e6, "1", true };
-/// A mesh file's scale along each local axis [1] (URDF's <mesh scale>; 0.001 for a file in mm).
+/// The size of a mesh file's scale along each local axis [1] (URDF's <mesh scale>; 0.001 for a
+/// file in mm; a negative factor mirrors).
 constexpr Range MESH_SCALE{ 1e-6, false, 1e6, "1", false };
 /// A particle's radius against obstacles [m] (a rope's thickness / 2); 0: a point.
 constexpr Range PARTICLE_RADIUS{ 0.0, false, 10.0, "m", false };

@@ -8,7 +8,7 @@
 ///
 /// Why closed forms and not FCL: these five shapes' distances are exact in a few lines and their
 /// Hessians (which the row's Jdot v needs) are not something FCL gives. A mesh's nearest triangle
-/// is found by FCL's bounding-volume tree (src/scenes/mesh_index.cpp), where a library earns its
+/// is found by FCL's bounding-volume tree (src/scenes/mesh_file.cpp), where a library earns its
 /// keep; its distance from that triangle's feature is closed-form here.
 #pragma once
 

@@ -6,7 +6,7 @@
 /// weighted pseudonormal", IEEE TVCG 11(3)). docs/physics.md, "Obstacles".
 ///
 /// Finding the nearest triangle is collision detection's job, not this project's: the search is
-/// a TriangleIndex the mesh is given from outside the core (src/scenes/mesh_index.cpp builds
+/// a TriangleIndex the mesh is given from outside the core (src/scenes/mesh_file.cpp builds
 /// one on FCL's bounding-volume tree, as MoveIt does); without one every triangle is tried.
 /// The core keeps to Eigen and the standard library.
 #pragma once
@@ -45,16 +45,23 @@ struct TriangleMesh
   std::vector<std::array<Vec3, 3>> edge_normals;  ///< per triangle, edge k from vertex k to k+1:
                                                   ///< the two faces' normals summed (unnormalised)
   std::vector<Vec3> vertex_normals;               ///< angle-weighted sums (unnormalised)
-  Vec3 low = Vec3::Zero(), high = Vec3::Zero();   ///< the vertices' bounding box [m]
-  std::shared_ptr<const TriangleIndex> index;     ///< the search; null: every triangle tried
+  /// Per triangle and edge: its two faces coplanar (the distance is flat across it)
+  std::vector<std::array<bool, 3>> flat_edges;
+  /// Per vertex: 1 if every face round it is coplanar (flat there too)
+  std::vector<char> flat_vertices;
+  Vec3 low = Vec3::Zero(), high = Vec3::Zero();  ///< the vertices' bounding box [m]
+  std::shared_ptr<const TriangleIndex> index;    ///< the search; null: every triangle tried
 };
 
 /// Checks and completes a mesh: at least 4 triangles and at most limits::MESH_TRIANGLES, finite
 /// vertices within limits::COORDINATE, every index a vertex, no triangle of zero area, closed
 /// and consistently oriented (each edge shared by exactly two triangles, once in each
-/// direction: a watertight surface, so inside and outside are defined). An inward-wound mesh
-/// (negative enclosed volume) is turned outward. Vertices no triangle uses are kept.
-/// @throws InvalidInput naming `field`, saying which triangle or edge is at fault
+/// direction: a watertight surface, so inside and outside are defined), no two triangles back
+/// to back. Each shell (triangles joined by edges) wound inward (negative enclosed volume) is
+/// turned outward. Not checked: shells that cross or overlap (there the sign is each shell's,
+/// so a point inside one near another's face may read as outside). Vertices no triangle uses
+/// are kept.
+/// @throws InvalidInput naming `field`, saying which triangle, edge or vertex is at fault
 std::shared_ptr<const TriangleMesh> makeTriangleMesh(
     std::vector<Vec3> vertices, std::vector<std::array<int, 3>> triangles,
     const std::string& source, const std::string& field,

@@ -17,7 +17,8 @@ namespace constrained_particles
 /// Where a mesh's file is: a scene file's `file:` or a URDF's `<mesh filename>`.
 struct FileResolver
 {
-  /// Relative paths are from here (the scene file's directory); empty: the working directory
+  /// Relative paths are from here (the scene file's directory); empty: refused (a scene given
+  /// as text, a ~set_obstacle request: no file to be relative to)
   std::string directory;
   /// A ROS package's directory by name, for `package://<package>/<path>` (the ROS layer gives
   /// roslib's ros::package::getPath); empty, or an empty answer: such paths are refused
@@ -25,21 +26,25 @@ struct FileResolver
 
   /// The file `uri` names: an absolute path, `file://<absolute path>`, a path relative to
   /// `directory`, or `package://<package>/<path>`.
-  /// @throws InvalidInput naming `field` for a package it cannot find, or another scheme
+  /// @throws InvalidInput naming `field` for a package it cannot find, a relative path with no
+  /// `directory`, or another scheme
   std::string resolve(const std::string& uri, const std::string& field) const;
 };
 
 /// The closed mesh in the file at `path`, every node's triangles in the file's own frame (its
 /// nodes' transforms applied; a DAE's up axis left as written, as URDF reads it), each vertex
-/// scaled by `scale` along the local axes, coincident vertices joined (an STL writes each
-/// triangle's own), with an FCL search (makeMeshIndex).
-/// @throws InvalidInput naming `field`: no such file, one assimp cannot read, a scale out of
-/// limits::MESH_SCALE, or a mesh makeTriangleMesh refuses (not closed, too many triangles ...)
+/// scaled by `scale` along the local axes (a negative factor mirrors), coincident vertices
+/// joined (an STL writes each triangle's own) and triangles two of whose corners coincide
+/// dropped, with an FCL search (makeMeshIndex).
+/// @throws InvalidInput naming `field`.file or `field`.scale: no such file, one assimp cannot
+/// read, a vertex not finite, a scale factor whose size is out of limits::MESH_SCALE, or a mesh
+/// makeTriangleMesh refuses (not closed, too many triangles ...)
 std::shared_ptr<const TriangleMesh> loadMeshFile(const std::string& path, const Vec3& scale,
                                                  const std::string& field);
 
-/// An FCL bounding-volume tree (OBBRSS) over `mesh`'s triangles: nearest() in O(log F) for a
-/// mesh of F triangles, where a scan tries every one.
+/// A search over `mesh`'s triangles on FCL's bounding-volume tree (axis-aligned boxes, FCL's
+/// splits), descended nearer child first and pruned by box distance: about O(log F) triangles
+/// measured for a mesh of F, where a scan measures every one; exact (the same measure).
 std::shared_ptr<const TriangleIndex> makeMeshIndex(const TriangleMesh& mesh);
 
 }  // namespace constrained_particles
