@@ -61,18 +61,44 @@ EdgeMap edgesOf(const std::vector<Vec3>& vertices, const std::vector<std::array<
   return edge_of;
 }
 
-// Each shell (triangles joined by edges) whose enclosed volume is negative turned outward
+// The winding number of the closed shell `members` about point p: the solid angles its triangles
+// subtend, summed over 4 pi (Van Oosterom and Strackee 1983): 1 inside an outward shell, 0
+// outside, -1 inside an inward one
+double windingNumber(const std::vector<Vec3>& vertices,
+                     const std::vector<std::array<int, 3>>& triangles,
+                     const std::vector<int>& members, const Vec3& p)
+{
+  double sum = 0.0;
+  for (const int t : members)
+  {
+    const Vec3 a = vertices[triangles[t][0]] - p, b = vertices[triangles[t][1]] - p,
+               c = vertices[triangles[t][2]] - p;
+    const double la = a.norm(), lb = b.norm(), lc = c.norm();
+    sum += 2.0 * std::atan2(a.dot(b.cross(c)),
+                            la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la);
+  }
+  return sum / (4.0 * M_PI);
+}
+
+// Each shell (triangles joined by edges) turned so that the solid is what its windings enclose:
+// all turned if their total volume is negative (a file wound inward, a mirroring scale); then a
+// shell still wound inward is a cavity where it lies inside an outward shell, and is turned
+// outward where it lies inside none (a shell wound against the others)
 void turnShellsOut(const std::vector<Vec3>& vertices, std::vector<std::array<int, 3>>& triangles,
                    const EdgeMap& edge_of)
 {
-  std::vector<int> shell(triangles.size(), -1);
+  std::vector<int> shell_of(triangles.size(), -1);
+  std::vector<std::vector<int>> shells;
+  std::vector<double> volumes;  // six times each shell's enclosed volume (divergence theorem)
+  double total = 0.0;
   for (std::size_t seed = 0; seed < triangles.size(); ++seed)
   {
-    if (shell[seed] >= 0)
+    if (shell_of[seed] >= 0)
       continue;
+    const int id = static_cast<int>(shells.size());
     std::vector<int> members{ static_cast<int>(seed) };
-    shell[seed] = static_cast<int>(seed);
-    double volume = 0.0;  // six times the enclosed volume (divergence theorem)
+    shell_of[seed] = id;
+    double volume = 0.0;
     for (std::size_t m = 0; m < members.size(); ++m)
     {
       const auto& v = triangles[members[m]];
@@ -81,16 +107,37 @@ void turnShellsOut(const std::vector<Vec3>& vertices, std::vector<std::array<int
       for (int k = 0; k < 3; ++k)
       {
         const int across = edge_of.at({ v[(k + 1) % 3], v[k] });
-        if (shell[across] < 0)
+        if (shell_of[across] < 0)
         {
-          shell[across] = static_cast<int>(seed);
+          shell_of[across] = id;
           members.push_back(across);
         }
       }
     }
-    if (volume < 0.0)
-      for (const int t : members)
-        std::swap(triangles[t][1], triangles[t][2]);
+    shells.push_back(std::move(members));
+    volumes.push_back(volume);
+    total += volume;
+  }
+  auto turn = [&](int id)
+  {
+    for (const int t : shells[id])
+      std::swap(triangles[t][1], triangles[t][2]);
+    volumes[id] = -volumes[id];
+  };
+  if (total < 0.0)
+    for (std::size_t id = 0; id < shells.size(); ++id)
+      turn(static_cast<int>(id));
+  for (std::size_t id = 0; id < shells.size(); ++id)
+  {
+    if (!(volumes[id] < 0.0))
+      continue;
+    const Vec3& probe = vertices[triangles[shells[id].front()][0]];
+    bool cavity = false;
+    for (std::size_t other = 0; other < shells.size() && !cavity; ++other)
+      cavity = other != id && volumes[other] > 0.0 &&
+               windingNumber(vertices, triangles, shells[other], probe) > 0.5;
+    if (!cavity)
+      turn(static_cast<int>(id));
   }
 }
 

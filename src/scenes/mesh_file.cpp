@@ -42,14 +42,17 @@ public:
     triangles.reserve(mesh.triangles.size());
     for (const auto& t : mesh.triangles)
       triangles.emplace_back(t[0], t[1], t[2]);
-    tree_->beginModel(static_cast<int>(triangles.size()), static_cast<int>(vertices.size()));
-    tree_->addSubModel(vertices, triangles);
-    tree_->endModel();
+    // a tree FCL could not build (no triangles, no memory) is none: the scan serves instead
+    if (triangles.empty() ||
+        tree_->beginModel(static_cast<int>(triangles.size()), static_cast<int>(vertices.size())) !=
+            fcl::BVH_OK ||
+        tree_->addSubModel(vertices, triangles) != fcl::BVH_OK || tree_->endModel() != fcl::BVH_OK)
+      tree_.reset();
   }
 
   int nearest(const TriangleMesh& mesh, const Vec3& q) const override
   {
-    if (static_cast<int>(mesh.triangles.size()) != triangles_)  // another mesh's tree
+    if (!tree_ || static_cast<int>(mesh.triangles.size()) != triangles_)  // none, another's
       return nearestTriangleByScan(mesh, q);
     Nearest best{ 0, std::numeric_limits<double>::infinity() };
     descend(0, mesh, q, best);
@@ -143,8 +146,14 @@ void collect(const aiScene& scene, const aiNode& node, const aiMatrix4x4& to_fil
 std::string FileResolver::resolve(const std::string& uri, const std::string& field) const
 {
   static const std::string FILE = "file://", PACKAGE = "package://";
+  if (uri.empty())
+    throw InvalidInput(field, "is empty: name the mesh file");
   if (uri.rfind(FILE, 0) == 0)
+  {
+    if (uri.size() == FILE.size() || uri[FILE.size()] != '/')
+      throw InvalidInput(field, "= '" + uri + "': a file:// name is absolute (file:///path)");
     return uri.substr(FILE.size());
+  }
   if (uri.rfind(PACKAGE, 0) == 0)
   {
     const std::string rest = uri.substr(PACKAGE.size());
@@ -164,7 +173,7 @@ std::string FileResolver::resolve(const std::string& uri, const std::string& fie
     throw InvalidInput(field, "= '" + uri +
                                   "': only file://, package:// and plain paths name a "
                                   "mesh file");
-  if (!uri.empty() && uri.front() == '/')
+  if (uri.front() == '/')
     return uri;
   if (directory.empty())
     throw InvalidInput(field, "= '" + uri +

@@ -505,8 +505,12 @@ SceneDescription loadSceneFile(const std::string& path, const SceneInputs& input
   // a mesh's relative `file` is from the scene file's directory
   SceneInputs here = inputs;
   if (here.files.directory.empty())
-    here.files.directory =
-        path.find('/') == std::string::npos ? "." : path.substr(0, path.find_last_of('/'));
+  {
+    const std::size_t slash = path.find_last_of('/');
+    here.files.directory = slash == std::string::npos ? "."
+                           : slash == 0               ? "/"
+                                                      : path.substr(0, slash);
+  }
   SceneDescription d = parseScene(text.str(), path, here);
   if (d.name.empty())
   {

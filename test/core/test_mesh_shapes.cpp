@@ -122,7 +122,8 @@ TEST(MeshShapes, ABoxsTrianglesAreTheBox)
 }
 
 // Two boxes as one file's two shells, one wound inward: each is turned out, and the distance is
-// the nearer box's; two squares back to back (closed, but no inside) are refused.
+// the nearer box's; a box with a cavity (an inner shell wound inward) keeps it: inside the cavity
+// is outside the solid; two squares back to back (closed, but no inside) are refused.
 TEST(MeshShapes, EachShellIsTurnedOutAndASheetRefused)
 {
   auto [vertices, triangles] = boxTriangles(Vec3(0.1, 0.1, 0.1));
@@ -146,6 +147,21 @@ TEST(MeshShapes, EachShellIsTurnedOutAndASheetRefused)
                 std::min(evaluateShape(near_box, p).distance, evaluateShape(far_box, p).distance),
                 1e-12)
         << p.transpose();
+  // a hollow box: walls 0.1 m thick round a cavity of half-side 0.2 m
+  auto [hollow, hollow_triangles] = boxTriangles(Vec3(0.3, 0.3, 0.3));
+  const auto [cavity, cavity_triangles] = boxTriangles(Vec3(0.2, 0.2, 0.2));
+  for (auto t : cavity_triangles)
+  {
+    std::swap(t[1], t[2]);  // inward: the cavity's wall faces into it
+    for (int& v : t)
+      v += 8;
+    hollow_triangles.push_back(t);
+  }
+  hollow.insert(hollow.end(), cavity.begin(), cavity.end());
+  const Shape shell = meshShape(makeTriangleMesh(hollow, hollow_triangles, "hollow", "mesh"));
+  EXPECT_NEAR(evaluateShape(shell, Vec3(0.0, 0.0, 0.0)).distance, 0.2, 1e-12);     // in the cavity
+  EXPECT_NEAR(evaluateShape(shell, Vec3(0.25, 0.0, 0.0)).distance, -0.05, 1e-12);  // in the wall
+  EXPECT_NEAR(evaluateShape(shell, Vec3(0.4, 0.0, 0.0)).distance, 0.1, 1e-12);     // outside
   const std::vector<Vec3> square = { Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0) };
   // the front split along one diagonal, the back (wound the other way) along the other: every
   // edge wound once each way
@@ -372,11 +388,22 @@ TEST(MeshShapes, FilesAreReadAndBadOnesRefusedNamingTheField)
   const std::string scale = refusal([&] { loadMeshFile(stl_path, Vec3(1, 0, 1), "shapes.m"); });
   EXPECT_NE(scale.find("shapes.m.scale"), std::string::npos) << scale;
   EXPECT_NE(scale.find(limits::MESH_SCALE.text()), std::string::npos) << scale;
-  // a mirroring scale winds the triangles inward: turned out, the same (symmetric) box
-  const auto mirrored = loadMeshFile(stl_path, Vec3(-0.001, 0.001, 0.001), "shape");
-  for (const Vec3& p : { Vec3(0.3, 0.05, 0.02), Vec3(-0.25, 0.2, -0.3), Vec3(0.01, 0.02, 0.03) })
-    EXPECT_NEAR(evaluateShape(meshShape(mirrored), p).distance, evaluateShape(box, p).distance,
-                1e-12);
+  // a mirroring scale winds the triangles inward: turned out, the box mirrored (one off centre
+  // by 0.5 m along x lands 0.5 m the other way)
+  std::string shifted;
+  for (const Vec3& x : vertices)
+    shifted += "v " + std::to_string(x.x() + 500.0) + " " + std::to_string(x.y()) + " " +
+               std::to_string(x.z()) + "\n";
+  for (const auto& f : triangles)
+    shifted += "f " + std::to_string(f[0] + 1) + " " + std::to_string(f[1] + 1) + " " +
+               std::to_string(f[2] + 1) + "\n";
+  const Shape mirrored = meshShape(
+      loadMeshFile(writeFile("cp_shifted.obj", shifted), Vec3(-0.001, 0.001, 0.001), "shape"));
+  Shape there = shapeOf(ShapeType::Box, Vec3(-0.5, 0.0, 0.0));
+  there.size = box.size;
+  for (const Vec3& p : { Vec3(-0.5, 0.05, 0.02), Vec3(-0.2, 0.2, -0.3), Vec3(0.5, 0.0, 0.0) })
+    EXPECT_NEAR(evaluateShape(mirrored, p).distance, evaluateShape(there, p).distance, 1e-12)
+        << p.transpose();
 
   // a scene file names the mesh relative to itself
   const std::string scene_path = writeFile(

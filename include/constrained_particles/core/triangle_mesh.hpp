@@ -57,10 +57,14 @@ struct TriangleMesh
 /// vertices within limits::COORDINATE, every index a vertex, no triangle of zero area, closed
 /// and consistently oriented (each edge shared by exactly two triangles, once in each
 /// direction: a watertight surface, so inside and outside are defined), no two triangles back
-/// to back. Each shell (triangles joined by edges) wound inward (negative enclosed volume) is
-/// turned outward. Not checked: shells that cross or overlap (there the sign is each shell's,
-/// so a point inside one near another's face may read as outside). Vertices no triangle uses
-/// are kept.
+/// to back. The shells (triangles joined by edges) are turned so that the solid is what their
+/// windings enclose: all of them if their total volume is negative (a file wound inward, a
+/// mirroring scale); then a shell still wound inward is a cavity if it lies inside a shell wound
+/// outward, and is turned outward if it lies inside none. Not checked: shells that cross or
+/// overlap, or touch at a vertex (there the sign is each shell's, so a point inside one near
+/// another's face may read as outside). Faces count as coplanar (the distance flat across their
+/// edge) within 1e-12 of the cosine: a file's slightly bent faces keep their thin edge regions.
+/// Vertices no triangle uses are kept.
 /// @throws InvalidInput naming `field`, saying which triangle, edge or vertex is at fault
 std::shared_ptr<const TriangleMesh> makeTriangleMesh(
     std::vector<Vec3> vertices, std::vector<std::array<int, 3>> triangles,
