@@ -466,6 +466,45 @@ TEST(MeshShapes, FilesAreReadAndBadOnesRefusedNamingTheField)
   EXPECT_EQ(with_capsules.shapes.size(), 1u);
 }
 
+// A DAE (COLLADA) file is read as URDF reads it: its vertices as written, its Z_UP not turned to
+// assimp's Y up, its <unit> applied (a file in mm at meter = 0.001 is in m); a box of half-sides
+// (0.1, 0.2, 0.3) keeps them on its own axes.
+TEST(MeshShapes, ADaeFileKeepsItsAxesAndUnit)
+{
+  const auto [vertices, triangles] = boxTriangles(Vec3(100.0, 200.0, 300.0));  // mm
+  std::string positions, indices;
+  for (const Vec3& x : vertices)
+    positions +=
+        std::to_string(x.x()) + " " + std::to_string(x.y()) + " " + std::to_string(x.z()) + " ";
+  for (const auto& f : triangles)
+    indices += std::to_string(f[0]) + " " + std::to_string(f[1]) + " " + std::to_string(f[2]) + " ";
+  const std::string dae =
+      "<?xml version='1.0' encoding='utf-8'?>\n"
+      "<COLLADA xmlns='http://www.collada.org/2005/11/COLLADASchema' version='1.4.1'>\n"
+      "<asset><unit name='millimeter' meter='0.001'/><up_axis>Z_UP</up_axis></asset>\n"
+      "<library_geometries><geometry id='box' name='box'><mesh>\n"
+      "<source id='box-positions'><float_array id='box-array' count='24'>" +
+      positions +
+      "</float_array><technique_common><accessor source='#box-array' count='8' stride='3'>"
+      "<param name='X' type='float'/><param name='Y' type='float'/><param name='Z' type='float'/>"
+      "</accessor></technique_common></source>\n"
+      "<vertices id='box-vertices'><input semantic='POSITION' "
+      "source='#box-positions'/></vertices>\n"
+      "<triangles count='12'><input semantic='VERTEX' source='#box-vertices' offset='0'/><p>" +
+      indices +
+      "</p></triangles>\n"
+      "</mesh></geometry></library_geometries>\n"
+      "<library_visual_scenes><visual_scene id='scene'><node id='node'>"
+      "<instance_geometry url='#box'/></node></visual_scene></library_visual_scenes>\n"
+      "<scene><instance_visual_scene url='#scene'/></scene>\n"
+      "</COLLADA>\n";
+  const auto mesh = loadMeshFile(writeFile("cp_box.dae", dae), Vec3::Ones(), "shape");
+  EXPECT_EQ(mesh->triangles.size(), 12u);
+  // assimp keeps vertices in float: 0.3 m to 1.2e-8 m
+  EXPECT_LE((mesh->high - Vec3(0.1, 0.2, 0.3)).norm(), 1e-7) << mesh->high.transpose();
+  EXPECT_LE((mesh->low + Vec3(0.1, 0.2, 0.3)).norm(), 1e-7) << mesh->low.transpose();
+}
+
 // A URDF link's <mesh> collision is a mesh shape carried by the link's frame, scaled as the URDF
 // says; package:// names are found by the resolver the ROS layer gives, and refused without it.
 TEST(MeshShapes, AUrdfMeshIsAShapeOnItsLink)

@@ -32,7 +32,8 @@ struct FileResolver
 };
 
 /// The closed mesh in the file at `path`, every node's triangles in the file's own frame (its
-/// nodes' transforms applied; a DAE's up axis left as written, as URDF reads it), each vertex
+/// nodes' transforms applied; a DAE's up axis left as written, as URDF reads it, and its <unit>
+/// applied; assimp keeps vertices in float), each vertex
 /// scaled by `scale` along the local axes (a negative factor mirrors), coincident vertices
 /// joined (an STL writes each triangle's own) and triangles two of whose corners coincide
 /// dropped, with an FCL search (makeMeshIndex).
