@@ -83,37 +83,24 @@ Shape parseShape(const Where& where, const YAML::Node& node, const std::string& 
     shape.frame = readString(where / "frame", node["frame"]);
   if (node["topic"])
     shape.topic = readString(where / "topic", node["topic"]);
-  if (shape.type == ShapeType::Mesh)
-  {
-    if (!node["file"])
-      fail(where / "file", node,
-           "is missing: a mesh reads its triangles from a file (STL, OBJ, DAE)");
-    Vec3 scale = Vec3::Ones();
-    if (node["scale"])
-      scale = readVector(where / "scale", node["scale"]);
-    try
-    {
-      const std::string file = files.resolve(readString(where / "file", node["file"]), "file");
-      shape.mesh = loadMeshFile(file, scale, "");
-    }
-    catch (const InvalidInput& e)  // ".file", ".scale" or "file": named at its line
-    {
-      std::string key = e.field();
-      if (!key.empty() && key[0] == '.')
-        key = key.substr(1);
-      const std::string message = e.what();
-      fail(where / key, node[key], message.substr(e.field().size() + 1));
-    }
-  }
+  if (shape.type == ShapeType::Mesh && !node["file"])
+    fail(where / "file", node,
+         "is missing: a mesh reads its triangles from a file (STL, OBJ, DAE)");
+  Vec3 scale = Vec3::Ones();
+  if (node["scale"])
+    scale = readVector(where / "scale", node["scale"]);
   try
   {
+    if (shape.type == ShapeType::Mesh)  // first, as before the ranges: its file, then its scale
+      shape.mesh =
+          loadMeshFile(files.resolve(readString(where / "file", node["file"]), "file"), scale, "");
     requireInRange("rpy", rpy, limits::SHAPE_ANGLE);
     shape.rotation = rotationFromRpy(rpy);
     validateShape(shape, "");
   }
   catch (const InvalidInput& e)
   {
-    // the field is ".radius", ".size.x" or "rpy.z": name it at its line
+    // the field is ".radius", ".size.x", "rpy.z", "file" or ".scale": name it at its line
     std::string key = e.field();
     if (!key.empty() && key[0] == '.')
       key = key.substr(1);
