@@ -86,14 +86,16 @@ Shape parseShape(const Where& where, const YAML::Node& node, const std::string& 
   if (shape.type == ShapeType::Mesh && !node["file"])
     fail(where / "file", node,
          "is missing: a mesh reads its triangles from a file (STL, OBJ, DAE)");
+  std::string file;  // read outside the try: a non-string names its own key and line
+  if (shape.type == ShapeType::Mesh)
+    file = readString(where / "file", node["file"]);
   Vec3 scale = Vec3::Ones();
   if (node["scale"])
     scale = readVector(where / "scale", node["scale"]);
   try
   {
     if (shape.type == ShapeType::Mesh)  // first, as before the ranges: its file, then its scale
-      shape.mesh =
-          loadMeshFile(files.resolve(readString(where / "file", node["file"]), "file"), scale, "");
+      shape.mesh = loadMeshFile(files.resolve(file, "file"), scale, "");
     requireInRange("rpy", rpy, limits::SHAPE_ANGLE);
     shape.rotation = rotationFromRpy(rpy);
     validateShape(shape, "");

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <map>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -28,6 +29,20 @@ inline std::pair<std::vector<Vec3>, Triangles> boxTriangles(const Vec3& h)
                         { 0, 1, 5 }, { 0, 5, 4 }, { 2, 6, 7 }, { 2, 7, 3 },    // y = -h, +h
                         { 0, 4, 6 }, { 0, 6, 2 }, { 1, 3, 7 }, { 1, 7, 5 } };  // x = -h, +h
   return { v, t };
+}
+
+/// OBJ text of `vertices` moved by `shift` and `triangles` (1-based `f` lines), for loader tests.
+inline std::string objText(const std::vector<Vec3>& vertices, const Triangles& triangles,
+                           const Vec3& shift = Vec3::Zero())
+{
+  std::string obj;
+  for (const Vec3& v : vertices)
+    obj += "v " + std::to_string(v.x() + shift.x()) + " " + std::to_string(v.y() + shift.y()) +
+           " " + std::to_string(v.z() + shift.z()) + "\n";
+  for (const auto& f : triangles)
+    obj += "f " + std::to_string(f[0] + 1) + " " + std::to_string(f[1] + 1) + " " +
+           std::to_string(f[2] + 1) + "\n";
+  return obj;
 }
 
 /// An L-shaped prism: the L (0,0)-(2,0)-(2,1)-(1,1)-(1,2)-(0,2) [m], z in [0, 1]; its edge at

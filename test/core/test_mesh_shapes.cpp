@@ -26,6 +26,7 @@ using namespace constrained_particles;
 using constrained_particles::testing::boxTriangles;
 using constrained_particles::testing::icosphereTriangles;
 using constrained_particles::testing::lPrism;
+using constrained_particles::testing::objText;
 using constrained_particles::testing::shapeOf;
 using constrained_particles::testing::Triangles;
 
@@ -346,20 +347,9 @@ TEST(MeshShapes, FilesAreReadAndBadOnesRefusedNamingTheField)
   for (const Vec3& p : { Vec3(0.3, 0.05, 0.02), Vec3(0.25, 0.2, -0.3), Vec3(0.01, 0.02, 0.03) })
     EXPECT_NEAR(evaluateShape(meshShape(from_stl), p).distance, evaluateShape(box, p).distance,
                 1e-12);
-  std::string obj;
-  for (const Vec3& x : vertices)
-    obj += "v " + std::to_string(x.x()) + " " + std::to_string(x.y()) + " " +
-           std::to_string(x.z()) + "\n";
-  std::string open_obj = obj;
-  for (std::size_t f = 0; f < triangles.size(); ++f)
-  {
-    const std::string face = "f " + std::to_string(triangles[f][0] + 1) + " " +
-                             std::to_string(triangles[f][1] + 1) + " " +
-                             std::to_string(triangles[f][2] + 1) + "\n";
-    obj += face;
-    if (f > 0)
-      open_obj += face;  // one triangle short: open
-  }
+  const std::string obj = objText(vertices, triangles);
+  const std::string open_obj =  // one triangle short: open
+      objText(vertices, Triangles(triangles.begin() + 1, triangles.end()));
   EXPECT_EQ(loadMeshFile(writeFile("cp_box.obj", obj), Vec3::Ones(), "shape")->triangles.size(),
             12u);
   auto refusal = [](auto&& call)
@@ -390,13 +380,7 @@ TEST(MeshShapes, FilesAreReadAndBadOnesRefusedNamingTheField)
   EXPECT_NE(scale.find(limits::MESH_SCALE.text()), std::string::npos) << scale;
   // a mirroring scale winds the triangles inward: turned out, the box mirrored (one off centre
   // by 0.5 m along x lands 0.5 m the other way)
-  std::string shifted;
-  for (const Vec3& x : vertices)
-    shifted += "v " + std::to_string(x.x() + 500.0) + " " + std::to_string(x.y()) + " " +
-               std::to_string(x.z()) + "\n";
-  for (const auto& f : triangles)
-    shifted += "f " + std::to_string(f[0] + 1) + " " + std::to_string(f[1] + 1) + " " +
-               std::to_string(f[2] + 1) + "\n";
+  const std::string shifted = objText(vertices, triangles, Vec3(500.0, 0.0, 0.0));
   const Shape mirrored = meshShape(
       loadMeshFile(writeFile("cp_shifted.obj", shifted), Vec3(-0.001, 0.001, 0.001), "shape"));
   Shape there = shapeOf(ShapeType::Box, Vec3(-0.5, 0.0, 0.0));
@@ -445,6 +429,13 @@ TEST(MeshShapes, FilesAreReadAndBadOnesRefusedNamingTheField)
   const std::string no_file =
       refusal([&] { parseScene("shapes:\n  block: {type: mesh}\n", "inline.yaml"); });
   EXPECT_NE(no_file.find("shapes.block.file"), std::string::npos) << no_file;
+  // a file that is not a string: named once, at its key, as every key's wrong type is
+  const std::string not_string =
+      refusal([&] { parseScene("shapes:\n  block: {type: mesh, file: [1, 2]}\n", "in.yaml"); });
+  EXPECT_NE(not_string.find("shapes.block.file"), std::string::npos) << not_string;
+  EXPECT_EQ(not_string.find("shapes.block.file", not_string.find("shapes.block.file") + 1),
+            std::string::npos)
+      << not_string;
   // a scene given as text has no directory for a relative file
   const std::string relative = refusal(
       [&] { parseScene("shapes:\n  block: {type: mesh, file: cp_box.stl}\n", "inline.yaml"); });
@@ -510,14 +501,7 @@ TEST(MeshShapes, ADaeFileKeepsItsAxesAndUnit)
 TEST(MeshShapes, AUrdfMeshIsAShapeOnItsLink)
 {
   const auto [vertices, triangles] = boxTriangles(Vec3(1.0, 1.0, 1.0));
-  std::string obj;
-  for (const Vec3& x : vertices)
-    obj += "v " + std::to_string(x.x()) + " " + std::to_string(x.y()) + " " +
-           std::to_string(x.z()) + "\n";
-  for (const auto& f : triangles)
-    obj += "f " + std::to_string(f[0] + 1) + " " + std::to_string(f[1] + 1) + " " +
-           std::to_string(f[2] + 1) + "\n";
-  writeFile("cp_unit_box.obj", obj);
+  writeFile("cp_unit_box.obj", objText(vertices, triangles));
   const std::string urdf =
       "<robot name='r'><link name='arm'><collision><origin xyz='0 0 0.5'/><geometry>"
       "<mesh filename='package://cp_test/cp_unit_box.obj' scale='0.1 0.2 0.3'/></geometry>"
