@@ -139,7 +139,7 @@ void carryCarriers(const Model& from_model, const Data& from, const Model& to_mo
 {
   for (std::size_t k = 0; k < to_model.carriers().size(); ++k)
     for (std::size_t old = 0; old < from_model.carriers().size(); ++old)
-      if (from_model.carriers()[old].name == to_model.carriers()[k].name)
+      if (sameCarrier(from_model.carriers()[old], to_model.carriers()[k]))
       {
         if (rest)
           to.carriers[k].restAt(from.carriers[old], from.state.time);

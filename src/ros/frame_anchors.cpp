@@ -25,6 +25,18 @@ std::string stripped(const std::string& frame)
 }
 }  // namespace
 
+std::string holderRefusal(const std::string& frame, const std::string& topic,
+                          const std::string& frame_prefix)
+{
+  if (!frame.empty() && frame.rfind(frame_prefix, 0) == 0)
+    return "is one of this node's particle frames (~frame_prefix '" + frame_prefix +
+           "'): it would follow itself";
+  std::string error;
+  if (!topic.empty() && !ros::names::validate(topic, error))
+    return "is not a valid ROS name (" + error + ")";
+  return std::string();
+}
+
 FrameAnchors::FrameAnchors(ros::NodeHandle node, SimulationRunner& runner, std::string fixed_frame,
                            std::string frame_prefix, std::function<std::int64_t()> clock_ns)
   : node_(std::move(node))
@@ -366,12 +378,11 @@ void FrameAnchors::update(const Snapshot& snap)
     }
     for (Holder& holder : holders_)
     {
-      if (!holder.frame.empty() && holder.frame.rfind(frame_prefix_, 0) == 0)
-        holder.refused = "frame '" + holder.frame + "' is one of this node's particle frames " +
-                         "(~frame_prefix '" + frame_prefix_ + "'): it would follow itself";
-      std::string error;
-      if (!holder.topic.empty() && !ros::names::validate(holder.topic, error))
-        holder.refused = "topic '" + holder.topic + "' is not a valid ROS name (" + error + ")";
+      if (const std::string why = holderRefusal(holder.frame, holder.topic, frame_prefix_);
+          !why.empty())
+        holder.refused =
+            (holder.frame.empty() ? "topic '" + holder.topic : "frame '" + holder.frame) + "' " +
+            why;
       if (!holder.refused.empty())
         ROS_WARN("simulator: %s: %s: %s is held where it is", holder.label.c_str(),
                  holder.refused.c_str(), holder.moved.c_str());

@@ -61,15 +61,22 @@ RunnerReply SimulationRunner::setSurface(const std::string& type,
   return changeScene(make, "surface set to '" + type + "'");
 }
 
-RunnerReply SimulationRunner::setObstacle(ObstacleChange change, const std::string& name,
-                                          const std::string& shape)
+RunnerReply SimulationRunner::setObstacle(
+    ObstacleChange change, const std::string& name, const std::string& shape,
+    const std::function<std::string(const std::string&, const std::string&)>& holder_refusal)
 {
   static const char* const DONE[] = { "added", "replaced", "removed" };
   return queue_.submit(
-      [this, change, name, shape]
+      [this, change, name, shape, holder_refusal]
       {
         const SceneSession::Candidate candidate =
             session_.forObstacle(change, name, shape, parameters_.step);
+        // a carried shape's holder must be one the node can follow
+        for (const Shape& placed : candidate.description.shapes)
+          if (placed.name == name && placed.carried() && holder_refusal)
+            if (const std::string why = holder_refusal(placed.frame, placed.topic); !why.empty())
+              throw InvalidInput(placed.frame.empty() ? "shape.topic" : "shape.frame",
+                                 "= '" + placed.frame + placed.topic + "' " + why);
         // the scene's obstacle contacts as its description now makes them; the rest (holders
         // attached at run time among it) is the simulator's own
         std::vector<Constraint> contacts;
@@ -78,6 +85,8 @@ RunnerReply SimulationRunner::setObstacle(ObstacleChange change, const std::stri
             contacts.push_back(constraint);
         const ProjectionReport report = simulator_->setObstacles(contacts);
         session_.adoptChange(candidate.description);
+        // carried shapes added or removed: their holders followed from now, the rest kept
+        holders_.setModel(simulator_->model(), false);
         afterChange(true);  // the shadow's scene is not this one any more
         interruptStep("~set_obstacle");
         RunnerReply reply = acceptedReply(

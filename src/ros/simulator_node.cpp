@@ -383,8 +383,10 @@ bool SimulatorNode::setObstacleCallback(SetObstacle::Request& request,
   if (request.operation > SetObstacle::Request::REMOVE)
     return refuse(response, "operation = " + std::to_string(request.operation) +
                                 ", must be 0 (ADD), 1 (REPLACE) or 2 (REMOVE)");
-  const RunnerReply reply = runner_->setObstacle(static_cast<ObstacleChange>(request.operation),
-                                                 request.name, request.shape);
+  const RunnerReply reply = runner_->setObstacle(
+      static_cast<ObstacleChange>(request.operation), request.name, request.shape,
+      [this](const std::string& frame, const std::string& topic)
+      { return holderRefusal(frame, topic, parameters_.frame_prefix); });
   answer(response, reply);
   response.max_displacement = reply.max_displacement;
   response.max_velocity_change = reply.max_velocity_change;

@@ -157,11 +157,6 @@ Shape parseObstacle(const std::string& yaml, const std::string& name, const File
     throw InvalidInput(SOURCE + (e.mark.is_null() ? "" : ":" + std::to_string(e.mark.line + 1)),
                        "is not a valid shape: " + e.msg);
   }
-  if (shape.carried())
-    throw InvalidInput(SOURCE + ".frame",
-                       "= '" + shape.frame + shape.topic +
-                           "': ~set_obstacle places fixed shapes only (a carried shape, with its "
-                           "holder, comes with a scene file and ~reset)");
   return shape;
 }
 }  // namespace
@@ -178,16 +173,12 @@ void changeObstacle(SceneDescription& d, ObstacleChange change, const std::strin
                                    "' already: replace it (REPLACE), or add another name");
   if (change != ObstacleChange::Add)
   {
-    std::string fixed;
+    std::string names;
     for (const Shape& shape : d.shapes)
-      if (!shape.carried())
-        fixed += (fixed.empty() ? "" : ", ") + shape.name;
+      names += (names.empty() ? "" : ", ") + shape.name;
     if (found == d.shapes.end())
       throw InvalidInput("name", "= '" + name + "' is not a shape of scene '" + d.name +
-                                     "'; its fixed shapes: " + (fixed.empty() ? "none" : fixed));
-    if (found->carried())
-      throw InvalidInput("name", "= '" + name + "' is carried by '" + found->frame + found->topic +
-                                     "': a carried shape changes with its scene file (~reset)");
+                                     "'; its shapes: " + (names.empty() ? "none" : names));
   }
   if (change == ObstacleChange::Remove)
   {

@@ -513,3 +513,59 @@ TEST(CarriedShapes, NewSceneKeepsACarriedObstacleWhereItIs)
   sim.setScene(scene, start);
   EXPECT_EQ(sim.carriers()[0].motion(0.0).position, Vec3::Zero());
 }
+
+// setObstacles with carried shapes (~set_obstacle on a frame, issue 48 item 5): a shape on the
+// same holder keeps its track (resized where its holder has it, its motion going on); moved to
+// another holder, or added, it starts at its pose as written, at rest until that holder's first
+// pose; removed, its track goes with it and the other's stays.
+TEST(SetObstacles, ACarriedShapeKeepsItsHoldersTrackAndANewOneStartsAsWritten)
+{
+  const int n = 4;
+  Shape hand = carried(ShapeType::Sphere, "gripper");
+  hand.name = "hand";
+  hand.radius = 0.05;
+  hand.position = Vec3(0.0, 0.0, 3.0);  // in its frame: clear of the rope wherever it starts
+  auto on = [n](const std::vector<Shape>& shapes)
+  {
+    std::vector<Constraint> contacts;
+    for (const Shape& shape : shapes)
+      for (int i = 0; i < n; ++i)
+        contacts.push_back(ShapeContact{ i, shape, 0.0 });
+    return contacts;
+  };
+  Simulator sim = ropeOnPlane(n, on({ hand }));
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(0.3, Vec3::UnitZ()));
+  sim.carriers()[0].restart(Vec3(0.15, 0.0, 1.0), turn);  // over the rope, clear of it
+  sim.step(20);
+  // resized on the same frame: where its holder has it
+  Shape bigger = hand;
+  bigger.radius = 0.08;
+  sim.setObstacles(on({ bigger }));
+  ASSERT_EQ(sim.carriers().size(), 1u);
+  EXPECT_EQ(sim.carriers()[0].motion(sim.state().time).position, Vec3(0.15, 0.0, 1.0));
+  EXPECT_TRUE(sim.carriers()[0].orientation(sim.state().time).isApprox(turn, 1e-15));
+  // a second carried shape added: at its pose as written (its frame's origin here), the hand kept
+  Shape thumb = carried(ShapeType::Sphere, "thumb_link");
+  thumb.name = "thumb";
+  thumb.radius = 0.02;
+  thumb.position = Vec3(0.0, 0.0, 2.0);
+  sim.setObstacles(on({ bigger, thumb }));
+  ASSERT_EQ(sim.carriers().size(), 2u);
+  EXPECT_EQ(sim.model().carriers()[1].name, "thumb");
+  EXPECT_EQ(sim.carriers()[0].motion(sim.state().time).position, Vec3(0.15, 0.0, 1.0));
+  EXPECT_EQ(sim.carriers()[1].motion(sim.state().time).position, Vec3::Zero());
+  const EffectContext context{ sim.model().scene().surfaces, sim.state().time, nullptr,
+                               &sim.carriers() };
+  EXPECT_EQ(shapePose(thumb, 1, context).origin, Vec3(0.0, 0.0, 2.0));
+  // the hand removed: the thumb's track stays its own
+  sim.carriers()[1].restart(Vec3(0.0, 0.5, 0.0));
+  sim.setObstacles(on({ thumb }));
+  ASSERT_EQ(sim.carriers().size(), 1u);
+  EXPECT_EQ(sim.carriers()[0].motion(sim.state().time).position, Vec3(0.0, 0.5, 0.0));
+  // the thumb moved to another frame: that holder's track starts anew, at its pose as written
+  thumb.frame = "index_link";
+  sim.setObstacles(on({ thumb }));
+  EXPECT_EQ(sim.carriers()[0].motion(sim.state().time).position, Vec3::Zero());
+  sim.step(10);
+  EXPECT_LT(sim.state().positions.row(2).maxCoeff(), 1e-6);  // the rope still on its plane
+}

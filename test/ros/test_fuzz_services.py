@@ -370,7 +370,7 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
     def test_fuzz_set_obstacle(self):
         """~set_obstacle (issue 48, item 5): 400 requests on rope_over_post between steps, valid
         (the post moved and resized, spheres added near the rope and removed) and not (bad
-        operation, names, YAML, ranges, carried shapes): valid ones accepted (but a change the
+        operation, names, YAML, ranges, holders the node cannot follow): valid ones accepted (but a change the
         projection cannot undo, refused saying so), the rest refused with a message; afterwards a
         finite state on its constraints, outside every obstacle."""
         rng = random.Random(SEED + 1)
@@ -431,7 +431,9 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
                     (SetObstacleRequest.ADD, "b", ""),
                     (SetObstacleRequest.ADD, "b", "[1, 2, 3]"),
                     (SetObstacleRequest.ADD, "b", "{type: sphere, radius: ["),
-                    (SetObstacleRequest.ADD, "b", "{type: sphere, frame: tool0}"),
+                    (SetObstacleRequest.ADD, "b", "{type: sphere, frame: /tool0}"),
+                    (SetObstacleRequest.ADD, "b", "{type: sphere, frame: particle_2}"),
+                    (SetObstacleRequest.ADD, "b", "{type: sphere, topic: 'bad topic'}"),
                     (SetObstacleRequest.ADD, "b", "{type: box, size: [1, 1, 1e9]}"),
                     (SetObstacleRequest.ADD, "b", "{type: sphere, colour: red}"),
                     (SetObstacleRequest.ADD, "b", "x" * 100000),

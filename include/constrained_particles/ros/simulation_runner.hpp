@@ -164,11 +164,17 @@ public:
   /// changed.
   RunnerReply setSurface(const std::string& type, const std::vector<double>& coefficients,
                          const std::string& expression, bool keep_state = false);
-  /// ~set_obstacle: a fixed obstacle added, replaced or removed (SceneSession::forObstacle) with
-  /// the state going on (Simulator::setObstacles: the reply's max_displacement and
-  /// max_velocity_change say how far particles were moved out); refused naming the field, with
-  /// nothing changed.
-  RunnerReply setObstacle(ObstacleChange change, const std::string& name, const std::string& shape);
+  /// ~set_obstacle: an obstacle added, replaced or removed (SceneSession::forObstacle) with the
+  /// state going on (Simulator::setObstacles: the reply's max_displacement and
+  /// max_velocity_change say how far particles were moved out); a carried one's holder followed
+  /// from then on (HolderSession::setModel), a kept one's track going on. Refused naming the
+  /// field, with nothing changed (also a frame of this node's ~frame_prefix, or a topic that is
+  /// not a valid ROS name: the holder could not be followed).
+  /// `holder_refusal` (holderRefusal) says why a carried shape's holder cannot be followed.
+  RunnerReply setObstacle(
+      ObstacleChange change, const std::string& name, const std::string& shape,
+      const std::function<std::string(const std::string& frame, const std::string& topic)>&
+          holder_refusal = {});
   /// ~set_chain: every chain of the current scene changed (SceneSession::forChain), then a reset
   /// to it; refused naming the field and its range, with nothing changed.
   RunnerReply setChain(const ChainChange& change);

@@ -260,14 +260,15 @@ enum class ObstacleChange
   Remove,   ///< from `shapes`, every chain's `obstacles` and every record naming it
 };
 
-/// Applies `change` to the fixed obstacle `name`. `shape_yaml` is the shape as a scene file
-/// writes it under `shapes` (a YAML map: "{type: sphere, position: [0, 0, 0.5], radius: 0.1}"),
-/// for Add and Replace; empty for Remove. An added shape is kept out by each chain with the
-/// chain's radius, friction, restitution and capsules. A mesh's `file` is found by `files`.
-/// @throws InvalidInput naming `name` (empty; taken, for Add; not a shape of the scene, or one a
-/// frame or topic carries, for Replace and Remove), `shape` (its key and line, as a scene file's
-/// are named; a frame or topic in it; present for Remove) or `operation` (Add in a scene with no
-/// chain, or over limits::SHAPES shapes); `description` is then unchanged
+/// Applies `change` to obstacle `name`, fixed or carried (a `frame` or `topic` in `shape_yaml`).
+/// `shape_yaml` is the shape as a scene file writes it under `shapes` (a YAML map: "{type: sphere,
+/// position: [0, 0, 0.5], radius: 0.1}"), for Add and Replace; empty for Remove. An added shape is
+/// kept out by each chain with the chain's radius, friction, restitution and capsules. A mesh's
+/// `file` is found by `files`.
+/// @throws InvalidInput naming `name` (empty; taken, for Add; not a shape of the scene, for
+/// Replace and Remove), `shape` (its key and line, as a scene file's are named; present for
+/// Remove) or `operation` (Add in a scene with no chain, or over limits::SHAPES shapes);
+/// `description` is then unchanged
 void changeObstacle(SceneDescription& description, ObstacleChange change, const std::string& name,
                     const std::string& shape_yaml, const FileResolver& files = {});
 
