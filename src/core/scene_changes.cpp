@@ -276,7 +276,7 @@ ProjectionReport Simulator::setConstraints(const std::vector<Constraint>& constr
       if (eliminatedParticle(model_->scene().constraints[model_->tracked()[old]]) == particle)
         data->tracks[k] = data_->tracks[old];
   }
-  // carried shapes by name: the world outside the scene goes on
+  // carried shapes by name and holder: the world outside the scene goes on
   carryCarriers(*model_, *data_, *model, *data, false);
   // project with the new model before anything is replaced: a refusal changes nothing
   State projected = data_->state;
@@ -333,7 +333,7 @@ ProjectionReport Simulator::setObstacles(const std::vector<Constraint>& contacts
                        "contacts[" + std::to_string(k) + "]");
   auto [model, data] = recompile(scene, *model_, *data_, paths_, requested_method_);
   data->tracks = data_->tracks;  // the same eliminated records, in the same order
-  carryCarriers(*model_, *data_, *model, *data, false);  // carried shapes by name
+  carryCarriers(*model_, *data_, *model, *data, false);  // by name and holder
   return installChangedWorld(std::move(model), std::move(data), "contacts");
 }
 

@@ -30,14 +30,7 @@ void restartTracks(const Model& model, Data& data, const Points& positions);
 
 /// Each carried shape of `to_model` that `from_model` carries too (the same name on the same
 /// holder, sameCarrier) takes the old one's track (`rest` false: its motion goes on) or rests where
-/// the old one is at the old state's time (`rest` true: a new scene's run). Whether carried shapes
-/// `a` and `b` are one obstacle on one holder: the same name, frame and topic (another holder's
-/// track is not this one's: its shape starts at its pose as written).
-inline bool sameCarrier(const Shape& a, const Shape& b)
-{
-  return a.name == b.name && a.frame == b.frame && a.topic == b.topic;
-}
-
+/// the old one is at the old state's time (`rest` true: a new scene's run).
 void carryCarriers(const Model& from_model, const Data& from, const Model& to_model, Data& to,
                    bool rest);
 

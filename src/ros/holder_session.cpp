@@ -71,18 +71,32 @@ void HolderSession::post(std::uint64_t serial, int track, std::vector<HolderSamp
 
 void HolderSession::setModel(const Model& model, bool scene_changed)
 {
+  // the new model's holders: anchors, then obstacles, and their tracks' keys
+  std::vector<HolderStatus> wanted;
+  std::vector<TrackKey> keys;
+  for (int k : model.tracked())
   {
-    std::vector<TrackKey> keys;
-    for (int k : model.tracked())
-    {
-      const Constraint& constraint = model.scene().constraints[k];
-      const auto* anchor = std::get_if<FrameAnchorConstraint>(&constraint);
-      keys.push_back(TrackKey{ eliminatedParticle(constraint), holderName(constraint),
-                               anchor ? anchor->offset : Vec3::Zero(), std::string() });
-    }
-    for (const Shape& shape : model.carriers())
-      keys.push_back(TrackKey{ -1, shape.frame.empty() ? shape.topic : shape.frame, Vec3::Zero(),
-                               shape.name });
+    const Constraint& constraint = model.scene().constraints[k];
+    const auto* anchor = std::get_if<FrameAnchorConstraint>(&constraint);
+    HolderStatus fresh;
+    fresh.particle = eliminatedParticle(constraint);
+    fresh.holder = holderName(constraint);
+    fresh.topic = anchor && anchor->frame.empty();
+    wanted.push_back(fresh);
+    keys.push_back(TrackKey{ fresh.particle, fresh.holder, fresh.topic,
+                             anchor ? anchor->offset : Vec3::Zero(), std::string() });
+  }
+  for (const Shape& shape : model.carriers())
+  {
+    HolderStatus fresh;
+    fresh.particle = -1;
+    fresh.topic = shape.frame.empty();
+    fresh.holder = fresh.topic ? shape.topic : shape.frame;
+    fresh.shape = shape.name;
+    wanted.push_back(fresh);
+    keys.push_back(TrackKey{ -1, fresh.holder, fresh.topic, Vec3::Zero(), shape.name });
+  }
+  {
     std::lock_guard<std::mutex> lock(mutex_);
     posted_serial_ = ++serial_;
     if (scene_changed)
@@ -104,31 +118,16 @@ void HolderSession::setModel(const Model& model, bool scene_changed)
   }
   std::vector<HolderStatus> status;
   std::vector<Holder> holders;
-  std::vector<HolderStatus> wanted;  // the new model's holders: anchors, then obstacles
-  for (int k : model.tracked())
-  {
-    const Constraint& constraint = model.scene().constraints[k];
-    HolderStatus fresh;
-    fresh.particle = eliminatedParticle(constraint);
-    fresh.holder = holderName(constraint);
-    wanted.push_back(fresh);
-  }
-  for (const Shape& shape : model.carriers())
-  {
-    HolderStatus fresh;
-    fresh.particle = -1;
-    fresh.holder = shape.frame.empty() ? shape.topic : shape.frame;
-    fresh.shape = shape.name;
-    wanted.push_back(fresh);
-  }
   for (HolderStatus& fresh : wanted)
   {
     Holder holder;
     // a holder kept (an attach or detach of another): its counts, and its samples' place
     const auto kept = std::find_if(status_.begin(), status_.end(),
-                                   [&fresh](const HolderStatus& s) {
+                                   [&fresh](const HolderStatus& s)
+                                   {
                                      return s.particle == fresh.particle &&
-                                            s.holder == fresh.holder && s.shape == fresh.shape;
+                                            s.holder == fresh.holder && s.topic == fresh.topic &&
+                                            s.shape == fresh.shape;
                                    });
     // a scene change starts every holder again: its track, its counts and what its arrivals
     // asked (a new run measures its own)

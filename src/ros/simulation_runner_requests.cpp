@@ -6,6 +6,8 @@
 
 #include "constrained_particles/ros/request_checks.hpp"
 
+#include <algorithm>
+
 namespace constrained_particles
 {
 RunnerReply SimulationRunner::reset(const std::string& scenario)
@@ -83,10 +85,14 @@ RunnerReply SimulationRunner::setObstacle(
         for (const Constraint& constraint : candidate.built.scene.constraints)
           if (isObstacleContact(constraint))
             contacts.push_back(constraint);
+        const std::vector<Shape> carried = simulator_->model().carriers();
         const ProjectionReport report = simulator_->setObstacles(contacts);
         session_.adoptChange(candidate.description);
-        // carried shapes added or removed: their holders followed from now, the rest kept
-        holders_.setModel(simulator_->model(), false);
+        // carried shapes added, removed or on another holder: their holders followed from now,
+        // the rest kept (a new holder model restarts every holder's sampling: only if needed)
+        const std::vector<Shape>& now = simulator_->model().carriers();
+        if (!std::equal(carried.begin(), carried.end(), now.begin(), now.end(), sameCarrier))
+          holders_.setModel(simulator_->model(), false);
         afterChange(true);  // the shadow's scene is not this one any more
         interruptStep("~set_obstacle");
         RunnerReply reply = acceptedReply(

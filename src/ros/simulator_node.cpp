@@ -385,8 +385,8 @@ bool SimulatorNode::setObstacleCallback(SetObstacle::Request& request,
                                 ", must be 0 (ADD), 1 (REPLACE) or 2 (REMOVE)");
   const RunnerReply reply = runner_->setObstacle(
       static_cast<ObstacleChange>(request.operation), request.name, request.shape,
-      [this](const std::string& frame, const std::string& topic)
-      { return holderRefusal(frame, topic, parameters_.frame_prefix); });
+      [prefix = parameters_.frame_prefix](const std::string& frame, const std::string& topic)
+      { return holderRefusal(frame, topic, prefix); });
   answer(response, reply);
   response.max_displacement = reply.max_displacement;
   response.max_velocity_change = reply.max_velocity_change;

@@ -512,6 +512,13 @@ TEST(CarriedShapes, NewSceneKeepsACarriedObstacleWhereItIs)
   std::get<ShapeContact>(scene.constraints[0]).shape.name = "other";
   sim.setScene(scene, start);
   EXPECT_EQ(sim.carriers()[0].motion(0.0).position, Vec3::Zero());
+  // the same name on another holder: its track is that holder's, from its own pose too
+  scene.constraints = { ShapeContact{ 0, carried(ShapeType::Sphere, "hand"), 0.0 } };
+  sim.setScene(scene, start);
+  sim.carriers()[0].restart(Vec3(2.0, 0.0, 0.0), turn);
+  std::get<ShapeContact>(scene.constraints[0]).shape.frame = "wrist";
+  sim.setScene(scene, start);
+  EXPECT_EQ(sim.carriers()[0].motion(0.0).position, Vec3::Zero());
 }
 
 // setObstacles with carried shapes (~set_obstacle on a frame, issue 48 item 5): a shape on the
@@ -564,6 +571,12 @@ TEST(SetObstacles, ACarriedShapeKeepsItsHoldersTrackAndANewOneStartsAsWritten)
   EXPECT_EQ(sim.carriers()[0].motion(sim.state().time).position, Vec3(0.0, 0.5, 0.0));
   // the thumb moved to another frame: that holder's track starts anew, at its pose as written
   thumb.frame = "index_link";
+  sim.setObstacles(on({ thumb }));
+  EXPECT_EQ(sim.carriers()[0].motion(sim.state().time).position, Vec3::Zero());
+  // and from a frame to a topic of the same name: another holder too
+  sim.carriers()[0].restart(Vec3(0.0, 0.5, 0.0));
+  thumb.topic = thumb.frame;
+  thumb.frame.clear();
   sim.setObstacles(on({ thumb }));
   EXPECT_EQ(sim.carriers()[0].motion(sim.state().time).position, Vec3::Zero());
   sim.step(10);

@@ -47,14 +47,20 @@ def gap(p, ns, radius=RADIUS):
     return math.dist((p.x, p.y, p.z), (x, y, HEIGHT)) - radius - ROPE_RADIUS
 
 
-THUMB_RADIUS, THUMB_Z = 0.1, 0.8  # the sphere ~set_obstacle adds on frame 'thumb' [m]
-THUMB_FROM_X, THUMB_TO_X, THUMB_SWEEP = -0.4, 0.1, 2.0  # its path after the sweep [m], [s]
+THUMB_RADIUS = 0.1  # the sphere ~set_obstacle adds on frame 'thumb' [m]
 
 
-def thumb_x(ns, since_ns):
-    """The thumb's x at ROS time ns, its sweep starting at since_ns (velocity 0 at both ends)."""
-    s = min(max((ns - since_ns) * 1e-9 / THUMB_SWEEP, 0.0), 1.0)
-    return THUMB_FROM_X + (THUMB_TO_X - THUMB_FROM_X) * 0.5 * (1.0 - math.cos(math.pi * s))
+def eased(moves, ns):
+    """Where a holder moving along `moves` is at ROS time ns: each move (start_ns, (x0, z0),
+    (x1, z1), seconds) eased (velocity 0 at both ends); before the first, at its start."""
+    x, z = moves[0][1]
+    for start_ns, (x0, z0), (x1, z1), seconds in moves:
+        if ns < start_ns:
+            break
+        s = min((ns - start_ns) * 1e-9 / seconds, 1.0)
+        e = 0.5 * (1.0 - math.cos(math.pi * s))
+        x, z = x0 + (x1 - x0) * e, z0 + (z1 - z0) * e
+    return x, z
 
 
 class CarriedObstacleTest(WallClockWaits, unittest.TestCase):
@@ -68,11 +74,11 @@ class CarriedObstacleTest(WallClockWaits, unittest.TestCase):
         cls.clock = rospy.Publisher("/clock", Clock, queue_size=100)
         cls.tf = tf2_ros.TransformBroadcaster()
 
-    def tick(self, ns, broadcast=True, thumb_since=None):
+    def tick(self, ns, broadcast=True, thumb=None):
         if broadcast:
             frames = [("finger", finger_x(ns), HEIGHT)]
-            if thumb_since is not None:
-                frames.append(("thumb", thumb_x(ns, thumb_since), THUMB_Z))
+            if thumb is not None:
+                frames.append(("thumb",) + eased(thumb, ns))
             transforms = []
             for name, x, z in frames:
                 t = TransformStamped()
@@ -151,29 +157,46 @@ class CarriedObstacleTest(WallClockWaits, unittest.TestCase):
               f"{math.dist(total, (0.0, 0.0, -weight)):.3g} N ({compared} pairs)")
         CarriedObstacleTest.last_ns = last
 
-    def run_ticks(self, start_ns, seconds, thumb_since=None):
+    def run_ticks(self, start_ns, seconds, thumb=None):
         """Ticks /clock (and the frames) from start_ns for `seconds`; the last tick's ns."""
         now, end = start_ns, start_ns + int(seconds * 1e9)
         while now <= end:
-            self.tick(now, thumb_since=thumb_since)
+            self.tick(now, thumb=thumb)
             now += TICK_NS
             time.sleep(0.01)
         return now - TICK_NS
 
-    def wait_for_stamp(self, last_ns):
+    def wait_for_stamp(self, last_ns, thumb):
         wanted = stamp_of(last_ns - int(LAG * 1e9))
-        self.wait_until(lambda: (self.tick(last_ns, broadcast=False), self.states.latest())[1]
-                        .header.stamp == wanted, "the state the lag behind the last clock",
-                        poll=0.05)
+        self.wait_until(lambda: (self.tick(last_ns, broadcast=False, thumb=thumb),
+                                 self.states.latest())[1].header.stamp == wanted,
+                        "the state the lag behind the last clock", poll=0.05)
+
+    def deepest(self, states, thumb, finger_radius=None):
+        """The deepest any particle went into the thumb (and the finger of `finger_radius`) at
+        each state's stamp [m], and the rope's largest x."""
+        thumb_depth, finger_depth, pushed = 0.0, 0.0, -math.inf
+        for state in states:
+            self.assertEqual(state.status, SimState.STATUS_RUNNING, state.status_message)
+            t_ns = state.header.stamp.to_nsec()
+            x, z = eased(thumb, t_ns)
+            for p in state.positions:
+                thumb_depth = max(thumb_depth, THUMB_RADIUS + ROPE_RADIUS -
+                                  math.dist((p.x, p.y, p.z), (x, 0.0, z)))
+                if finger_radius is not None:
+                    finger_depth = max(finger_depth, -gap(p, t_ns, finger_radius))
+            pushed = max(pushed, max(p.x for p in state.positions))
+        return thumb_depth, finger_depth, pushed
 
     def test_then_set_obstacle_changes_carried_shapes_under_the_rope(self):
         """After the sweep (test_swept_..., run first by name), ~set_obstacle on carried shapes
         (issue 48, item 5): the finger grown on its own frame stays where its frame has it and
         pushes the rope out (the reply says by how much); a sphere added on frame 'thumb' rests
-        at its pose as written until the thumb's first pose, then follows it, sweeping into the
-        rope without letting a particle inside, /diagnostics following it and its
-        ~obstacle_wrench reading the rope's push; a frame of the node's own refused naming
-        shape.frame; the thumb removed."""
+        at its pose as written until the thumb's first pose, then follows it into the rope
+        without letting a particle inside, /diagnostics following it and its ~obstacle_wrench
+        reading the rope's push; the finger (the first carried shape) removed, the thumb is
+        still followed, moving under the pin where the rope falls; a frame of the node's own
+        refused naming shape.frame."""
         start = getattr(CarriedObstacleTest, "last_ns", None)
         self.assertIsNotNone(start, "the sweep's test did not run first")
         set_obstacle = rospy.ServiceProxy(f"{NODE}/set_obstacle", SetObstacle)
@@ -193,45 +216,59 @@ class CarriedObstacleTest(WallClockWaits, unittest.TestCase):
         self.assertTrue(added.success, added.message)
         self.assertEqual(added.max_displacement, 0.0, added.message)  # as written: at the origin
         since = time.monotonic()
-        thumb_since = start + TICK_NS
-        last = self.run_ticks(thumb_since, THUMB_SWEEP + 2.0, thumb_since=thumb_since)
-        self.wait_for_stamp(last)
+        # into the rope's upper run, from clear of it on the pin's other side
+        thumb = [(start + TICK_NS, (-0.4, 0.8), (0.1, 0.8), 2.0)]
+        last = self.run_ticks(start + TICK_NS, 4.0, thumb=thumb)
+        self.wait_for_stamp(last, thumb)
         states = [s for s in self.states.since(since)
-                  if s.header.stamp.to_nsec() > thumb_since + 2 * TICK_NS]
+                  if s.header.stamp.to_nsec() > start + 3 * TICK_NS]
         self.assertGreater(len(states), 50)
-        deepest_finger, deepest_thumb, pushed = 0.0, 0.0, 0.0
-        for state in states:
-            self.assertEqual(state.status, SimState.STATUS_RUNNING, state.status_message)
-            t_ns = state.header.stamp.to_nsec()
-            centre = (thumb_x(t_ns, thumb_since), 0.0, THUMB_Z)
-            for p in state.positions:
-                deepest_finger = max(deepest_finger, -gap(p, t_ns, 0.1))
-                deepest_thumb = max(deepest_thumb, THUMB_RADIUS + ROPE_RADIUS -
-                                    math.dist((p.x, p.y, p.z), centre))
-            pushed = max(pushed, max(p.x for p in state.positions))
-        self.assertLess(deepest_finger, 1e-6, "a particle inside the grown finger")
-        self.assertLess(deepest_thumb, 1e-6, "a particle inside the thumb")
+        thumb_depth, finger_depth, pushed = self.deepest(states, thumb, finger_radius=0.1)
+        self.assertLess(finger_depth, 1e-6, "a particle inside the grown finger")
+        self.assertLess(thumb_depth, 1e-6, "a particle inside the thumb")
         self.assertGreater(pushed, TO_X, "the grown finger no longer holds the rope out")
         row = next((kv.value for a in self.diagnostics.since(since) for s in a.status
                     for kv in s.values if kv.key.startswith("obstacle 'thumb' (frame thumb)")),
                    None)
         self.assertIsNotNone(row, "no /diagnostics row for the thumb")
         self.assertTrue(row.startswith("following"), row)
-        thumb = Recorder(f"{NODE}/obstacle_wrench/thumb", WrenchStamped, keep=200)
-        self.wait_until(lambda: thumb.subscriber.get_num_connections() > 0,
+        wrench = Recorder(f"{NODE}/obstacle_wrench/thumb", WrenchStamped, keep=200)
+        self.wait_until(lambda: wrench.subscriber.get_num_connections() > 0,
                         "~obstacle_wrench/thumb advertised")
         listened = time.monotonic()
-        last = self.run_ticks(last + TICK_NS, 0.5, thumb_since=thumb_since)
-        self.wait_for_stamp(last)
-        pushes = [math.hypot(w.wrench.force.x, w.wrench.force.z) for w in thumb.since(listened)]
+        last = self.run_ticks(last + TICK_NS, 0.5, thumb=thumb)
+        self.wait_for_stamp(last, thumb)
+        pushes = [math.hypot(w.wrench.force.x, w.wrench.force.z) for w in wrench.since(listened)]
         self.assertGreater(len(pushes), 3)
         self.assertGreater(min(pushes), 0.05, "the rope does not press on the thumb")
-        removed = set_obstacle(operation=SetObstacleRequest.REMOVE, name="thumb", shape="")
+        # the finger, carried shape 0, removed: the thumb (now 0) still followed, moved under
+        # the pin where the rope falls back to
+        removed = set_obstacle(operation=SetObstacleRequest.REMOVE, name="finger", shape="")
         self.assertTrue(removed.success, removed.message)
+        since = time.monotonic()
+        thumb.append((last + TICK_NS, (0.1, 0.8), (0.0, 0.75), 1.0))
+        moved_from = last + TICK_NS
+        last = self.run_ticks(moved_from, 3.0, thumb=thumb)
+        self.wait_for_stamp(last, thumb)
+        after = [s for s in self.states.since(since) if s.header.stamp.to_nsec() > moved_from]
+        self.assertGreater(len(after), 30)
+        moved_depth, _, _ = self.deepest(after, thumb)
+        self.assertLess(moved_depth, 1e-6, "a particle inside the thumb after the finger went")
+        x, z = eased(thumb, after[-1].header.stamp.to_nsec())
+        nearest = min(math.dist((p.x, p.y, p.z), (x, 0.0, z)) for p in after[-1].positions)
+        self.assertLess(nearest, THUMB_RADIUS + ROPE_RADIUS + 0.02,
+                        "the rope does not rest on the thumb under the pin")
+        last_rows = [kv.value for a in self.diagnostics.since(since) for s in a.status
+                     for kv in s.values if kv.key.startswith("obstacle 'thumb' (frame thumb)")]
+        self.assertTrue(last_rows and last_rows[-1].startswith("following"), last_rows[-1:])
+        gone = set_obstacle(operation=SetObstacleRequest.REMOVE, name="thumb", shape="")
+        self.assertTrue(gone.success, gone.message)
         print(f"set_obstacle: the finger grown to 0.1 m moved the rope out by "
               f"{reply.max_displacement:.4g} m; over {len(states)} states the deepest in the "
-              f"finger {deepest_finger:.3g} m, in the thumb {deepest_thumb:.3g} m; the rope "
-              f"presses on the thumb with {min(pushes):.4f}..{max(pushes):.4f} N")
+              f"finger {finger_depth:.3g} m, in the thumb {thumb_depth:.3g} m; the rope presses "
+              f"on the thumb with {min(pushes):.4f}..{max(pushes):.4f} N; the finger removed, "
+              f"the thumb moved under the pin: deepest {moved_depth:.3g} m over {len(after)} "
+              f"states, the rope {nearest - THUMB_RADIUS - ROPE_RADIUS:.3g} m from it at rest")
 
 
 if __name__ == "__main__":

@@ -369,10 +369,11 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
 
     def test_fuzz_set_obstacle(self):
         """~set_obstacle (issue 48, item 5): 400 requests on rope_over_post between steps, valid
-        (the post moved and resized, spheres added near the rope and removed) and not (bad
-        operation, names, YAML, ranges, holders the node cannot follow): valid ones accepted (but a change the
-        projection cannot undo, refused saying so), the rest refused with a message; afterwards a
-        finite state on its constraints, outside every obstacle."""
+        (the post moved and resized, spheres added near the rope and removed, fixed or carried
+        by a frame or topic never sent, where they rest as written) and not (bad operation,
+        names, YAML, ranges, holders the node cannot follow): valid ones accepted (but a change
+        the projection cannot undo, refused saying so), the rest refused with a message;
+        afterwards a finite state on its constraints, outside every obstacle."""
         rng = random.Random(SEED + 1)
         tally = Tally()
         too_deep = [0]
@@ -402,10 +403,11 @@ class FuzzServicesTest(WallClockWaits, unittest.TestCase):
                 record(r)
                 if r.success:
                     post = moved
-            elif kind < 0.45:  # a small sphere near the rope
+            elif kind < 0.45:  # a small sphere near the rope, a third of them on a holder
                 name = f"ball_{tally.calls}"
+                holder = rng.choice(["", ", frame: fuzz_hand", ", topic: fuzz_pose"])
                 shape = (f"{{type: sphere, position: [{rng.uniform(-0.6, 0.6)}, 0, "
-                         f"{rng.uniform(0.1, 0.7)}], radius: {rng.uniform(0.01, 0.04)}}}")
+                         f"{rng.uniform(0.1, 0.7)}], radius: {rng.uniform(0.01, 0.04)}{holder}}}")
                 r = self.set_obstacle(operation=SetObstacleRequest.ADD, name=name, shape=shape)
                 record(r)
                 if r.success:

@@ -59,6 +59,13 @@ struct Shape
   }
 };
 
+/// Whether carried shapes `a` and `b` are one obstacle on one holder: the same name, frame and
+/// topic (another holder's track is not this one's: its shape starts at its pose as written).
+inline bool sameCarrier(const Shape& a, const Shape& b)
+{
+  return a.name == b.name && a.frame == b.frame && a.topic == b.topic;
+}
+
 /// Where a shape is at a time and how its body moves there: its pose (world from local) and the
 /// velocity field of a rigid body, v(p) = velocity + angular_velocity x (p - origin), with the
 /// angular velocity constant over the instant (a holder's track turns at a constant rate between

@@ -23,6 +23,13 @@
 
 namespace constrained_particles
 {
+/// Why a holder on tf frame `frame` or PoseStamped topic `topic` cannot be followed by a node
+/// whose particle frames start with `frame_prefix`, said of the frame or topic ("is one of this
+/// node's particle frames ...": it would follow itself; "is not a valid ROS name ..."), or empty
+/// if it can.
+std::string holderRefusal(const std::string& frame, const std::string& topic,
+                          const std::string& frame_prefix);
+
 /// Samples holders for SimulationRunner::postHolderSamples.
 ///
 /// tf: FrameAnchors subscribes to /tf and /tf_static itself and inserts every transform into
@@ -34,13 +41,6 @@ namespace constrained_particles
 /// /tf_static is one still sample. A PoseStamped topic's poses are samples at their stamps,
 /// resolved into ~fixed_frame through tf at that stamp. ROS time going back (a bag played again)
 /// clears the buffer, as tf2_ros's listener does, and the sampling starts again.
-/// Why a holder on tf frame `frame` or PoseStamped topic `topic` cannot be followed by a node
-/// whose particle frames start with `frame_prefix`, said of the frame or topic ("is one of this
-/// node's particle frames ...": it would follow itself; "is not a valid ROS name ..."), or empty
-/// if it can.
-std::string holderRefusal(const std::string& frame, const std::string& topic,
-                          const std::string& frame_prefix);
-
 class FrameAnchors
 {
 public:

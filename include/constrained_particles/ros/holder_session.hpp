@@ -40,6 +40,7 @@ struct HolderStatus
   int particle = 0;             ///< the particle it holds; -1: it carries an obstacle
   std::string shape;            ///< the obstacle it carries (Shape::name), or empty
   std::string holder;           ///< its tf frame, or its topic
+  bool topic = false;           ///< `holder` is a pose topic (a frame may have the same name)
   std::uint64_t taken = 0;      ///< samples that became knots of its track
   std::uint64_t late = 0;       ///< arrived after the steps passed their time: not followed
   std::uint64_t unordered = 0;  ///< not after the last knot (repeated, or out of order): ignored
@@ -256,12 +257,13 @@ private:
   {
     int particle;  // -1: an obstacle's
     std::string holder;
+    bool topic;  // holder is a pose topic, not a tf frame of the same name
     Vec3 offset;
     std::string shape;  // the obstacle's name, or empty
     bool operator==(const TrackKey& other) const
     {
-      return particle == other.particle && holder == other.holder && offset == other.offset &&
-             shape == other.shape;
+      return particle == other.particle && holder == other.holder && topic == other.topic &&
+             offset == other.offset && shape == other.shape;
     }
   };
   /// Holder k's track: a frame anchor's (Simulator::tracks()), or after them an obstacle's
