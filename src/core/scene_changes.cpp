@@ -17,7 +17,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -41,6 +43,76 @@ std::pair<std::unique_ptr<Model>, std::unique_ptr<Data>> recompile(const Scene& 
   fresh->state = data.state;
   fresh->perturbations = data.perturbations;
   return { std::move(compiled), std::move(fresh) };
+}
+
+// A change whose contacts the projection finds no way out of (installChangedWorld): setObstacles
+// may then move the shapes there in steps
+struct TooDeepChange : InvalidInput
+{
+  using InvalidInput::InvalidInput;
+};
+
+// Halvings of a shape's way from its old place to its new one before a change is refused as
+// too deep (sub-moves down to 1/256 of the way), and the projections it may take in all (a way
+// in long steps to a shape's last few centimetres takes about two a halving; a hopeless one
+// would take 511): the node's physics thread waits for them
+constexpr int MAX_PATH_HALVINGS = 8;
+constexpr int MAX_PATH_STEPS = 64;
+
+// The obstacle shapes `constraints` name (shape_contact's and segment_contact's), by name
+const Shape* namedShape(const std::vector<Constraint>& constraints, const std::string& name)
+{
+  for (const Constraint& c : constraints)
+  {
+    if (const auto* contact = std::get_if<ShapeContact>(&c); contact && contact->shape.name == name)
+      return &contact->shape;
+    if (const auto* segment = std::get_if<SegmentContact>(&c);
+        segment && segment->shape.name == name)
+      return &segment->shape;
+  }
+  return nullptr;
+}
+
+// Shape `to` a fraction `s` of its way from `from` (the same shape moved, turned or resized):
+// its position and sizes linear in s, its rotation along the slerp between the two
+Shape between(const Shape& from, const Shape& to, double s)
+{
+  if (s >= 1.0)  // exactly as asked (from + (to - from) need not round to it)
+    return to;
+  Shape shape = to;
+  shape.position = from.position + s * (to.position - from.position);
+  shape.rotation = Eigen::Quaterniond(from.rotation)
+                       .slerp(s, Eigen::Quaterniond(to.rotation))
+                       .toRotationMatrix();
+  shape.radius = from.radius + s * (to.radius - from.radius);
+  shape.length = from.length + s * (to.length - from.length);
+  shape.size = from.size + s * (to.size - from.size);
+  return shape;
+}
+
+// `contacts` with each shape that `old` names too, of the same type (not a mesh, whose size is
+// its file's) and changed, a fraction `s` of its way there; `moving` set if there is one
+std::vector<Constraint> contactsAt(const std::vector<Constraint>& contacts,
+                                   const std::vector<Constraint>& old, double s, bool& moving)
+{
+  std::vector<Constraint> at = contacts;
+  moving = false;
+  for (Constraint& c : at)
+  {
+    Shape* shape = nullptr;
+    if (auto* contact = std::get_if<ShapeContact>(&c))
+      shape = &contact->shape;
+    else if (auto* segment = std::get_if<SegmentContact>(&c))
+      shape = &segment->shape;
+    const Shape* was = shape ? namedShape(old, shape->name) : nullptr;
+    if (!was || was->type != shape->type || shape->type == ShapeType::Mesh ||
+        (was->position == shape->position && was->rotation == shape->rotation &&
+         was->radius == shape->radius && was->length == shape->length && was->size == shape->size))
+      continue;
+    *shape = between(*was, *shape, s);
+    moving = true;
+  }
+  return at;
 }
 
 }  // namespace
@@ -303,7 +375,7 @@ ProjectionReport Simulator::setSurfaces(const std::vector<Surface>& surfaces)
   auto [model, data] = recompile(scene, *model_, *data_, paths_, requested_method_);
   data->tracks = data_->tracks;  // the world outside the scene goes on
   data->carriers = data_->carriers;
-  return installChangedWorld(std::move(model), std::move(data), "surfaces");
+  return installChangedWorld(std::move(model), std::move(data), "surfaces", data_->state);
 }
 
 ProjectionReport Simulator::setObstacles(const std::vector<Constraint>& contacts)
@@ -331,45 +403,111 @@ ProjectionReport Simulator::setObstacles(const std::vector<Constraint>& contacts
     validateConstraint(scene.constraints[first + k], model_->numParticles(),
                        static_cast<int>(scene.surfaces.size()),
                        "contacts[" + std::to_string(k) + "]");
-  auto [model, data] = recompile(scene, *model_, *data_, paths_, requested_method_);
-  data->tracks = data_->tracks;  // the same eliminated records, in the same order
-  carryCarriers(*model_, *data_, *model, *data, false);  // by name and holder
-  return installChangedWorld(std::move(model), std::move(data), "contacts");
+  // the scene with the obstacle contacts at fraction s of their shapes' way (1: `contacts`)
+  auto sceneAt = [&](double s, bool& moving)
+  {
+    Scene at = scene;
+    const std::vector<Constraint> placed =
+        contactsAt(contacts, model_->scene().constraints, s, moving);
+    std::copy(placed.begin(), placed.end(), at.constraints.begin() + first);
+    return at;
+  };
+  auto compiledAt = [&](double s)
+  {
+    bool moving = false;
+    auto compiled = recompile(sceneAt(s, moving), *model_, *data_, paths_, requested_method_);
+    compiled.second->tracks = data_->tracks;  // the same eliminated records, in the same order
+    carryCarriers(*model_, *data_, *compiled.first, *compiled.second, false);  // name and holder
+    return compiled;
+  };
+  try
+  {
+    auto [model, data] = compiledAt(1.0);
+    return installChangedWorld(std::move(model), std::move(data), "contacts", data_->state);
+  }
+  catch (const TooDeepChange&)
+  {
+    bool moving = false;
+    sceneAt(1.0, moving);
+    if (!moving)  // no shape with a way there (added, retyped, a mesh): refused
+      throw;
+  }
+  // too deep at once: the shapes moved there in steps, each pushing the particles out of its
+  // way as a shape moving slowly there would (the interval halved where a step is too deep)
+  int steps = 0;
+  std::function<State(const State&, double, double, int)> along =
+      [&](const State& from, double s0, double s1, int halvings)
+  {
+    auto [model, data] = compiledAt(s1);
+    if (std::optional<State> out = movedOut(*model, *data, from, "contacts", nullptr, nullptr))
+      return *out;
+    if (halvings == MAX_PATH_HALVINGS || ++steps >= MAX_PATH_STEPS)
+      throw TooDeepChange("contacts",
+                          "leave the particles inside their obstacles even moved there in "
+                          "steps (down to 1/256 of the way, " +
+                              std::to_string(MAX_PATH_STEPS) +
+                              " projections at most): a change too deep for the projection to "
+                              "undo: make it in smaller moves; nothing changed");
+    const double middle = 0.5 * (s0 + s1);
+    return along(along(from, s0, middle, halvings + 1), middle, s1, halvings + 1);
+  };
+  const State there = along(data_->state, 0.0, 1.0, 0);
+  auto [model, data] = compiledAt(1.0);
+  // its displacement measured from the state before the change, as a change made at once is
+  return installChangedWorld(std::move(model), std::move(data), "contacts", there);
 }
 
-ProjectionReport Simulator::installChangedWorld(std::unique_ptr<Model> model,
-                                                std::unique_ptr<Data> data,
-                                                const std::string& field)
+std::optional<State> Simulator::movedOut(const Model& model, Data& data, const State& from,
+                                         const std::string& field, ProjectionReport* report,
+                                         double* error) const
 {
-  // with the new model, before anything is replaced: a refusal changes nothing
-  State moved = data_->state;
-  ProjectionReport report = projectState(*model, *data, settings_, moved, field,
-                                         "the state cannot be projected onto the constraints");
-  data->setState(moved);
-  separateContacts(*model, *data);
+  State moved = from;
+  const ProjectionReport projected = projectState(
+      model, data, settings_, moved, field, "the state cannot be projected onto the constraints");
+  if (report)
+    *report = projected;
+  data.setState(moved);
+  separateContacts(model, data);
   // a contact now inside its surface or obstacle: switched on and projected, its approach taken
   // out (resolveImpacts at rest: no bounce below BOUNCE_SPEED)
-  data->free_accelerations.setZero();
-  State lifted = data->state;
-  resolveImpacts(*model, *data, settings_, lifted);
+  data.free_accelerations.setZero();
+  State lifted = data.state;
+  resolveImpacts(model, data, settings_, lifted);
   if (!isFinite(lifted))
     throw InvalidInput(field,
                        "moving the particles out of what their contacts keep them out of "
                        "produced a non-finite state; nothing changed");
   // the impacts' projection stops at its iteration limit without a word: a shape put deep over
   // a rope (its normals all along one line, the links across it) may leave no way out it finds
-  const double error =
-      computeDiagnostics(*model, lifted, &data->tracks, &data->carriers).max_position_error;
-  if (!(error <= 2.0 * settings_.projection_tolerance))
-    throw InvalidInput(field, "leave the particles " + formatValue(error) +
-                                  " m from their constraints after moving them out of what "
-                                  "their contacts keep them out of (a change too deep for the "
-                                  "projection to undo: make it in smaller moves); nothing changed");
-  separateContacts(*model, *data);
-  data->setState(lifted);
-  report.max_displacement = (lifted.positions - data_->state.positions).colwise().norm().maxCoeff();
+  const double left =
+      computeDiagnostics(model, lifted, &data.tracks, &data.carriers).max_position_error;
+  if (error)
+    *error = left;
+  if (!(left <= 2.0 * settings_.projection_tolerance))
+    return std::nullopt;
+  separateContacts(model, data);
+  data.setState(lifted);
+  return lifted;
+}
+
+ProjectionReport Simulator::installChangedWorld(std::unique_ptr<Model> model,
+                                                std::unique_ptr<Data> data,
+                                                const std::string& field, const State& from)
+{
+  // with the new model, before anything is replaced: a refusal changes nothing
+  ProjectionReport report;
+  double error = 0.0;
+  const std::optional<State> lifted = movedOut(*model, *data, from, field, &report, &error);
+  if (!lifted)
+    throw TooDeepChange(field,
+                        "leave the particles " + formatValue(error) +
+                            " m from their constraints after moving them out of what "
+                            "their contacts keep them out of (a change too deep for the "
+                            "projection to undo: make it in smaller moves); nothing changed");
+  report.max_displacement =
+      (lifted->positions - data_->state.positions).colwise().norm().maxCoeff();
   report.max_velocity_change =
-      (lifted.velocities - data_->state.velocities).colwise().norm().maxCoeff();
+      (lifted->velocities - data_->state.velocities).colwise().norm().maxCoeff();
   const std::vector<double> loads = hold_loads_;  // the same holds: their last loads stand
   install(std::move(model), std::move(data));
   hold_loads_ = loads;

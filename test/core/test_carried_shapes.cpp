@@ -91,6 +91,31 @@ Simulator ropeOnPlane(int n, const std::vector<Constraint>& extra)
     start.positions(0, i) = 0.1 * i;
   return Simulator(scene, start, settingsOf(1e-3));
 }
+
+// How far ropeOnPlane's rope is off what holds it [m]: the deepest a particle went into `ball`,
+// the worst link's error (0.1 m links) and the deepest into the plane z = 0
+std::array<double, 3> ropeErrors(const Points& p, const Shape& ball)
+{
+  double inside = 0.0, link = 0.0, below = 0.0;
+  for (int i = 0; i < p.cols(); ++i)
+  {
+    inside = std::max(inside, -evaluateShape(ball, p.col(i)).distance);
+    below = std::max(below, -p(2, i));
+    if (i + 1 < p.cols())
+      link = std::max(link, std::abs((p.col(i + 1) - p.col(i)).norm() - 0.1));
+  }
+  return { { inside, link, below } };
+}
+
+// A shape_contact with `ball` for each of n particles, the ball moved to `centre` first
+std::vector<Constraint> contactsAround(Shape& ball, int n, const Vec3& centre)
+{
+  ball.position = centre;
+  std::vector<Constraint> contacts;
+  for (int i = 0; i < n; ++i)
+    contacts.push_back(ShapeContact{ i, ball, 0.0 });
+  return contacts;
+}
 }  // namespace
 
 // A box and a capsule moving along a curved path and turning at a constant rate: along a
@@ -404,9 +429,10 @@ TEST(SetSurfaces, GroundRaisedUnderARestingRopeLiftsItOntoIt)
 // setObstacles (~set_obstacle, issue 48 item 5): a rope resting on a plane surface, a sphere
 // raised under its middle (two particles 9.3 mm inside it): every particle moved out of it and
 // its links kept, the report's displacement the largest move, the time going on and the rope
-// staying out over 0.5 s; a record of another kind, and a sphere centred on the rope's line (its
-// normals along the rope, the link across it: no way out along them), refused with nothing
-// changed (bitwise); the sphere removed, the rope falls back onto the plane.
+// staying out over 0.5 s; a record of another kind, and a sphere added centred on the rope's line
+// (its normals along the rope, the link across it: no way out along them, and no way there to
+// move it along), refused with nothing changed (bitwise); the sphere removed, the rope falls back
+// onto the plane.
 TEST(SetObstacles, SphereMovedOntoARestingRopePushesItOutAndRemovedLetsItFall)
 {
   const int n = 6;
@@ -427,19 +453,20 @@ TEST(SetObstacles, SphereMovedOntoARestingRopePushesItOutAndRemovedLetsItFall)
   EXPECT_EQ(sim.model().scene().constraints.size(), records);
   EXPECT_EQ(sim.state().positions, before.positions);
   EXPECT_EQ(sim.state().velocities, before.velocities);
-  auto around = [&ball, n](const Vec3& centre)
-  {
-    ball.position = centre;
-    std::vector<Constraint> contacts;
-    for (int i = 0; i < n; ++i)
-      contacts.push_back(ShapeContact{ i, ball, 0.0 });
-    return contacts;
-  };
-  // centred on the rope's line: particles 2 and 3 pushed apart along it, the link between them
-  // 0.1 m long where they would need 0.16 m: refused, nothing changed
+  auto around = [&ball, n](const Vec3& centre) { return contactsAround(ball, n, centre); };
+  // another sphere added centred on the rope's line: particles 2 and 3 pushed apart along it,
+  // the link between them 0.1 m long where they would need 0.16 m; with no way there to move it
+  // along (the ball's is in steps: SphereMovedDeepOverARopeIsMovedThereInSteps): refused,
+  // nothing changed
   try
   {
-    sim.setObstacles(around(Vec3(0.25, 0.0, 0.0)));
+    std::vector<Constraint> added = around(Vec3(0.25, 0.0, -5.0));
+    Shape other = ball;
+    other.name = "other";
+    other.position = Vec3(0.25, 0.0, 0.0);
+    for (int i = 0; i < n; ++i)
+      added.push_back(ShapeContact{ i, other, 0.0 });
+    sim.setObstacles(added);
     ADD_FAILURE() << "a sphere with no way out along its normals accepted";
   }
   catch (const InvalidInput& e)
@@ -459,19 +486,7 @@ TEST(SetObstacles, SphereMovedOntoARestingRopePushesItOutAndRemovedLetsItFall)
   const double moved = (sim.state().positions - before.positions).colwise().norm().maxCoeff();
   EXPECT_GT(moved, 0.005);
   EXPECT_NEAR(report.max_displacement, moved, 1e-15);
-  auto worst = [&sim, &ball]
-  {
-    double inside = 0.0, link = 0.0, below = 0.0;
-    const Points& p = sim.state().positions;
-    for (int i = 0; i < p.cols(); ++i)
-    {
-      inside = std::max(inside, -evaluateShape(ball, p.col(i)).distance);
-      below = std::max(below, -p(2, i));
-      if (i + 1 < p.cols())
-        link = std::max(link, std::abs((p.col(i + 1) - p.col(i)).norm() - 0.1));
-    }
-    return std::array<double, 3>{ { inside, link, below } };
-  };
+  auto worst = [&sim, &ball] { return ropeErrors(sim.state().positions, ball); };
   for (const double error : worst())
     EXPECT_LT(error, 1e-9);
   for (int k = 0; k < 500; ++k)
@@ -488,6 +503,40 @@ TEST(SetObstacles, SphereMovedOntoARestingRopePushesItOutAndRemovedLetsItFall)
   sim.step(1500);
   EXPECT_LT(sim.state().positions.row(2).maxCoeff(), 1e-6);
   EXPECT_GT(sim.state().positions.row(2).minCoeff(), -1e-9);
+}
+
+// setObstacles with a sphere moved from far under a rope resting on a plane to centred on the
+// rope's line (at once, no way out along its normals: SphereMovedOntoARestingRope...): moved
+// there in steps, it lifts the rope over itself as a sphere rising slowly would: every particle
+// out of it and off the plane's inside, the links kept (1e-9 m), the time unchanged, the report's
+// displacement the largest move, and the rope staying out over 0.5 s.
+TEST(SetObstacles, SphereMovedDeepOverARopeIsMovedThereInSteps)
+{
+  const int n = 6;
+  Shape ball;
+  ball.name = "ball";
+  ball.type = ShapeType::Sphere;
+  ball.radius = 0.08;
+  auto around = [&ball, n](const Vec3& centre) { return contactsAround(ball, n, centre); };
+  Simulator sim = ropeOnPlane(n, around(Vec3(0.25, 0.0, -5.0)));
+  sim.step(200);
+  const State before = sim.state();
+  const ProjectionReport report = sim.setObstacles(around(Vec3(0.25, 0.0, 0.0)));
+  EXPECT_NEAR(sim.state().time, before.time, 1e-15);
+  const double moved = (sim.state().positions - before.positions).colwise().norm().maxCoeff();
+  EXPECT_NEAR(report.max_displacement, moved, 1e-15);
+  EXPECT_GT(moved, 0.05);
+  auto worst = [&sim, &ball] { return ropeErrors(sim.state().positions, ball); };
+  for (const double error : worst())
+    EXPECT_LT(error, 1e-9);
+  // over the ball: particles 2 and 3 either side of its top, sqrt(0.08^2 - 0.05^2) = 0.062 m up
+  EXPECT_GT(sim.state().positions.row(2).maxCoeff(), 0.06);
+  for (int k = 0; k < 500; ++k)
+  {
+    ASSERT_EQ(sim.step().failed_check, StepCheck::None) << k;
+    for (const double error : worst())
+      ASSERT_LT(error, 1e-9) << k;
+  }
 }
 
 // A new scene (a ~reset) with an obstacle of the same name carried: it stays where its holder

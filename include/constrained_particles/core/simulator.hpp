@@ -11,6 +11,7 @@
 #include "constrained_particles/core/settings.hpp"
 
 #include <memory>
+#include <optional>
 
 namespace constrained_particles
 {
@@ -101,9 +102,13 @@ public:
   /// resized or removed under the running rope (~set_obstacle). As setSurfaces, the state is
   /// projected onto the constraints, then each particle or link a contact keeps out of its
   /// obstacle but now inside it is moved out (its velocity into it taken out); the report says by
-  /// how much.
-  /// @throws InvalidInput naming "contacts[k]" (a record of another kind, or invalid) or the
-  /// failed projection; nothing changes
+  /// how much. Where the projection finds no way out at once (a shape moved deep over a rope,
+  /// its normals all along the rope's line), each shape the old contacts name too, of the same
+  /// type and not a mesh, is moved there in steps (its position, sizes and rotation along the
+  /// way; a step halved where it is still too deep, down to 1/256 of the way), the particles
+  /// pushed out of its way at each step as by a shape moving slowly there.
+  /// @throws InvalidInput naming "contacts[k]" (a record of another kind, or invalid), the
+  /// failed projection, or "contacts" for a change too deep even in steps; nothing changes
   ProjectionReport setObstacles(const std::vector<Constraint>& contacts);
 
   /// Replaces the forces applied from outside the model (Data::perturbations: a push, a grabbed
@@ -231,13 +236,23 @@ private:
   /// first), reads the scene's kind and sizes the diagnostics' workspaces to its rows.
   void install(std::unique_ptr<Model> model, std::unique_ptr<Data> data);
 
-  /// Installs `model` and `data` (the data holding the running state, tracks and carriers) after
-  /// a change of the world under the state (setSurfaces, setObstacles): the state is projected
-  /// onto the new constraints, then each contact now inside its surface or obstacle is switched
-  /// on and its particles moved out (resolveImpacts at rest); the ledger is opened anew.
+  /// `from` under a changed world (`model`, `data`: its tracks and carriers): projected onto the
+  /// constraints, then each contact now inside its surface or obstacle switched on and its
+  /// particles moved out (resolveImpacts at rest); `data` holds the result. nullopt if that leaves
+  /// them off their constraints by over twice the tolerance (no way out found: `error` says how
+  /// far [m]); `report` the projection's.
+  /// @throws InvalidInput naming `field` if the projection fails or the result is not finite
+  std::optional<State> movedOut(const Model& model, Data& data, const State& from,
+                                const std::string& field, ProjectionReport* report,
+                                double* error) const;
+
+  /// Installs `model` and `data` (the data holding the running state's tracks and carriers)
+  /// after a change of the world under the state (setSurfaces, setObstacles), with `from` (the
+  /// running state, or one moved through the change's steps) movedOut onto it; the report's
+  /// displacement and velocity change are from the running state. The ledger is opened anew.
   /// @throws InvalidInput naming `field`; nothing changes
   ProjectionReport installChangedWorld(std::unique_ptr<Model> model, std::unique_ptr<Data> data,
-                                       const std::string& field);
+                                       const std::string& field, const State& from);
 
   /// Opens the energy ledger at the current state (t0).
   void openLedger();
