@@ -52,12 +52,11 @@ struct TooDeepChange : InvalidInput
   using InvalidInput::InvalidInput;
 };
 
-// Halvings of a shape's way from its old place to its new one before a change is refused as
-// too deep (sub-moves down to 1/256 of the way), and the projections it may take in all (a way
-// in long steps to a shape's last few centimetres takes about two a halving; a hopeless one
-// would take 511): the node's physics thread waits for them
+// How finely setObstacles may step a shape along its way before a change is refused as too deep:
+// down to 1/256 of the way, in at most 64 projections (a long way to a shape's last few
+// centimetres takes about two a halving); the node's physics thread waits for them
 constexpr int MAX_PATH_HALVINGS = 8;
-constexpr int MAX_PATH_STEPS = 64;
+constexpr int MAX_PATH_PROJECTIONS = 64;
 
 // The obstacle shapes `constraints` name (shape_contact's and segment_contact's), by name
 const Shape* namedShape(const std::vector<Constraint>& constraints, const std::string& name)
@@ -105,7 +104,9 @@ std::vector<Constraint> contactsAt(const std::vector<Constraint>& contacts,
     else if (auto* segment = std::get_if<SegmentContact>(&c))
       shape = &segment->shape;
     const Shape* was = shape ? namedShape(old, shape->name) : nullptr;
-    if (!was || was->type != shape->type || shape->type == ShapeType::Mesh ||
+    // on another holder its pose is in another frame: no way between the two
+    if (!was || !sameCarrier(*was, *shape) || was->type != shape->type ||
+        shape->type == ShapeType::Mesh ||
         (was->position == shape->position && was->rotation == shape->rotation &&
          was->radius == shape->radius && was->length == shape->length && was->size == shape->size))
       continue;
@@ -429,32 +430,44 @@ ProjectionReport Simulator::setObstacles(const std::vector<Constraint>& contacts
   {
     bool moving = false;
     sceneAt(1.0, moving);
-    if (!moving)  // no shape with a way there (added, retyped, a mesh): refused
+    if (!moving)  // no shape with a way there (added, retyped, a mesh, another holder): refused
       throw;
   }
   // too deep at once: the shapes moved there in steps, each pushing the particles out of its
-  // way as a shape moving slowly there would (the interval halved where a step is too deep)
-  int steps = 0;
+  // way as a shape moving slowly there would (a step still too deep halved)
+  int projections = 0, taken = 0;
+  double error = 0.0;
   std::function<State(const State&, double, double, int)> along =
       [&](const State& from, double s0, double s1, int halvings)
   {
-    auto [model, data] = compiledAt(s1);
-    if (std::optional<State> out = movedOut(*model, *data, from, "contacts", nullptr, nullptr))
-      return *out;
-    if (halvings == MAX_PATH_HALVINGS || ++steps >= MAX_PATH_STEPS)
-      throw TooDeepChange("contacts",
-                          "leave the particles inside their obstacles even moved there in "
-                          "steps (down to 1/256 of the way, " +
-                              std::to_string(MAX_PATH_STEPS) +
-                              " projections at most): a change too deep for the projection to "
-                              "undo: make it in smaller moves; nothing changed");
+    if (halvings > 0)  // the whole way at once has just failed
+    {
+      auto [model, data] = compiledAt(s1);
+      ++projections;
+      if (std::optional<State> out = movedOut(*model, *data, from, "contacts", nullptr, &error))
+      {
+        ++taken;
+        return *out;
+      }
+    }
+    if (halvings == MAX_PATH_HALVINGS || projections >= MAX_PATH_PROJECTIONS)
+      throw TooDeepChange(
+          "contacts", "leave the particles " + formatValue(error) +
+                          " m from their constraints even moved there in steps (down to 1/" +
+                          std::to_string(1 << MAX_PATH_HALVINGS) + " of the way, " +
+                          std::to_string(MAX_PATH_PROJECTIONS) +
+                          " projections): a change too deep for the projection to undo (make it "
+                          "in smaller moves, the rope settling between them); nothing changed");
     const double middle = 0.5 * (s0 + s1);
     return along(along(from, s0, middle, halvings + 1), middle, s1, halvings + 1);
   };
   const State there = along(data_->state, 0.0, 1.0, 0);
   auto [model, data] = compiledAt(1.0);
   // its displacement measured from the state before the change, as a change made at once is
-  return installChangedWorld(std::move(model), std::move(data), "contacts", there);
+  ProjectionReport report =
+      installChangedWorld(std::move(model), std::move(data), "contacts", there);
+  report.change_steps = taken;
+  return report;
 }
 
 std::optional<State> Simulator::movedOut(const Model& model, Data& data, const State& from,

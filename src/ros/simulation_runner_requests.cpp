@@ -99,7 +99,10 @@ RunnerReply SimulationRunner::setObstacle(
             "obstacle '" + name + "' " + DONE[static_cast<int>(change)] +
             ", the state kept: particles moved out by up to " +
             formatValue(report.max_displacement) + " m, velocities changed by up to " +
-            formatValue(report.max_velocity_change) + " m/s");
+            formatValue(report.max_velocity_change) + " m/s" +
+            (report.change_steps > 1 ? " (too deep at once: the shape moved there in " +
+                                           std::to_string(report.change_steps) + " steps)"
+                                     : std::string()));
         reply.max_displacement = report.max_displacement;
         reply.max_velocity_change = report.max_velocity_change;
         return reply;

@@ -17,6 +17,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <sstream>
@@ -506,10 +507,12 @@ TEST(SetObstacles, SphereMovedOntoARestingRopePushesItOutAndRemovedLetsItFall)
 }
 
 // setObstacles with a sphere moved from far under a rope resting on a plane to centred on the
-// rope's line (at once, no way out along its normals: SphereMovedOntoARestingRope...): moved
-// there in steps, it lifts the rope over itself as a sphere rising slowly would: every particle
-// out of it and off the plane's inside, the links kept (1e-9 m), the time unchanged, the report's
-// displacement the largest move, and the rope staying out over 0.5 s.
+// rope's line and grown (at once, no way out along its normals: SphereMovedOntoARestingRope...):
+// moved there in steps, it lifts the rope over itself as a sphere rising slowly would: every
+// particle out of it and off the plane's inside, the links kept (1e-9 m), the time unchanged,
+// the report's displacement the largest move, and the rope staying out over 0.5 s. Pressed down
+// to the same place from far above instead, squeezing the rope into the plane, it is refused even
+// in steps, nothing changed (bitwise).
 TEST(SetObstacles, SphereMovedDeepOverARopeIsMovedThereInSteps)
 {
   const int n = 6;
@@ -518,10 +521,34 @@ TEST(SetObstacles, SphereMovedDeepOverARopeIsMovedThereInSteps)
   ball.type = ShapeType::Sphere;
   ball.radius = 0.08;
   auto around = [&ball, n](const Vec3& centre) { return contactsAround(ball, n, centre); };
+  ball.radius = 0.05;  // grown to 0.08 on its way
   Simulator sim = ropeOnPlane(n, around(Vec3(0.25, 0.0, -5.0)));
   sim.step(200);
   const State before = sim.state();
+  // from far above, pressed down onto the rope's line: in steps it squeezes the rope into the
+  // plane, which it could leave only by stretching: refused, nothing changed
+  EXPECT_EQ(sim.setObstacles(around(Vec3(0.25, 0.0, 5.0))).max_displacement, 0.0);
+  ball.radius = 0.08;
+  try
+  {
+    sim.setObstacles(around(Vec3(0.25, 0.0, 0.0)));
+    ADD_FAILURE() << "a sphere pressing the rope into the plane accepted";
+  }
+  catch (const InvalidInput& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("even moved there in steps"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(sim.state().positions, before.positions);
+  EXPECT_EQ(sim.state().velocities, before.velocities);
+  EXPECT_EQ(std::get<ShapeContact>(sim.model().scene().constraints.back()).shape.radius, 0.05);
+  // from far below: lifting the rope over itself
+  ball.radius = 0.05;
+  EXPECT_EQ(sim.setObstacles(around(Vec3(0.25, 0.0, -5.0))).max_displacement, 0.0);
+  ball.radius = 0.08;
   const ProjectionReport report = sim.setObstacles(around(Vec3(0.25, 0.0, 0.0)));
+  EXPECT_GT(report.change_steps, 1);
+  std::printf("[set obstacles] the ball moved there in %d steps\n", report.change_steps);
   EXPECT_NEAR(sim.state().time, before.time, 1e-15);
   const double moved = (sim.state().positions - before.positions).colwise().norm().maxCoeff();
   EXPECT_NEAR(report.max_displacement, moved, 1e-15);

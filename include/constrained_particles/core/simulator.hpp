@@ -104,9 +104,10 @@ public:
   /// obstacle but now inside it is moved out (its velocity into it taken out); the report says by
   /// how much. Where the projection finds no way out at once (a shape moved deep over a rope,
   /// its normals all along the rope's line), each shape the old contacts name too, of the same
-  /// type and not a mesh, is moved there in steps (its position, sizes and rotation along the
-  /// way; a step halved where it is still too deep, down to 1/256 of the way), the particles
-  /// pushed out of its way at each step as by a shape moving slowly there.
+  /// type, on the same holder and not a mesh, is moved there in steps (its position, sizes and
+  /// rotation along the way; a step halved where it is still too deep, down to 1/256 of the way
+  /// in at most 64 projections), the particles pushed out of its way at each step as by a shape
+  /// moving slowly there; the report's change_steps says how many it took.
   /// @throws InvalidInput naming "contacts[k]" (a record of another kind, or invalid), the
   /// failed projection, or "contacts" for a change too deep even in steps; nothing changes
   ProjectionReport setObstacles(const std::vector<Constraint>& contacts);

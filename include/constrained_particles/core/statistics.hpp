@@ -37,6 +37,8 @@ struct ProjectionReport
   double max_displacement = 0;     ///< largest distance a particle moved [m]
   double max_velocity_change = 0;  ///< largest velocity change of a particle [m/s]
   bool singular = false;           ///< J W J^T was singular during the projection
+  /// Simulator::setObstacles: the steps a shape took to its new place (1: at once)
+  int change_steps = 1;
 };
 
 /// How often each effect and each solve was evaluated: proof that a scene pays only for what it
