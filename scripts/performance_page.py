@@ -320,8 +320,12 @@ def energy_sweep_block(bench):
         if r["outcome"] != "ok":
             stopped.setdefault((r["integrator"], r["stabilization"]), []).append(r["scene"])
     horizon = max(float(r["time_s"]) for r in runs)
-    lines = [f"- {len(runs)} runs; {len(ok)} reach {horizon:g} s within the energy budget, "
-             f"{len(handed)} of them handed to `fast_projection` on the way;",
+    unjudged = [r for r in ok if r.get("judged", "1") == "0"]
+    lines = [f"- {len(runs)} runs; {len(ok)} reach {horizon:g} s, {len(ok) - len(unjudged)} of "
+             f"them within the energy budget and {len(unjudged)} in scenes it does not judge "
+             f"(contacts, sampled holders: their share of it is a figure in "
+             f"[energy_sweep.md](energy_sweep.md)), {len(handed)} handed to `fast_projection` "
+             f"on the way;",
              f"- {len(runs) - len(ok)} stop on a named step check:"]
     lines += [f"  - `{integrator}` under `{stabilization}`: {len(scenes)} "
               f"({', '.join(sorted(scenes))})" for (integrator, stabilization), scenes in

@@ -2,7 +2,9 @@
 // stabilisation at the default step settings, 60 s of sim time each. Each run either reaches
 // 60 s with every accepted step's energy residual within ~energy_budget of its scale, or stops
 // on a named failed step check (the node faults on it, naming it) with the state put back to
-// the last accepted one, finite and within the budget: never an accepted step over the budget.
+// the last accepted one, finite and within the budget: never an accepted step over the budget,
+// in every scene the budget judges (docs/stability.md: not one with contacts or a sampled
+// holder, whose largest residual over the budget is written down, not asserted).
 // Each run's outcome (ok or the check it stopped on, and whether the fallback took over) is
 // compared with docs/bench/energy_sweep.csv, so a change either way fails here;
 // CP_ENERGY_SWEEP_CSV=<path> writes the rows instead (scripts/energy_sweep.sh, which turns them
@@ -68,7 +70,8 @@ struct SweepRun
   double max_ratio = 0.0;  // max over accepted steps of residual / (budget x scale)
   double scale = 0.0;      // the budget's scale there [J]
   long steps = 0, substeps = 0, stiff_steps = 0, rejected_steps = 0;
-  double cpu = 0.0;  // [s]
+  double cpu = 0.0;    // [s]
+  bool judged = true;  // the simulator judges its steps by the budget (Simulator::takeStep)
 };
 
 }  // namespace
@@ -89,6 +92,7 @@ TEST(LongEnergySweep, EveryShippedSceneAndMethodFor60Seconds)
         settings.stabilization = parseStabilization(stabilization);
         Simulator simulator(built.scene, built.initial_state, settings);
         SweepRun r{ scene_name, integrator->name, stabilization };
+        r.judged = simulator.model().tracked().empty() && simulator.model().numContacts() == 0;
         const long steps = std::lround(HORIZON / settings.dt);
         const double cpu_begin = threadCpuSeconds();
         for (long k = 0; k < steps; ++k)
@@ -103,7 +107,8 @@ TEST(LongEnergySweep, EveryShippedSceneAndMethodFor60Seconds)
               settings.energy_budget * ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR);
           // the state after every step, accepted or put back: finite, within the budget
           ASSERT_TRUE(isFinite(simulator.state())) << "at t = " << simulator.state().time;
-          ASSERT_LE(ledger.residual(), limit) << "at t = " << simulator.state().time;
+          if (r.judged)
+            ASSERT_LE(ledger.residual(), limit) << "at t = " << simulator.state().time;
           r.max_ratio = std::max(r.max_ratio, ledger.residual() / limit);
           if (s.failed_check != StepCheck::None)
           {
@@ -142,20 +147,20 @@ TEST(LongEnergySweep, EveryShippedSceneAndMethodFor60Seconds)
     }
   }
   std::printf(
-      "[energy sweep] %d of %zu runs reached %.0f s within the budget; the others "
-      "stopped on a named step check\n",
+      "[energy sweep] %d of %zu runs reached %.0f s (within the budget where it judges); the "
+      "others stopped on a named step check\n",
       completed, runs.size(), HORIZON);
   if (const char* path = write_to)
   {
     std::ofstream csv(path);
     csv << "scene,integrator,stabilization,outcome,time_s,residual_J,max_residual_over_budget,"
-           "budget_scale_J,steps,substeps_per_step,stiff_steps,rejected_steps,cpu_s\n";
+           "budget_scale_J,steps,substeps_per_step,stiff_steps,rejected_steps,cpu_s,judged\n";
     for (const SweepRun& r : runs)
       csv << r.scene << ',' << r.integrator << ',' << r.stabilization << ','
           << (r.failed == StepCheck::None ? "ok" : stepCheckName(r.failed)) << ',' << r.time << ','
           << r.residual << ',' << r.max_ratio << ',' << r.scale << ',' << r.steps << ','
           << static_cast<double>(r.substeps) / std::max(r.steps, 1L) << ',' << r.stiff_steps << ','
-          << r.rejected_steps << ',' << r.cpu << '\n';
+          << r.rejected_steps << ',' << r.cpu << ',' << (r.judged ? 1 : 0) << '\n';
     ASSERT_TRUE(csv.good()) << "could not write " << path;
   }
 }
