@@ -330,6 +330,18 @@ def energy_sweep_block(bench):
     lines += [f"  - `{integrator}` under `{stabilization}`: {len(scenes)} "
               f"({', '.join(sorted(scenes))})" for (integrator, stabilization), scenes in
               sorted(stopped.items(), key=lambda item: (-len(item[1]), item[0]))]
+    # what the budget would have said where it does not judge: a gap, written down
+    free = [r for r in runs if r.get("judged", "1") == "0"]
+    over = sorted((r for r in free if float(r["max_residual_over_budget"]) > 1.0),
+                  key=lambda r: -float(r["max_residual_over_budget"]))
+    if over:
+        worst = over[0]
+        methods = sorted({r["integrator"] for r in over})
+        lines.append(f"- of the {len(free)} runs in scenes the budget does not judge, {len(over)} "
+                     f"went over it at some point, up to "
+                     f"{float(worst['max_residual_over_budget']):.0f}x (`{worst['scene']}`, "
+                     f"`{worst['integrator']}` under `{worst['stabilization']}`), all with "
+                     + " or ".join(f"`{m}`" for m in methods))
     return (stamp_line(f"From {stamp_of(bench, 'energy_sweep')} (`docs/bench/energy_sweep.csv`).")
             + "\n".join(lines) + "\n")
 
