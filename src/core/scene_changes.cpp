@@ -58,17 +58,19 @@ struct TooDeepChange : InvalidInput
 constexpr int MAX_PATH_HALVINGS = 8;
 constexpr int MAX_PATH_PROJECTIONS = 64;
 
-// The obstacle shapes `constraints` name (shape_contact's and segment_contact's), by name
-const Shape* namedShape(const std::vector<Constraint>& constraints, const std::string& name)
+// Where `shape`'s way starts: the shape of that name in `old` if it is the same shape changed (its
+// type, on its holder: another holder's pose is in another frame; not a mesh, whose size is its
+// file's), else nullptr (added, retyped, unchanged: no way to move it along)
+const Shape* wayStart(const Shape& shape, const std::vector<Constraint>& old)
 {
-  for (const Constraint& c : constraints)
-  {
-    if (const auto* contact = std::get_if<ShapeContact>(&c); contact && contact->shape.name == name)
-      return &contact->shape;
-    if (const auto* segment = std::get_if<SegmentContact>(&c);
-        segment && segment->shape.name == name)
-      return &segment->shape;
-  }
+  for (const Constraint& c : old)
+    if (const Shape* was = obstacleShape(c); was && was->name == shape.name)
+      return sameCarrier(*was, shape) && was->type == shape.type && shape.type != ShapeType::Mesh &&
+                     !(was->position == shape.position && was->rotation == shape.rotation &&
+                       was->radius == shape.radius && was->length == shape.length &&
+                       was->size == shape.size)
+                 ? was
+                 : nullptr;
   return nullptr;
 }
 
@@ -89,30 +91,15 @@ Shape between(const Shape& from, const Shape& to, double s)
   return shape;
 }
 
-// `contacts` with each shape that `old` names too, of the same type (not a mesh, whose size is
-// its file's) and changed, a fraction `s` of its way there; `moving` set if there is one
+// `contacts` with each shape that has a way from `old` (wayStart) a fraction `s` of its way there
 std::vector<Constraint> contactsAt(const std::vector<Constraint>& contacts,
-                                   const std::vector<Constraint>& old, double s, bool& moving)
+                                   const std::vector<Constraint>& old, double s)
 {
   std::vector<Constraint> at = contacts;
-  moving = false;
   for (Constraint& c : at)
-  {
-    Shape* shape = nullptr;
-    if (auto* contact = std::get_if<ShapeContact>(&c))
-      shape = &contact->shape;
-    else if (auto* segment = std::get_if<SegmentContact>(&c))
-      shape = &segment->shape;
-    const Shape* was = shape ? namedShape(old, shape->name) : nullptr;
-    // on another holder its pose is in another frame: no way between the two
-    if (!was || !sameCarrier(*was, *shape) || was->type != shape->type ||
-        shape->type == ShapeType::Mesh ||
-        (was->position == shape->position && was->rotation == shape->rotation &&
-         was->radius == shape->radius && was->length == shape->length && was->size == shape->size))
-      continue;
-    *shape = between(*was, *shape, s);
-    moving = true;
-  }
+    if (Shape* shape = obstacleShape(c))
+      if (const Shape* was = wayStart(*shape, old))
+        *shape = between(*was, *shape, s);
   return at;
 }
 
@@ -404,19 +391,13 @@ ProjectionReport Simulator::setObstacles(const std::vector<Constraint>& contacts
     validateConstraint(scene.constraints[first + k], model_->numParticles(),
                        static_cast<int>(scene.surfaces.size()),
                        "contacts[" + std::to_string(k) + "]");
-  // the scene with the obstacle contacts at fraction s of their shapes' way (1: `contacts`)
-  auto sceneAt = [&](double s, bool& moving)
-  {
-    Scene at = scene;
-    const std::vector<Constraint> placed =
-        contactsAt(contacts, model_->scene().constraints, s, moving);
-    std::copy(placed.begin(), placed.end(), at.constraints.begin() + first);
-    return at;
-  };
+  // the model and data with the obstacle contacts at fraction s of their shapes' way
   auto compiledAt = [&](double s)
   {
-    bool moving = false;
-    auto compiled = recompile(sceneAt(s, moving), *model_, *data_, paths_, requested_method_);
+    Scene at = scene;
+    const std::vector<Constraint> placed = contactsAt(contacts, model_->scene().constraints, s);
+    std::copy(placed.begin(), placed.end(), at.constraints.begin() + first);
+    auto compiled = recompile(at, *model_, *data_, paths_, requested_method_);
     compiled.second->tracks = data_->tracks;  // the same eliminated records, in the same order
     carryCarriers(*model_, *data_, *compiled.first, *compiled.second, false);  // name and holder
     return compiled;
@@ -428,9 +409,13 @@ ProjectionReport Simulator::setObstacles(const std::vector<Constraint>& contacts
   }
   catch (const TooDeepChange&)
   {
-    bool moving = false;
-    sceneAt(1.0, moving);
-    if (!moving)  // no shape with a way there (added, retyped, a mesh, another holder): refused
+    // no shape with a way there (added, retyped, a mesh, another holder): refused
+    if (std::none_of(contacts.begin(), contacts.end(),
+                     [&](const Constraint& c)
+                     {
+                       const Shape* shape = obstacleShape(c);
+                       return shape && wayStart(*shape, model_->scene().constraints);
+                     }))
       throw;
   }
   // too deep at once: the shapes moved there in steps, each pushing the particles out of its

@@ -366,7 +366,7 @@ void FrameAnchors::update(const Snapshot& snap)
       holder.particle = -1;
       holder.frame = shape.frame;
       holder.topic = shape.topic;
-      holder.name = shape.frame.empty() ? shape.topic : shape.frame;
+      holder.name = holderOf(shape);
       holder.label = "obstacle '" + shape.name + "'";
       holder.moved = "the obstacle";
       const std::size_t k = static_cast<std::size_t>(holder.track);

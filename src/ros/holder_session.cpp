@@ -91,7 +91,7 @@ void HolderSession::setModel(const Model& model, bool scene_changed)
     HolderStatus fresh;
     fresh.particle = -1;
     fresh.topic = shape.frame.empty();
-    fresh.holder = fresh.topic ? shape.topic : shape.frame;
+    fresh.holder = holderOf(shape);
     fresh.shape = shape.name;
     wanted.push_back(fresh);
     keys.push_back(TrackKey{ -1, fresh.holder, fresh.topic, Vec3::Zero(), shape.name });

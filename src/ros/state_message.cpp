@@ -123,7 +123,7 @@ void fillHolders(const Snapshot& snap, SimState& msg)
             std::get_if<FrameAnchorConstraint>(&model.scene().constraints[model.tracked()[k]]))
     {
       msg.held_particles.push_back(anchor->particle);
-      msg.holders.push_back(anchor->frame.empty() ? anchor->topic : anchor->frame);
+      msg.holders.push_back(holderOf(*anchor));
       const bool counted = k < snap.holders.size();
       msg.holder_overruns.push_back(counted ? static_cast<std::uint32_t>(snap.holders[k].overruns)
                                             : 0u);
@@ -137,7 +137,7 @@ void fillHolders(const Snapshot& snap, SimState& msg)
     const std::size_t k = model.tracked().size() + c;
     const bool counted = k < snap.holders.size();
     msg.carried_obstacles.push_back(shape.name);
-    msg.obstacle_holders.push_back(shape.frame.empty() ? shape.topic : shape.frame);
+    msg.obstacle_holders.push_back(holderOf(shape));
     msg.obstacle_overruns.push_back(counted ? static_cast<std::uint32_t>(snap.holders[k].overruns)
                                             : 0u);
     msg.obstacle_teleports.push_back(counted ? static_cast<std::uint32_t>(snap.holders[k].jumps)

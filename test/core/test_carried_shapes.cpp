@@ -108,6 +108,16 @@ std::array<double, 3> ropeErrors(const Points& p, const Shape& ball)
   return { { inside, link, below } };
 }
 
+// A sphere named "ball" of `radius` [m] at the origin
+Shape ballOf(double radius)
+{
+  Shape ball;
+  ball.name = "ball";
+  ball.type = ShapeType::Sphere;
+  ball.radius = radius;
+  return ball;
+}
+
 // A shape_contact with `ball` for each of n particles, the ball moved to `centre` first
 std::vector<Constraint> contactsAround(Shape& ball, int n, const Vec3& centre)
 {
@@ -437,10 +447,7 @@ TEST(SetSurfaces, GroundRaisedUnderARestingRopeLiftsItOntoIt)
 TEST(SetObstacles, SphereMovedOntoARestingRopePushesItOutAndRemovedLetsItFall)
 {
   const int n = 6;
-  Shape ball;
-  ball.name = "ball";
-  ball.type = ShapeType::Sphere;
-  ball.radius = 0.08;
+  Shape ball = ballOf(0.08);
   ball.position = Vec3(0.25, 0.0, -5.0);  // far under the plane: never touched
   std::vector<Constraint> far;
   for (int i = 0; i < n; ++i)
@@ -516,12 +523,8 @@ TEST(SetObstacles, SphereMovedOntoARestingRopePushesItOutAndRemovedLetsItFall)
 TEST(SetObstacles, SphereMovedDeepOverARopeIsMovedThereInSteps)
 {
   const int n = 6;
-  Shape ball;
-  ball.name = "ball";
-  ball.type = ShapeType::Sphere;
-  ball.radius = 0.08;
+  Shape ball = ballOf(0.05);  // grown to 0.08 on its way
   auto around = [&ball, n](const Vec3& centre) { return contactsAround(ball, n, centre); };
-  ball.radius = 0.05;  // grown to 0.08 on its way
   Simulator sim = ropeOnPlane(n, around(Vec3(0.25, 0.0, -5.0)));
   sim.step(200);
   const State before = sim.state();

@@ -204,6 +204,20 @@ inline bool isObstacleContact(const Constraint& constraint)
          std::holds_alternative<SegmentContact>(constraint);
 }
 
+/// The shape an obstacle contact keeps its particle or link out of; nullptr for another kind.
+inline const Shape* obstacleShape(const Constraint& constraint)
+{
+  if (const auto* contact = std::get_if<ShapeContact>(&constraint))
+    return &contact->shape;
+  if (const auto* segment = std::get_if<SegmentContact>(&constraint))
+    return &segment->shape;
+  return nullptr;
+}
+inline Shape* obstacleShape(Constraint& constraint)
+{
+  return const_cast<Shape*>(obstacleShape(static_cast<const Constraint&>(constraint)));
+}
+
 struct BelowSurface
 {
   const Constraint* contact = nullptr;  ///< nullptr: none deeper than CONTACT_START_DEPTH

@@ -66,6 +66,12 @@ inline bool sameCarrier(const Shape& a, const Shape& b)
   return a.name == b.name && a.frame == b.frame && a.topic == b.topic;
 }
 
+/// A carried shape's holder by name: the tf frame, or the pose topic (as a frame anchor's).
+inline const std::string& holderOf(const Shape& shape)
+{
+  return shape.frame.empty() ? shape.topic : shape.frame;
+}
+
 /// Where a shape is at a time and how its body moves there: its pose (world from local) and the
 /// velocity field of a rigid body, v(p) = velocity + angular_velocity x (p - origin), with the
 /// angular velocity constant over the instant (a holder's track turns at a constant rate between
