@@ -191,6 +191,7 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   const auto& rows = model.unilateral();
   const std::size_t contacts = static_cast<std::size_t>(model.numParticleContacts());
   const EffectContext context = contextAt(model, data, x.time);
+  bool moving = false;  // a candidate to stick slides at all: its slide is stopped below
   // a slack link acts while taut: its span within the gap of its length, neither slackening nor
   // stretching (a stretch is a jerk, resolveImpacts); a segment while it touches, neither
   // leaving nor approaching, its nearest point strictly inside it
@@ -226,6 +227,7 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
     contact.mode = record.friction > 0.0 && speed <= std::max(CONTACT_SPEED, stop)
                        ? ContactMode::Sticking
                        : ContactMode::Sliding;
+    moving = moving || (contact.mode == ContactMode::Sticking && speed > 0.0);
   }
   writeContactRows(model, data);
   data.noteStateChange();
@@ -234,7 +236,9 @@ double chooseContactModes(const Model& model, Data& data, const StepSettings& se
   // the sticking contacts stop: their tangential velocity goes, and the rows take the change
   double kinetic_before = 0.0;  // summed (O(n)) only when a contact has a slide to stop
   bool stopped = false;
-  for (std::size_t k = 0; k < contacts; ++k)
+  // settleActiveSet changes no velocity and makes no new stick: only a candidate that slid at all
+  // has a slide to stop
+  for (std::size_t k = 0; k < contacts && moving; ++k)
     if (data.contacts[k].mode == ContactMode::Sticking)
     {
       const int i = rows[k].particles[0];

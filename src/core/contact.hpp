@@ -100,6 +100,14 @@ void writeContactRows(const Model& model, Data& data);
 SolveReport contactForceStage(const Model& model, Data& data, double time, const Points& positions,
                               const Points& velocities, const Eigen::VectorXd* bias);
 
+/// contactForceStage's first friction check on the multipliers and forces already in `data`
+/// (solved without friction; no carried shape): true if no contact with friction acts, or if
+/// every acting contact's friction comes out at rounding's level (FRICTION_TOLERANCE of the
+/// largest normal force), then taken as none (data.contacts' and data.friction_forces zeroed), as
+/// contactForceStage takes it; false if friction must be solved for (contactForceStage).
+/// `velocities`: the stage's.
+bool frictionAtRounding(const Model& model, Data& data, const Points& velocities);
+
 /// velocities += dt W f_t, f_t each acting contact's friction force [N] as data.contacts hold it
 /// (the step's start: chooseContactModes' solve). For the integrators that hold the constraints
 /// themselves (velocity Verlet, fast projection): they evaluate no stage forces, so friction is

@@ -56,6 +56,70 @@ void spreadFriction(const Model& model, const Eigen::VectorXd& stacked, Points& 
     forces.col(table[k].particles[0]) += stacked.segment<3>(3 * k);
 }
 
+// The sizes of one friction image [N]: the largest change from the friction solved with, the
+// largest friction force, the largest normal force (what FRICTION_TOLERANCE is a fraction of).
+struct FrictionImage
+{
+  double change = 0.0, largest = 0.0, scale = 0.0;
+};
+
+// One image g = G(x) of the friction iteration: each acting contact's friction force at the
+// multipliers solved with friction x (3 per particle contact; nullptr: none), into `g` (if given)
+// and data.contacts. `velocities` the stage's.
+FrictionImage frictionImage(const Model& model, Data& data, const Points& velocities,
+                            const Eigen::VectorXd* x, Eigen::VectorXd* g)
+{
+  const auto& table = model.unilateral();
+  const auto& w = model.inverseMasses();
+  FrictionImage image;
+  if (g)
+    g->setZero();
+  for (std::size_t k = 0; k < static_cast<std::size_t>(model.numParticleContacts()); ++k)
+  {
+    ContactState& contact = data.contacts[k];
+    const UnilateralRecord& record = table[k];
+    if (!acts(contact) || record.friction == 0.0)
+      continue;
+    const int i = record.particles[0];
+    const Vec3& normal = data.rows.jacobian[record.block];
+    const double lambda = data.multipliers[record.row];
+    // the particle's other forces: applied and J^T lambda (data.constraint_forces has no
+    // friction yet), less this contact's own normal force, which has no tangential part
+    Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
+    Vec3 v = velocities.col(i);
+    if (model.hasCarriers())  // m a_s less its other forces: what a stick must give
+    {
+      v = data.contact_relative_velocities.col(k);
+      other -= data.contact_surface_accelerations.col(k) / w[i];
+    }
+    const Vec3 f = frictionForce(record, contact, normal, lambda, v, other);
+    image.change = std::max(image.change, x ? (f - x->segment<3>(3 * k)).norm() : f.norm());
+    image.largest = std::max(image.largest, f.norm());
+    image.scale = std::max(image.scale, std::max(lambda, 0.0) * normal.norm());
+    contact.friction_force = f;
+    if (g)
+      g->segment<3>(3 * k) = f;
+  }
+  return image;
+}
+
+// Every contact's friction force 0 (friction at rounding's level is none).
+void noFriction(Data& data)
+{
+  for (ContactState& contact : data.contacts)
+    contact.friction_force.setZero();
+}
+
+// Whether a contact with friction acts.
+bool anyFriction(const Model& model, const Data& data)
+{
+  const auto& table = model.unilateral();
+  for (std::size_t k = 0; k < static_cast<std::size_t>(model.numParticleContacts()); ++k)
+    if (acts(data.contacts[k]) && table[k].friction > 0.0)
+      return true;
+  return false;
+}
+
 }  // namespace
 
 SolveReport contactForceStage(const Model& model, Data& data, double time, const Points& positions,
@@ -64,10 +128,7 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
   const SolveReport report = constraintForceStage(model, data, bias);
   const auto& table = model.unilateral();
   const std::size_t contacts = static_cast<std::size_t>(model.numParticleContacts());
-  bool friction = false;
-  for (std::size_t k = 0; k < contacts; ++k)
-    friction = friction || (acts(data.contacts[k]) && table[k].friction > 0.0);
-  if (!friction)
+  if (!anyFriction(model, data))
   {
     recordNormalForces(model, data);
     return report;
@@ -104,40 +165,14 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
   bool mixed = false;  // x came from andersonStep (its first call after a clear is plain)
   for (int iteration = 0; iteration < MAX_FRICTION_ITERATIONS; ++iteration)
   {
-    double change = 0.0, scale = 0.0, largest = 0.0;
-    g.setZero();
-    for (std::size_t k = 0; k < contacts; ++k)
-    {
-      ContactState& contact = data.contacts[k];
-      const UnilateralRecord& record = table[k];
-      if (!acts(contact) || record.friction == 0.0)
-        continue;
-      const int i = record.particles[0];
-      const Vec3& normal = data.rows.jacobian[record.block];
-      const double lambda = data.multipliers[record.row];
-      // the particle's other forces: applied and J^T lambda (data.constraint_forces has no
-      // friction yet), less this contact's own normal force, which has no tangential part
-      Vec3 other = data.applied_forces.col(i) + data.constraint_forces.col(i);
-      Vec3 v = velocities.col(i);
-      if (model.hasCarriers())  // m a_s less its other forces: what a stick must give
-      {
-        v = data.contact_relative_velocities.col(k);
-        other -= data.contact_surface_accelerations.col(k) / w[i];
-      }
-      const Vec3 f = frictionForce(record, contact, normal, lambda, v, other);
-      change = std::max(change, (f - x.segment<3>(3 * k)).norm());
-      largest = std::max(largest, f.norm());
-      scale = std::max(scale, std::max(lambda, 0.0) * normal.norm());
-      contact.friction_force = f;
-      g.segment<3>(3 * k) = f;
-    }
+    const FrictionImage image = frictionImage(model, data, velocities, &x, &g);
+    const double change = image.change, scale = image.scale, largest = image.largest;
     // the multipliers are of the forces x (none yet, or the last round's); friction at
     // rounding's level (a chain at rest on a level plane) is none
     if (iteration == 0 && largest <= FRICTION_TOLERANCE * scale)
     {
       g.setZero();
-      for (ContactState& contact : data.contacts)
-        contact.friction_force.setZero();
+      noFriction(data);
       converged = true;
     }
     else if (iteration > 0 && change <= FRICTION_TOLERANCE * scale)
@@ -200,6 +235,18 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
   data.constraint_forces += data.friction_forces;  // on free particles only: no reaction changes
   recordNormalForces(model, data);
   return report;
+}
+
+bool frictionAtRounding(const Model& model, Data& data, const Points& velocities)
+{
+  if (!anyFriction(model, data))
+    return true;
+  const FrictionImage image = frictionImage(model, data, velocities, nullptr, nullptr);
+  if (!(image.largest <= FRICTION_TOLERANCE * image.scale))
+    return false;
+  noFriction(data);
+  data.friction_forces.setZero();
+  return true;
 }
 
 void kickFriction(const Model& model, const Data& data, double dt, Points& velocities)

@@ -71,8 +71,9 @@ Data::Data(const Model& model) : solver_(makeSolver(model))
   fused.velocity_rhs.setZero(model.numRows());
   fused.pending.setZero(3, model.fusedChain() ? n : 0);
   fused.chain_jacobian.assign(model.fusedChain() ? model.numRows() : 0, Vec3::Zero());
-  fused.tree_jacobian.setZero(3, model.fusedTree() ? model.numRows() : 0);
-  fused.clique_lower.assign(model.fusedTree() ? model.treeCliqueEntries() : 0, 0.0);
+  const bool tree = !model.treeLinks().empty();  // fused trees and contact trees
+  fused.tree_jacobian.setZero(3, tree ? model.numRows() : 0);
+  fused.clique_lower.assign(tree ? model.treeCliqueEntries() : 0, 0.0);
   for (Points* buffer : { &stages.a_stage, &stages.a_midpoint, &stages.sum_p, &stages.sum_v,
                           &stages.p_stage, &stages.v_stage, &stages.p_start, &stages.correction,
                           &stages.change, &stages.p_unprojected, &stages.zero })

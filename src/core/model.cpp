@@ -74,6 +74,8 @@ const char* forwardPathName(ForwardPath path)
       return "fused_chain";
     case ForwardPath::FusedTree:
       return "fused_tree";
+    case ForwardPath::FusedContactTree:
+      return "fused_contact_tree";
     case ForwardPath::Generic:
       break;
   }

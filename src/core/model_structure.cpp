@@ -150,20 +150,28 @@ int planTreeElimination(const Model& model, std::vector<int>& order,
   return offset;
 }
 
-// The fused tree stages' links (Model::fusedTree()) in treeOrder(), or none unless every row of
-// a solvesTreeByRows() model is a link between particles not both held; `unlinked` gets the
-// particles no link touches.
+// The fused tree stages' rows (Model::fusedTree(), fusedContactTree()) in treeOrder(), or none
+// unless every row of a solvesTreeByRows() model is a link between particles not both held or a
+// surface contact (and no shape is carried); `unlinked` gets the particles no row touches.
 std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlinked,
                                     std::string& why_not)
 {
   const int m = model.numRows();
   if (!model.solvesTreeByRows() || m < 1)
     return {};
-  const bool only_links = rowsOnlyOfKinds<LinkConstraint>(model);
+  const bool only_links = rowsOnlyOfKinds<LinkConstraint, SurfaceContact>(model);
   const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
-  if (!only_links || static_cast<int>(links.size()) != m)
+  const auto& contacts = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
+  if (!only_links || static_cast<int>(links.size() + contacts.size()) != m)
   {
-    why_not = "a row that is not a link (only a tree of links has fused sweeps)";
+    why_not =
+        "a row that is not a link or a surface contact (only a tree of those has fused "
+        "sweeps)";
+    return {};
+  }
+  if (!contacts.empty() && model.hasCarriers())
+  {
+    why_not = "a carried shape (its contacts' slip is relative to it: the generic friction)";
     return {};
   }
   std::vector<int> held(model.numBlocks(), -1);
@@ -195,12 +203,25 @@ std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlink
       return {};
     }
   }
+  const auto& unilateral = model.unilateral();
+  for (int k = 0; k < static_cast<int>(unilateral.size()); ++k)
+  {
+    // a contact's row: one block, its particle's (a held one's row stays off: contact.hpp)
+    const UnilateralRecord& record = unilateral[k];
+    TreeLink& row = rows[position[record.row]];
+    row.row = record.row;
+    row.block = record.block;
+    row.first = row.second = record.particles[0];
+    row.w_first = w[row.first];
+    row.held_first = held[record.block];
+    row.contact = k;
+  }
   const auto& cliques = model.treeCliques();
   for (int c = 0; c < static_cast<int>(cliques.size()); ++c)
     for (int a = 0; a < cliques[c].size; ++a)
     {
       TreeLink& row = rows[cliques[c].positions[a]];
-      if (row.first == cliques[c].particle)
+      if (row.first == cliques[c].particle)  // a contact's too: its one particle
       {
         row.clique_first = c;
         row.index_first = static_cast<std::int8_t>(a);
@@ -372,6 +393,12 @@ PathChoice choosePathOf(const Model& model, StagePaths paths, const std::string&
              rows + " (" + std::to_string(model.chainSurfaceRows()) +
                  " on surfaces) form a chain: J W J^T is tridiagonal, so rows, solve and "
                  "accelerations run in two sweeps along it" };
+  if (!model.treeLinks().empty() && model.numContacts() > 0)
+    return { ForwardPath::FusedContactTree,
+             "links and surface contacts (" + rows + ") form a tree with at most " +
+                 std::to_string(Model::TREE_ROWS_PER_PARTICLE) +
+                 " rows on a particle: the forward stage in two sweeps, leaves first (the "
+                 "projection on the generic rows and the tree solve)" };
   if (!model.treeLinks().empty())
     return { ForwardPath::FusedTree, rows + " are links forming a tree with at most " +
                                          std::to_string(Model::TREE_ROWS_PER_PARTICLE) +
@@ -385,7 +412,8 @@ PathChoice choosePathOf(const Model& model, StagePaths paths, const std::string&
              std::string(
                  "surface_contact, shape_contact or slack_link rows switch on and off: the generic "
                  "stages and the ") +
-                 solveMethodName(model.solveMethod()) + " solve" };
+                 solveMethodName(model.solveMethod()) + " solve" +
+                 (tree_why_not.empty() ? "" : " (not a contact tree: " + tree_why_not + ")") };
   if (model.solveMethod() == SolveMethod::Tridiagonal)
     return { ForwardPath::Generic, "a chain, but " + chain_why_not };
   if (model.solveMethod() == SolveMethod::Tree && !model.solvesTreeByRows())

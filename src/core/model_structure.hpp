@@ -23,9 +23,10 @@ bool fitsTreeRows(const Model& model);
 int planTreeElimination(const Model& model, std::vector<int>& order,
                         std::vector<TreePlace>& eliminated_in, std::vector<TreeClique>& cliques);
 
-/// The fused tree stages' links (Model::fusedTree()) in treeOrder(), or none (`why_not` says
-/// why) unless every row of a solvesTreeByRows() model is a link between particles not both
-/// held; `unlinked` gets the particles no link touches.
+/// The fused tree stages' rows (Model::fusedTree(), fusedContactTree()) in treeOrder(), or none
+/// (`why_not` says why) unless every row of a solvesTreeByRows() model is a link between
+/// particles not both held or a surface contact (no shape carried); `unlinked` gets the
+/// particles no row touches.
 std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlinked,
                                     std::string& why_not);
 

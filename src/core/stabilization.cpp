@@ -123,6 +123,9 @@ ProjectionReport projectStep(const Model& model, Data& data, ForwardPath path, d
       return chainProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
     case ForwardPath::FusedTree:
       return treeProjectStep(model, data, time, positions, velocities, tolerance, max_iterations);
+    case ForwardPath::FusedContactTree:
+      return contactTreeProjectStep(model, data, time, positions, velocities, tolerance,
+                                    max_iterations);
     case ForwardPath::Generic:
       break;
   }

@@ -37,7 +37,8 @@ bool correctAlongRows(const Model& model, Data& data, Points& out);
 
 /// A step's projection on `path` (forwardPath(), forward_path.hpp): projectPositions(), then
 /// finishProjection() at the final rows without measuring the velocity change; a fused chain
-/// takes chainProjectStep(), a fused tree treeProjectStep().
+/// takes chainProjectStep(), a fused tree treeProjectStep(), a contact tree
+/// contactTreeProjectStep().
 ProjectionReport projectStep(const Model& model, Data& data, ForwardPath path, double time,
                              Points& positions, Points& velocities, double tolerance,
                              int max_iterations);
@@ -75,6 +76,13 @@ ProjectionReport fusedProjectStep(const Model& model, Data& data, double time, P
 /// motion to rounding, the same counters and statistics as the generic projection.
 ProjectionReport treeProjectStep(const Model& model, Data& data, double time, Points& positions,
                                  Points& velocities, double tolerance, int max_iterations);
+
+/// projectStep() for a contact tree (tree_stages.cpp): treeProjectStep() with each contact's row
+/// (at zero velocities, an identity row while it is off, as projectPositions evaluates it; into
+/// data.rows) one more row on its particle.
+ProjectionReport contactTreeProjectStep(const Model& model, Data& data, double time,
+                                        Points& positions, Points& velocities, double tolerance,
+                                        int max_iterations);
 
 /// Ends a projection: projectVelocities() (arguments as there), its largest change and any
 /// singular solve written into `report`, which is then merged into data.statistics.projection

@@ -267,12 +267,14 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
                     Points& positions, Points& velocities, Points& accelerations)
 {
   imposeEliminated(model, data, time, &positions, &velocities);
-  switch (forwardPath(model, settings))
+  const ForwardPath path = forwardPath(model, settings);
+  switch (path)
   {
     case ForwardPath::FusedChain:  // rows, solve and forces in two sweeps (chain_stages.cpp)
       return chainForward(model, data, time, positions, velocities, accelerations);
     case ForwardPath::FusedTree:  // the same in two sweeps, leaves first (tree_stages.cpp)
       return treeForward(model, data, time, positions, velocities, accelerations);
+    case ForwardPath::FusedContactTree:  // after the check below: its contact stage's reuse
     case ForwardPath::Generic:
       break;
   }
@@ -289,6 +291,8 @@ SolveReport forward(const Model& model, Data& data, const StepSettings& settings
     data.statistics.solve.mergeReused(control.forward_report);
     return control.forward_report;
   }
+  if (path == ForwardPath::FusedContactTree)  // rows, solve and forces in two sweeps
+    return contactTreeForward(model, data, time, positions, velocities, accelerations);
   rowStage(model, data, time, positions, velocities, data.rows);
   appliedForceStage(model, data, positions, velocities);
   const Eigen::VectorXd* bias = nullptr;

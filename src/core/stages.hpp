@@ -77,6 +77,16 @@ SolveReport chainForward(const Model& model, Data& data, double time, const Poin
 SolveReport treeForward(const Model& model, Data& data, double time, const Points& positions,
                         const Points& velocities, Points& accelerations);
 
+/// Stages 1, 2, 4 and 5 for a contact tree (Model::fusedContactTree(), no Baumgarte bias), in
+/// the fused tree's two sweeps (tree_stages.cpp), each contact's row one more row of one block:
+/// data as the generic stages write it but for the links' rows (d in data.fused.tree_jacobian;
+/// the contacts' rows are in data.rows), the contacts' forces (recordNormalForces), the same
+/// counters and report, the same motion to rounding. A stage whose friction must be solved for
+/// (frictionAtRounding) or whose pivot is singular is taken by the generic stages
+/// (contactForceStage). Eliminated motion already imposed.
+SolveReport contactTreeForward(const Model& model, Data& data, double time, const Points& positions,
+                               const Points& velocities, Points& accelerations);
+
 /// Counts a fused sweep's factorisation (model.solveMethod()'s) and merges its report (the
 /// smallest pivot / diagonal entry `min_ratio`), as factorizeRows() does the solver's.
 SolveReport countFusedFactorization(const Model& model, Data& data, double min_ratio);

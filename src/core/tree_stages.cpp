@@ -9,7 +9,15 @@
 // motion to rounding, the same counters. A singular pivot hands the stage to the generic path,
 // whose factorisation regularises it. The projection likewise: each Newton check's sweep also
 // factorises, and the back substitution and the correction share one.
+// A contact tree (Model::fusedContactTree(): links and surface contacts) takes the same sweeps for
+// its forward stage, a contact's row one more row of one block on its particle's clique (its
+// elimination there is the projected inverse mass w (I - n n^T / |n|^2) the rows after it see):
+// the stage's rows, solve and forces without the generic stages' passes, its friction checked
+// after them as contactForceStage checks it first; a stage whose friction must be solved for
+// (or whose pivot is singular) is taken by the generic stages. Its projection is the generic one.
 #include "constrained_particles/core/effects/link_constraint.hpp"
+#include "constrained_particles/core/effects/surface_contact.hpp"
+#include "contact.hpp"
 #include "solvers/solver.hpp"
 #include "stabilization.hpp"
 #include "stages.hpp"
@@ -109,13 +117,59 @@ void countLinks(const Model& model, Data& data)
   data.counters.constraints[constraintKindIndex<LinkConstraint>()] += model.numRows();
 }
 
+// Counts one evaluation of every row record of a contact tree, as rowStage counts them.
+void countContactTreeRows(const Model& model, Data& data)
+{
+  const int contacts = model.numContacts();
+  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += model.numRows() - contacts;
+  data.counters.constraints[constraintKindIndex<SurfaceContact>()] += contacts;
+}
+
+// A contact tree's contact row at place k (`row.contact`), into data.rows as evaluateKind writes
+// a unilateral row (an identity row while it is off: contact.hpp) and its J by place into
+// `jacobians`; its right-hand side -(Jdot v + J a0) as constraintForceStage sums it into `r`.
+// Returns its diagonal entry of J W J^T.
+inline double evaluateContactRow(const Model& model, Data& data, const TreeLink& row, int k,
+                                 const EffectContext& context, const Points& positions,
+                                 const Points& velocities, double* jacobians, double& r)
+{
+  RowData& rows = data.rows;
+  const int r_index = row.row;
+  Vec3& j = rows.jacobian[row.block];
+  Eigen::Map<Vec3> d(jacobians + 3 * k);
+  if (rows.inactive[r_index])
+  {
+    rows.value[r_index] = rows.jdot_v[r_index] = rows.violation[r_index] = rows.time_rate[r_index] =
+        0.0;
+    j.setZero();
+    d.setZero();
+    r = -0.0;
+    return rows.diagonal[r_index] = 1.0;
+  }
+  const UnilateralRecord& record = model.unilateral()[row.contact];
+  const auto& table = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
+  evaluateRows(table[record.table].record, context, positions, velocities,
+               RowBlock{ rows.value.data() + r_index, rows.jdot_v.data() + r_index,
+                         rows.violation.data() + r_index, &j, rows.time_rate.data() + r_index });
+  d = j;
+  double diagonal = 0.0;
+  diagonal += row.w_first * j.squaredNorm();
+  double j_a0 = 0.0;
+  j_a0 += j.dot(data.free_accelerations.col(row.first));
+  double sum = rows.jdot_v[r_index] + 0.0;  // + 0.0: the generic sum's absent bias term
+  sum += j_a0;
+  r = -sum;
+  return rows.diagonal[r_index] = diagonal;
+}
+
 // Up the tree; false at a singular pivot. REUSED: d, L and D in data are of these positions (the
 // last fused projection's, FusedWorkspace::factorization): only the right-hand side and its
 // forward substitution.
-template <bool REUSED>
-bool treeSweepUp(const Model& model, Data& data, const Points& positions, const Points& velocities,
-                 double& min_ratio)
+template <bool REUSED, bool CONTACTS = false>
+bool treeSweepUp(const Model& model, Data& data, double time, const Points& positions,
+                 const Points& velocities, double& min_ratio)
 {
+  static_assert(!(REUSED && CONTACTS), "a contact tree's projection is the generic one");
   const TreeLink* links = model.treeLinks().data();
   const TreeClique* cliques = model.treeCliques().data();
   const double* p = positions.data();
@@ -127,11 +181,27 @@ bool treeSweepUp(const Model& model, Data& data, const Points& positions, const 
   double* y = data.rhs.data();
   double* inverse_pivots = data.fused.inverse_pivots.data();
   double* lower_entries = data.fused.clique_lower.data();
+  const EffectContext context = contextAt(model, data, time);
   min_ratio = 1.0;
   const int m = model.numRows();
   for (int k = 0; k < m; ++k)
   {
     const TreeLink& link = links[k];
+    if constexpr (CONTACTS)
+      if (link.contact >= 0)
+      {
+        double r;
+        const double diagonal =
+            evaluateContactRow(model, data, link, k, context, positions, velocities, jacobians, r);
+        const double pivot = factorLink(link, cliques, jacobians + 3 * k, diagonal, jacobians,
+                                        inverse_pivots, lower_entries, min_ratio);
+        if (ConstraintSolver::isSingularPivot(pivot, diagonal))
+          return false;
+        inverse_pivots[k] = 1.0 / pivot;
+        substituteLink(link, cliques, lower_entries, y, r);
+        y[k] = r;
+        continue;
+      }
     const double squared = REUSED ? 0.0 : evaluateTreeLink(link, k, p, jacobians);
     const double* d = jacobians + 3 * k;
     const double dx = d[0], dy = d[1], dz = d[2];
@@ -192,6 +262,7 @@ inline double backSubstituteLink(const TreeLink& link, int k, const TreeClique* 
 
 // Down the tree: lambda = D^-1 y - L^T lambda, the multipliers, f_c = J^T lambda and each linked
 // particle's acceleration; a particle no link touches has f_c = 0, a = a0.
+template <bool CONTACTS = false>
 void treeSweepDown(const Model& model, Data& data, Points& accelerations)
 {
   const TreeLink* links = model.treeLinks().data();
@@ -213,6 +284,8 @@ void treeSweepDown(const Model& model, Data& data, Points& accelerations)
     const Vec3 force = value * Eigen::Map<const Vec3>(jacobians + 3 * k);
     settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, a0, forces,
                    a);
+    if (CONTACTS && link.contact >= 0)
+      continue;  // a contact's one block
     settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, a0,
                    forces, a);
   }
@@ -228,7 +301,8 @@ void treeSweepDown(const Model& model, Data& data, Points& accelerations)
 // into data.fused.velocity_rhs, by place. The links' C, diagonals and violations are not stored
 // in data.rows: the generic fallback evaluates its own. Returns false at a singular pivot (the
 // violations are still all measured; the factorisation is then unusable).
-bool treeProjectionSweep(const Model& model, Data& data, double /*time*/, const Points& positions,
+template <bool CONTACTS = false>
+bool treeProjectionSweep(const Model& model, Data& data, double time, const Points& positions,
                          const Points& velocities, double& min_ratio)
 {
   const TreeLink* links = model.treeLinks().data();
@@ -244,20 +318,39 @@ bool treeProjectionSweep(const Model& model, Data& data, double /*time*/, const 
   bool factorised = true;
   min_ratio = 1.0;
   const int m = model.numRows();
+  const EffectContext context = contextAt(model, data, time);
   for (int k = 0; k < m; ++k)
   {
     const TreeLink& link = links[k];
-    const double squared = evaluateTreeLink(link, k, p, jacobians);
-    // the violation and C as link_constraint.hpp's evaluateRows forms them
-    max_violation = worseError(max_violation, linkViolation(squared, link.length));
-    if (!factorised)
-      continue;
     const double* d = jacobians + 3 * k;
-    const double* vi = v + 3 * link.first;
-    const double* vj = v + 3 * link.second;
-    double jv = d[0] * (vi[0] - vj[0]) + d[1] * (vi[1] - vj[1]) + d[2] * (vi[2] - vj[2]);
-    double c = linkValue(squared, link.length);
-    const double diagonal = linkDiagonal(link.w_first, link.w_second, squared);
+    double jv, c, diagonal;
+    if (CONTACTS && link.contact >= 0)
+    {
+      // a contact's row at zero velocities, as projectPositions evaluates rows; J v as
+      // multiplyJacobian sums it
+      double unused;
+      diagonal = evaluateContactRow(model, data, link, k, context, positions, data.stages.zero,
+                                    jacobians, unused);
+      max_violation = worseError(max_violation, data.rows.violation[link.row]);
+      if (!factorised)
+        continue;
+      jv = 0.0;
+      jv += Eigen::Map<const Vec3>(d).dot(Eigen::Map<const Vec3>(v + 3 * link.first));
+      c = data.rows.value[link.row];
+    }
+    else
+    {
+      const double squared = evaluateTreeLink(link, k, p, jacobians);
+      // the violation and C as link_constraint.hpp's evaluateRows forms them
+      max_violation = worseError(max_violation, linkViolation(squared, link.length));
+      if (!factorised)
+        continue;
+      const double* vi = v + 3 * link.first;
+      const double* vj = v + 3 * link.second;
+      jv = d[0] * (vi[0] - vj[0]) + d[1] * (vi[1] - vj[1]) + d[2] * (vi[2] - vj[2]);
+      c = linkValue(squared, link.length);
+      diagonal = linkDiagonal(link.w_first, link.w_second, squared);
+    }
     const double pivot =
         factorLink(link, cliques, d, diagonal, jacobians, inverse_pivots, lower_entries, min_ratio);
     substituteLink(link, cliques, lower_entries, y, c);
@@ -277,6 +370,7 @@ bool treeProjectionSweep(const Model& model, Data& data, double /*time*/, const 
 
 // Down the tree: mu = D^-1 x - L^T mu from the last place, in place in `x` (by place), and
 // out -= W J^T mu in the same sweep.
+template <bool CONTACTS = false>
 void treeCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out)
 {
   const TreeLink* links = model.treeLinks().data();
@@ -294,6 +388,8 @@ void treeCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out
     const Eigen::Map<const Vec3> d(jacobians + 3 * k);
     // W J^T mu: w_i mu d on i, -w_j mu d on j (zero on held particles)
     Eigen::Map<Vec3>(o + 3 * link.first) -= (link.w_first * value) * d;
+    if (CONTACTS && link.contact >= 0)
+      continue;  // a contact's one block
     Eigen::Map<Vec3>(o + 3 * link.second) += (link.w_second * value) * d;
   }
 }
@@ -304,7 +400,16 @@ ProjectionReport treeProjectStep(const Model& model, Data& data, double time, Po
                                  Points& velocities, double tolerance, int max_iterations)
 {
   return fusedProjectStep(model, data, time, positions, velocities, tolerance, max_iterations,
-                          FusedProjection{ &treeProjectionSweep, &countLinks, &treeCorrect });
+                          FusedProjection{ &treeProjectionSweep<>, &countLinks, &treeCorrect<> });
+}
+
+ProjectionReport contactTreeProjectStep(const Model& model, Data& data, double time,
+                                        Points& positions, Points& velocities, double tolerance,
+                                        int max_iterations)
+{
+  return fusedProjectStep(
+      model, data, time, positions, velocities, tolerance, max_iterations,
+      FusedProjection{ &treeProjectionSweep<true>, &countContactTreeRows, &treeCorrect<true> });
 }
 
 SolveReport treeForward(const Model& model, Data& data, double time, const Points& positions,
@@ -312,10 +417,37 @@ SolveReport treeForward(const Model& model, Data& data, double time, const Point
 {
   return fusedForward(
       model, data, time, positions, velocities, accelerations, [&] { countLinks(model, data); },
-      [&](auto reused, double& min_ratio) {
-        return treeSweepUp<decltype(reused)::value>(model, data, positions, velocities, min_ratio);
+      [&](auto reused, double& min_ratio)
+      {
+        return treeSweepUp<decltype(reused)::value>(model, data, time, positions, velocities,
+                                                    min_ratio);
       },
       [&] { treeSweepDown(model, data, accelerations); });
+}
+
+SolveReport contactTreeForward(const Model& model, Data& data, double time, const Points& positions,
+                               const Points& velocities, Points& accelerations)
+{
+  data.noteStateChange();  // as rowStage: the positions may have moved past what was kept
+  appliedForceStage(model, data, positions, velocities);
+  double min_ratio = 1.0;
+  if (treeSweepUp<false, true>(model, data, time, positions, velocities, min_ratio))
+  {
+    treeSweepDown<true>(model, data, accelerations);
+    addEliminatedReactions(model, data);
+    heldAccelerations(model, data, accelerations);
+    if (frictionAtRounding(model, data, velocities))
+    {
+      recordNormalForces(model, data);
+      countContactTreeRows(model, data);
+      return countFusedFactorization(model, data, min_ratio);
+    }
+  }
+  // a singular pivot (the generic factorisation regularises it), or friction to solve for
+  rowStage(model, data, time, positions, velocities, data.rows);
+  const SolveReport report = contactForceStage(model, data, time, positions, velocities, nullptr);
+  accelerationStage(model, data, accelerations);
+  return report;
 }
 
 }  // namespace constrained_particles

@@ -101,9 +101,13 @@ enum class ForwardPath
   Generic,     ///< every stage on its own, row records by kind (stages.cpp)
   FusedChain,  ///< links and surface rows with J W J^T tridiagonal (chain_stages.cpp)
   FusedTree,   ///< links forming a tree, few rows on a particle (tree_stages.cpp)
+  /// links and surface contacts forming a tree, few rows on a particle: the forward stage in
+  /// sweeps, the projection on the generic rows (contact_tree_stages.cpp)
+  FusedContactTree,
 };
 
-/// "generic", "fused_chain" or "fused_tree": the name ~state and /diagnostics report.
+/// "generic", "fused_chain", "fused_tree" or "fused_contact_tree": the name ~state and /diagnostics
+/// report.
 const char* forwardPathName(ForwardPath path);
 
 /// A path and why it was chosen (one sentence, for the start-up log, ~state and /diagnostics).
@@ -187,6 +191,10 @@ struct TreeLink
   /// Down the tree (places m-1 to 0): this link is the first to touch the particle (its J^T
   /// lambda is written, not added) and the last (its constraint force is then complete).
   bool first_opens = false, first_closes = false, second_opens = false, second_closes = false;
+  /// A surface contact's row (ForwardPath::FusedContactTree): its index in Model::unilateral(),
+  /// its one block J (the contact's normal) on `first` (`second` is `first`, w_second 0); -1 for
+  /// a link.
+  int contact = -1;
 };
 
 /// A Jacobian block on a particle an eliminated record holds: its imposed acceleration enters the
@@ -399,12 +407,18 @@ public:
   {
     return path_.path == ForwardPath::FusedTree;
   }
-  /// Fused trees: the links in treeOrder().
+  /// True if path() is ForwardPath::FusedContactTree: solvesTreeByRows(), every row a link or a
+  /// surface contact, no carried shape.
+  bool fusedContactTree() const
+  {
+    return path_.path == ForwardPath::FusedContactTree;
+  }
+  /// Fused trees and contact trees: the rows in treeOrder().
   const std::vector<TreeLink>& treeLinks() const
   {
     return tree_links_;
   }
-  /// Fused trees: the particles no link touches.
+  /// Fused trees and contact trees: the particles no row touches.
   const std::vector<int>& treeUnlinked() const
   {
     return tree_unlinked_;
@@ -486,7 +500,7 @@ private:
   std::vector<TreePlace> tree_eliminated_in_;
   std::vector<TreeClique> tree_cliques_;
   int tree_clique_entries_ = 0;
-  std::vector<TreeLink> tree_links_;  // empty unless fusedTree()
+  std::vector<TreeLink> tree_links_;  // empty unless fusedTree() or fusedContactTree()
   std::vector<int> tree_unlinked_;
   std::vector<ChainRow> chain_rows_;  // empty unless fusedChain()
   std::vector<int> chain_unlinked_;
