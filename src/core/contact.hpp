@@ -108,6 +108,11 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
 /// `velocities`: the stage's.
 bool frictionAtRounding(const Model& model, Data& data, const Points& velocities);
 
+/// Whether a particle contact with friction slides: its friction, mu |f_n| against the slip, is
+/// not at rounding's level wherever it presses, so a fused stage leaves the stage to
+/// contactForceStage before its sweeps.
+bool slidesWithFriction(const Model& model, const Data& data);
+
 /// velocities += dt W f_t, f_t each acting contact's friction force [N] as data.contacts hold it
 /// (the step's start: chooseContactModes' solve). For the integrators that hold the constraints
 /// themselves (velocity Verlet, fast projection): they evaluate no stage forces, so friction is

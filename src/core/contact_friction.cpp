@@ -10,6 +10,7 @@
 #include "stages.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 
@@ -239,6 +240,7 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
 
 bool frictionAtRounding(const Model& model, Data& data, const Points& velocities)
 {
+  assert(!model.hasCarriers());  // their slip is relative to a shape's point: contactForceStage
   if (!anyFriction(model, data))
     return true;
   const FrictionImage image = frictionImage(model, data, velocities, nullptr, nullptr);
@@ -247,6 +249,15 @@ bool frictionAtRounding(const Model& model, Data& data, const Points& velocities
   noFriction(data);
   data.friction_forces.setZero();
   return true;
+}
+
+bool slidesWithFriction(const Model& model, const Data& data)
+{
+  const auto& table = model.unilateral();
+  for (std::size_t k = 0; k < static_cast<std::size_t>(model.numParticleContacts()); ++k)
+    if (data.contacts[k].mode == ContactMode::Sliding && table[k].friction > 0.0)
+      return true;
+  return false;
 }
 
 void kickFriction(const Model& model, const Data& data, double dt, Points& velocities)

@@ -397,8 +397,9 @@ PathChoice choosePathOf(const Model& model, StagePaths paths, const std::string&
     return { ForwardPath::FusedContactTree,
              "links and surface contacts (" + rows + ") form a tree with at most " +
                  std::to_string(Model::TREE_ROWS_PER_PARTICLE) +
-                 " rows on a particle: the forward stage in two sweeps, leaves first (the "
-                 "projection on the generic rows and the tree solve)" };
+                 " rows on a particle: each stage and projection in two sweeps, leaves first, a "
+                 "contact's row one more row on its particle (a stage whose friction must be "
+                 "solved for: the generic stages)" };
   if (!model.treeLinks().empty())
     return { ForwardPath::FusedTree, rows + " are links forming a tree with at most " +
                                          std::to_string(Model::TREE_ROWS_PER_PARTICLE) +

@@ -81,9 +81,11 @@ SolveReport treeForward(const Model& model, Data& data, double time, const Point
 /// the fused tree's two sweeps (tree_stages.cpp), each contact's row one more row of one block:
 /// data as the generic stages write it but for the links' rows (d in data.fused.tree_jacobian;
 /// the contacts' rows are in data.rows), the contacts' forces (recordNormalForces), the same
-/// counters and report, the same motion to rounding. A stage whose friction must be solved for
-/// (frictionAtRounding) or whose pivot is singular is taken by the generic stages
-/// (contactForceStage). Eliminated motion already imposed.
+/// counters and report, the same motion to rounding. Not of the stage afterwards: the links' rows
+/// in data.rows, rows.max_violation, data.rhs (by place), the friction iteration's buffers and the
+/// solver's factorisation (every reader evaluates and factorises its own). A stage whose friction
+/// must be solved for (frictionAtRounding) or whose pivot is singular is taken by the generic
+/// stages (contactForceStage). Eliminated motion already imposed.
 SolveReport contactTreeForward(const Model& model, Data& data, double time, const Points& positions,
                                const Points& velocities, Points& accelerations);
 

@@ -14,7 +14,8 @@
 // elimination there is the projected inverse mass w (I - n n^T / |n|^2) the rows after it see):
 // the stage's rows, solve and forces without the generic stages' passes, its friction checked
 // after them as contactForceStage checks it first; a stage whose friction must be solved for
-// (or whose pivot is singular) is taken by the generic stages. Its projection is the generic one.
+// (or whose pivot is singular) is taken by the generic stages. Its projection takes the sweeps
+// too, but not its reuse: a contact step's first stage takes the active set's solve instead.
 #include "constrained_particles/core/effects/link_constraint.hpp"
 #include "constrained_particles/core/effects/surface_contact.hpp"
 #include "contact.hpp"
@@ -120,7 +121,8 @@ void countLinks(const Model& model, Data& data)
 // Counts one evaluation of every row record of a contact tree, as rowStage counts them.
 void countContactTreeRows(const Model& model, Data& data)
 {
-  const int contacts = model.numContacts();
+  const int contacts = static_cast<int>(
+      std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables()).size());
   data.counters.constraints[constraintKindIndex<LinkConstraint>()] += model.numRows() - contacts;
   data.counters.constraints[constraintKindIndex<SurfaceContact>()] += contacts;
 }
@@ -129,9 +131,9 @@ void countContactTreeRows(const Model& model, Data& data)
 // a unilateral row (an identity row while it is off: contact.hpp) and its J by place into
 // `jacobians`; its right-hand side -(Jdot v + J a0) as constraintForceStage sums it into `r`.
 // Returns its diagonal entry of J W J^T.
-inline double evaluateContactRow(const Model& model, Data& data, const TreeLink& row, int k,
-                                 const EffectContext& context, const Points& positions,
-                                 const Points& velocities, double* jacobians, double& r)
+inline double evaluateContactRowAt(const Model& model, Data& data, const TreeLink& row, int k,
+                                   const EffectContext& context, const Points& positions,
+                                   const Points& velocities, double* jacobians, double& r)
 {
   RowData& rows = data.rows;
   const int r_index = row.row;
@@ -169,7 +171,8 @@ template <bool REUSED, bool CONTACTS = false>
 bool treeSweepUp(const Model& model, Data& data, double time, const Points& positions,
                  const Points& velocities, double& min_ratio)
 {
-  static_assert(!(REUSED && CONTACTS), "a contact tree's projection is the generic one");
+  static_assert(!(REUSED && CONTACTS),
+                "a contact step's first stage reuses the active set's solve, not the projection's");
   const TreeLink* links = model.treeLinks().data();
   const TreeClique* cliques = model.treeCliques().data();
   const double* p = positions.data();
@@ -191,8 +194,8 @@ bool treeSweepUp(const Model& model, Data& data, double time, const Points& posi
       if (link.contact >= 0)
       {
         double r;
-        const double diagonal =
-            evaluateContactRow(model, data, link, k, context, positions, velocities, jacobians, r);
+        const double diagonal = evaluateContactRowAt(model, data, link, k, context, positions,
+                                                     velocities, jacobians, r);
         const double pivot = factorLink(link, cliques, jacobians + 3 * k, diagonal, jacobians,
                                         inverse_pivots, lower_entries, min_ratio);
         if (ConstraintSolver::isSingularPivot(pivot, diagonal))
@@ -329,8 +332,8 @@ bool treeProjectionSweep(const Model& model, Data& data, double time, const Poin
       // a contact's row at zero velocities, as projectPositions evaluates rows; J v as
       // multiplyJacobian sums it
       double unused;
-      diagonal = evaluateContactRow(model, data, link, k, context, positions, data.stages.zero,
-                                    jacobians, unused);
+      diagonal = evaluateContactRowAt(model, data, link, k, context, positions, data.stages.zero,
+                                      jacobians, unused);
       max_violation = worseError(max_violation, data.rows.violation[link.row]);
       if (!factorised)
         continue;
@@ -407,6 +410,8 @@ ProjectionReport contactTreeProjectStep(const Model& model, Data& data, double t
                                         Points& positions, Points& velocities, double tolerance,
                                         int max_iterations)
 {
+  // the factorisation it keeps (FusedWorkspace::factorization) goes unread: a contact step's
+  // first stage takes the active set's solve, and contactTreeForward never reuses one
   return fusedProjectStep(
       model, data, time, positions, velocities, tolerance, max_iterations,
       FusedProjection{ &treeProjectionSweep<true>, &countContactTreeRows, &treeCorrect<true> });
@@ -431,7 +436,9 @@ SolveReport contactTreeForward(const Model& model, Data& data, double time, cons
   data.noteStateChange();  // as rowStage: the positions may have moved past what was kept
   appliedForceStage(model, data, positions, velocities);
   double min_ratio = 1.0;
-  if (treeSweepUp<false, true>(model, data, time, positions, velocities, min_ratio))
+  // a contact sliding with friction has friction to solve for: the generic stage at once
+  if (!slidesWithFriction(model, data) &&
+      treeSweepUp<false, true>(model, data, time, positions, velocities, min_ratio))
   {
     treeSweepDown<true>(model, data, accelerations);
     addEliminatedReactions(model, data);
@@ -443,7 +450,8 @@ SolveReport contactTreeForward(const Model& model, Data& data, double time, cons
       return countFusedFactorization(model, data, min_ratio);
     }
   }
-  // a singular pivot (the generic factorisation regularises it), or friction to solve for
+  // a singular pivot (the generic factorisation regularises it), or friction to solve for (the
+  // rows and factorisation counted there)
   rowStage(model, data, time, positions, velocities, data.rows);
   const SolveReport report = contactForceStage(model, data, time, positions, velocities, nullptr);
   accelerationStage(model, data, accelerations);

@@ -263,7 +263,8 @@ public:
   /// (chain_stages.cpp) only a surface row's C, Jdot v, diagonal and violation, and (after a
   /// projection) max_violation are of that stage (the fused stages keep their Jacobian in
   /// fused.chain_jacobian or fused.tree_jacobian; a fused tree's forward stage writes none of the
-  /// rows, its projection max_violation only); the rest is of the last evaluation that stored it (a
+  /// rows, its projection max_violation only; a contact tree's writes its contacts' rows, and its
+  /// projection max_violation too); the rest is of the last evaluation that stored it (a
   /// generic stage or projection, SHAKE, a generic fallback). Read what a fused stage did not store
   /// through evaluateRowRecords.
   RowData rows;
@@ -314,9 +315,10 @@ public:
   Eigen::VectorXd multipliers;  ///< lambda (m), then each eliminated reaction [N] (3 e)
   /// Right-hand side, then solution, of a solve (m); the fused projections solve in place in
   /// it and fused.velocity_rhs, so after one it holds the last check's forward-substituted C
-  /// (the fused tree stages by place in Model::treeOrder(), not by row).
+  /// (the fused tree and contact tree stages by place in Model::treeOrder(), not by row).
   Eigen::VectorXd rhs;
-  /// The fused stages' own buffers (ForwardPath::FusedChain, FusedTree): their Jacobian layout
+  /// The fused stages' own buffers (ForwardPath::FusedChain, FusedTree, FusedContactTree): their
+  /// Jacobian layout
   /// and LDL^T of J W J^T, which the generic rows and the solver do not hold.
   FusedWorkspace fused;
   StageBuffers stages;        ///< the integrators' buffers

@@ -23,7 +23,8 @@ inline ForwardPath forwardPath(const Model& model, const StepSettings& settings)
 /// The path the steps take, with its reason, for the start-up log, ~state and /diagnostics:
 /// forwardPath(), but generic for an integrator that holds the constraints itself (velocity
 /// Verlet, fast projection: SHAKE/RATTLE or a projection on the generic rows; only the forces
-/// reported once per batch take forwardPath()).
+/// reported once per batch, and a contact scene's active set and release checks, take
+/// forwardPath()).
 inline PathChoice choosePath(const Model& model, const StepSettings& settings)
 {
   if (model.path().path == ForwardPath::Generic)

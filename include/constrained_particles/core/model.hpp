@@ -101,8 +101,9 @@ enum class ForwardPath
   Generic,     ///< every stage on its own, row records by kind (stages.cpp)
   FusedChain,  ///< links and surface rows with J W J^T tridiagonal (chain_stages.cpp)
   FusedTree,   ///< links forming a tree, few rows on a particle (tree_stages.cpp)
-  /// links and surface contacts forming a tree, few rows on a particle: the forward stage in
-  /// sweeps, the projection on the generic rows (contact_tree_stages.cpp)
+  /// links and surface contacts forming a tree, few rows on a particle: the fused tree's sweeps
+  /// with each contact one more row (tree_stages.cpp); a stage with friction to solve for is
+  /// the generic one
   FusedContactTree,
 };
 
