@@ -159,14 +159,18 @@ std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlink
   const int m = model.numRows();
   if (!model.solvesTreeByRows() || m < 1)
     return {};
-  const bool only_links = rowsOnlyOfKinds<LinkConstraint, SurfaceContact>(model);
+  const bool only_links = rowsOnlyOfKinds<LinkConstraint, SurfaceContact, SurfaceConstraint>(model);
   const auto& links = std::get<std::vector<KindRecord<LinkConstraint>>>(model.kindTables());
   const auto& contacts = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
-  if (!only_links || static_cast<int>(links.size() + contacts.size()) != m)
+  const auto& surfaces = std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables());
+  // surface rows ride with contacts only: a tree of links and surface rows alone keeps the
+  // generic stages and the solve by rows (the fused tree's sweeps know links only)
+  if (!only_links || (!surfaces.empty() && contacts.empty()) ||
+      static_cast<int>(links.size() + contacts.size() + surfaces.size()) != m)
   {
     why_not =
-        "a row that is not a link or a surface contact (only a tree of those has fused "
-        "sweeps)";
+        "a row that is not a link or a surface contact (only a tree of those, with surface "
+        "rows beside contacts, has fused sweeps)";
     return {};
   }
   if (!contacts.empty() && model.hasCarriers())
@@ -215,6 +219,23 @@ std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlink
     row.w_first = w[row.first];
     row.held_first = held[record.block];
     row.contact = k;
+  }
+  for (int k = 0; k < static_cast<int>(surfaces.size()); ++k)
+  {
+    // a surface row: one block, always acting (seed problem 3's first particle)
+    TreeLink& row = rows[position[surfaces[k].first_row]];
+    row.row = surfaces[k].first_row;
+    row.block = surfaces[k].first_block;
+    row.first = row.second = surfaces[k].record.particle;
+    row.w_first = w[row.first];
+    row.surface = k;
+    if (row.w_first == 0.0)
+    {
+      why_not =
+          "a held particle on a surface (its row is always singular: the generic solve regularises "
+          "it)";
+      return {};
+    }
   }
   const auto& cliques = model.treeCliques();
   for (int c = 0; c < static_cast<int>(cliques.size()); ++c)
@@ -395,8 +416,8 @@ PathChoice choosePathOf(const Model& model, StagePaths paths, const std::string&
                  "accelerations run in two sweeps along it" };
   if (!model.treeLinks().empty() && model.numContacts() > 0)
     return { ForwardPath::FusedContactTree,
-             "links and surface contacts (" + rows + ") form a tree with at most " +
-                 std::to_string(Model::TREE_ROWS_PER_PARTICLE) +
+             "links and surface contacts, with any surface rows (" + rows +
+                 "), form a tree with at most " + std::to_string(Model::TREE_ROWS_PER_PARTICLE) +
                  " rows on a particle: each stage and projection in two sweeps, leaves first, a "
                  "contact's row one more row on its particle (a stage whose friction must be "
                  "solved for: the generic stages)" };

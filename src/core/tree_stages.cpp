@@ -123,14 +123,18 @@ void countContactTreeRows(const Model& model, Data& data)
 {
   const int contacts = static_cast<int>(
       std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables()).size());
-  data.counters.constraints[constraintKindIndex<LinkConstraint>()] += model.numRows() - contacts;
+  const int surfaces = static_cast<int>(
+      std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables()).size());
+  data.counters.constraints[constraintKindIndex<LinkConstraint>()] +=
+      model.numRows() - contacts - surfaces;
   data.counters.constraints[constraintKindIndex<SurfaceContact>()] += contacts;
+  data.counters.constraints[constraintKindIndex<SurfaceConstraint>()] += surfaces;
 }
 
-// A contact tree's contact row at place k (`row.contact`), into data.rows as evaluateKind writes
-// a unilateral row (an identity row while it is off: contact.hpp) and its J by place into
-// `jacobians`; its right-hand side -(Jdot v + J a0) as constraintForceStage sums it into `r`.
-// Returns its diagonal entry of J W J^T.
+// A contact tree's row of one block at place k (a contact's, `row.contact`, or a surface row's,
+// `row.surface`), into data.rows as evaluateKind writes it (a contact's an identity row while it
+// is off: contact.hpp) and its J by place into `jacobians`; its right-hand side -(Jdot v + J a0)
+// as constraintForceStage sums it into `r`. Returns its diagonal entry of J W J^T.
 inline double evaluateContactRowAt(const Model& model, Data& data, const TreeLink& row, int k,
                                    const EffectContext& context, const Points& positions,
                                    const Points& velocities, double* jacobians, double& r)
@@ -148,11 +152,18 @@ inline double evaluateContactRowAt(const Model& model, Data& data, const TreeLin
     r = -0.0;
     return rows.diagonal[r_index] = 1.0;
   }
-  const UnilateralRecord& record = model.unilateral()[row.contact];
-  const auto& table = std::get<std::vector<KindRecord<SurfaceContact>>>(model.kindTables());
-  evaluateRows(table[record.table].record, context, positions, velocities,
-               RowBlock{ rows.value.data() + r_index, rows.jdot_v.data() + r_index,
-                         rows.violation.data() + r_index, &j, rows.time_rate.data() + r_index });
+  const RowBlock block{ rows.value.data() + r_index, rows.jdot_v.data() + r_index,
+                        rows.violation.data() + r_index, &j, rows.time_rate.data() + r_index };
+  if (row.surface >= 0)
+    evaluateRows(
+        std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables())[row.surface]
+            .record,
+        context, positions, velocities, block);
+  else
+    evaluateRows(std::get<std::vector<KindRecord<SurfaceContact>>>(
+                     model.kindTables())[model.unilateral()[row.contact].table]
+                     .record,
+                 context, positions, velocities, block);
   d = j;
   double diagonal = 0.0;
   diagonal += row.w_first * j.squaredNorm();
@@ -191,7 +202,7 @@ bool treeSweepUp(const Model& model, Data& data, double time, const Points& posi
   {
     const TreeLink& link = links[k];
     if constexpr (CONTACTS)
-      if (link.contact >= 0)
+      if (link.oneBlock())
       {
         double r;
         const double diagonal = evaluateContactRowAt(model, data, link, k, context, positions,
@@ -287,7 +298,7 @@ void treeSweepDown(const Model& model, Data& data, Points& accelerations)
     const Vec3 force = value * Eigen::Map<const Vec3>(jacobians + 3 * k);
     settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, a0, forces,
                    a);
-    if (CONTACTS && link.contact >= 0)
+    if (CONTACTS && link.oneBlock())
       continue;  // a contact's one block
     settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, a0,
                    forces, a);
@@ -327,7 +338,7 @@ bool treeProjectionSweep(const Model& model, Data& data, double time, const Poin
     const TreeLink& link = links[k];
     const double* d = jacobians + 3 * k;
     double jv, c, diagonal;
-    if (CONTACTS && link.contact >= 0)
+    if (CONTACTS && link.oneBlock())
     {
       // a contact's row at zero velocities, as projectPositions evaluates rows; J v as
       // multiplyJacobian sums it
@@ -391,7 +402,7 @@ void treeCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out
     const Eigen::Map<const Vec3> d(jacobians + 3 * k);
     // W J^T mu: w_i mu d on i, -w_j mu d on j (zero on held particles)
     Eigen::Map<Vec3>(o + 3 * link.first) -= (link.w_first * value) * d;
-    if (CONTACTS && link.contact >= 0)
+    if (CONTACTS && link.oneBlock())
       continue;  // a contact's one block
     Eigen::Map<Vec3>(o + 3 * link.second) += (link.w_second * value) * d;
   }

@@ -27,8 +27,11 @@ using constrained_particles::testing::expectSameMotion;
 namespace
 {
 // n particles 5 cm apart along x on the plane z = slope (x - 2 y), linked, each with a contact
-// (Coulomb mu `friction`) and the first pinned if `pinned`; gravity and damping (J a0 summed)
-Scene chainOnTiltedPlane(int n, double friction, bool pinned, State& start, double slope = 0.1)
+// (Coulomb mu `friction`) and the first pinned if `pinned`, or held on the plane by a surface row
+// instead of its contact if `on_surface` (seed problem 3's chain); gravity and damping (J a0
+// summed)
+Scene chainOnTiltedPlane(int n, double friction, bool pinned, State& start, double slope = 0.1,
+                         bool on_surface = false)
 {
   Scene scene;
   scene.surfaces = { makeSurface(SurfaceType::Plane, { slope, -2.0 * slope, 0.0 }) };
@@ -39,7 +42,10 @@ Scene chainOnTiltedPlane(int n, double friction, bool pinned, State& start, doub
   {
     scene.masses.push_back(0.05 + 0.01 * (i % 3));
     start.positions.col(i) = Vec3(0.05 * i, 0.0, slope * 0.05 * i);  // on the plane
-    scene.constraints.push_back(SurfaceContact{ i, 0, friction, 0.0 });
+    if (on_surface && i == 0)
+      scene.constraints.push_back(SurfaceConstraint{ 0, 0 });
+    else
+      scene.constraints.push_back(SurfaceContact{ i, 0, friction, 0.0 });
     if (i > 0)
       scene.constraints.push_back(
           LinkConstraint{ i - 1, i, (start.positions.col(i) - start.positions.col(i - 1)).norm() });
@@ -139,6 +145,18 @@ TEST(ContactTree, ChainsAndTreesWithSurfaceContactsTakeTheFusedSweeps)
   EXPECT_NE(generic.reason.find("not a contact tree"), std::string::npos) << generic.reason;
   EXPECT_EQ(Model::compile(scene, SolveMethod::Automatic, StagePaths::Generic).path().path,
             ForwardPath::Generic);
+  // a surface row beside the contacts: a contact tree; beside none, the fused chain's (seed
+  // problem 3)
+  State on_surface_start;
+  const Scene on_surface = chainOnTiltedPlane(12, 0.3, false, on_surface_start, 0.1, true);
+  EXPECT_EQ(Model::compile(on_surface).path().path, ForwardPath::FusedContactTree)
+      << Model::compile(on_surface).path().reason;
+  Scene surface_only = on_surface;
+  surface_only.constraints.erase(
+      std::remove_if(surface_only.constraints.begin(), surface_only.constraints.end(),
+                     [](const Constraint& c) { return std::holds_alternative<SurfaceContact>(c); }),
+      surface_only.constraints.end());
+  EXPECT_EQ(Model::compile(surface_only).path().path, ForwardPath::FusedChain);
 }
 
 TEST(ContactTree, TheFusedStageGivesTheGenericForces)
@@ -153,6 +171,12 @@ TEST(ContactTree, TheFusedStageGivesTheGenericForces)
     expectSameStage(chainOnTiltedPlane(30, 0.6, pinned, start), start,
                     pinned ? "friction 0.6, pinned" : "friction 0.6");
   }
+  // the first particle on the plane by a surface row: one more row of one block, always acting
+  State start;
+  expectSameStage(chainOnTiltedPlane(30, 0.0, false, start, 0.1, true), start,
+                  "frictionless, a surface row");
+  expectSameStage(chainOnTiltedPlane(30, 0.6, false, start, 0.1, true), start,
+                  "friction 0.6, a surface row");
 }
 
 TEST(ContactTree, RandomTreesDroppedOnHeightFieldsMoveTheSameBothWays)

@@ -196,6 +196,14 @@ struct TreeLink
   /// its one block J (the contact's normal) on `first` (`second` is `first`, w_second 0); -1 for
   /// a link.
   int contact = -1;
+  /// A surface row's index in the SurfaceConstraint table (contact trees only): one block J on
+  /// `first` as a contact's, always acting; -1 otherwise.
+  int surface = -1;
+  /// Whether the row has one block (a contact's or a surface row's), on `first`.
+  bool oneBlock() const
+  {
+    return contact >= 0 || surface >= 0;
+  }
 };
 
 /// A Jacobian block on a particle an eliminated record holds: its imposed acceleration enters the
