@@ -109,8 +109,8 @@ SolveReport contactForceStage(const Model& model, Data& data, double time, const
 bool frictionAtRounding(const Model& model, Data& data, const Points& velocities);
 
 /// Whether a particle contact with friction slides: its friction, mu |f_n| against the slip, is
-/// not at rounding's level wherever it presses, so a fused stage leaves the stage to
-/// contactForceStage before its sweeps.
+/// to be solved for with the rows unless it stops pressing, so a fused stage leaves the stage to
+/// contactForceStage before its sweeps (the same stage either way).
 bool slidesWithFriction(const Model& model, const Data& data);
 
 /// velocities += dt W f_t, f_t each acting contact's friction force [N] as data.contacts hold it

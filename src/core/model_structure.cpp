@@ -165,8 +165,12 @@ std::vector<TreeLink> findTreeLinks(const Model& model, std::vector<int>& unlink
   const auto& surfaces = std::get<std::vector<KindRecord<SurfaceConstraint>>>(model.kindTables());
   // surface rows ride with contacts only: a tree of links and surface rows alone keeps the
   // generic stages and the solve by rows (the fused tree's sweeps know links only)
-  if (!only_links || (!surfaces.empty() && contacts.empty()) ||
-      static_cast<int>(links.size() + contacts.size() + surfaces.size()) != m)
+  if (!surfaces.empty() && contacts.empty())
+  {
+    why_not = "surface rows without contacts (the fused tree's sweeps take links only)";
+    return {};
+  }
+  if (!only_links || static_cast<int>(links.size() + contacts.size() + surfaces.size()) != m)
   {
     why_not =
         "a row that is not a link or a surface contact (only a tree of those, with surface "

@@ -80,12 +80,12 @@ SolveReport treeForward(const Model& model, Data& data, double time, const Point
 /// Stages 1, 2, 4 and 5 for a contact tree (Model::fusedContactTree(), no Baumgarte bias), in
 /// the fused tree's two sweeps (tree_stages.cpp), each contact's row one more row of one block:
 /// data as the generic stages write it but for the links' rows (d in data.fused.tree_jacobian;
-/// the contacts' rows are in data.rows), the contacts' forces (recordNormalForces), the same
-/// counters and report, the same motion to rounding. Not of the stage afterwards: the links' rows
-/// in data.rows, rows.max_violation, data.rhs (by place), the friction iteration's buffers and the
-/// solver's factorisation (every reader evaluates and factorises its own). A stage whose friction
-/// must be solved for (frictionAtRounding) or whose pivot is singular is taken by the generic
-/// stages (contactForceStage). Eliminated motion already imposed.
+/// the contacts' and surface rows are in data.rows), the contacts' forces (recordNormalForces), the
+/// same counters and report, the same motion to rounding. Not of the stage afterwards: the links'
+/// rows in data.rows, rows.max_violation, data.rhs (by place), the friction iteration's buffers and
+/// the solver's factorisation (every reader evaluates and factorises its own). A stage whose
+/// friction must be solved for (frictionAtRounding) or whose pivot is singular is taken by the
+/// generic stages (contactForceStage). Eliminated motion already imposed.
 SolveReport contactTreeForward(const Model& model, Data& data, double time, const Points& positions,
                                const Points& velocities, Points& accelerations);
 

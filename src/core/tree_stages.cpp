@@ -9,8 +9,9 @@
 // motion to rounding, the same counters. A singular pivot hands the stage to the generic path,
 // whose factorisation regularises it. The projection likewise: each Newton check's sweep also
 // factorises, and the back substitution and the correction share one.
-// A contact tree (Model::fusedContactTree(): links and surface contacts) takes the same sweeps for
-// its forward stage, a contact's row one more row of one block on its particle's clique (its
+// A contact tree (Model::fusedContactTree(): links and surface contacts, and surface rows beside
+// them) takes the same sweeps, a contact's row (or a surface row) one more row of one block on
+// its particle's clique (its
 // elimination there is the projected inverse mass w (I - n n^T / |n|^2) the rows after it see):
 // the stage's rows, solve and forces without the generic stages' passes, its friction checked
 // after them as contactForceStage checks it first; a stage whose friction must be solved for
@@ -299,7 +300,7 @@ void treeSweepDown(const Model& model, Data& data, Points& accelerations)
     settleParticle(link.first, link.first_opens, link.first_closes, link.w_first, force, a0, forces,
                    a);
     if (CONTACTS && link.oneBlock())
-      continue;  // a contact's one block
+      continue;  // a contact's or surface row's one block
     settleParticle(link.second, link.second_opens, link.second_closes, link.w_second, -force, a0,
                    forces, a);
   }
@@ -403,7 +404,7 @@ void treeCorrect(const Model& model, Data& data, Eigen::VectorXd& x, Points& out
     // W J^T mu: w_i mu d on i, -w_j mu d on j (zero on held particles)
     Eigen::Map<Vec3>(o + 3 * link.first) -= (link.w_first * value) * d;
     if (CONTACTS && link.oneBlock())
-      continue;  // a contact's one block
+      continue;  // a contact's or surface row's one block
     Eigen::Map<Vec3>(o + 3 * link.second) += (link.w_second * value) * d;
   }
 }

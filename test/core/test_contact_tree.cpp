@@ -255,24 +255,28 @@ TEST(ContactTree, RandomTreesDroppedOnHeightFieldsMoveTheSameBothWays)
   EXPECT_EQ(contact_trees, 9);
 }
 
-// The sweeps finish a stage themselves where no friction is to be solved for: frictionless, and
-// sticking on a level plane, its friction at rounding's level (contactForceStage's first check);
-// holding a chain on a tilt takes friction, and the stage is the generic one. Either way the
-// generic stage's accelerations.
+// The sweeps finish a stage themselves where no friction is to be solved for: frictionless (with
+// a surface row too), and sticking on a level plane, its friction at rounding's level
+// (contactForceStage's first check); holding a chain on a tilt takes friction, and a slide with
+// friction too, and the stage is the generic one. Either way the generic stage's forces and
+// accelerations.
 TEST(ContactTree, TheSweepsFinishTheStageUnlessFrictionIsToBeSolvedFor)
 {
   struct Case
   {
-    double slope, friction;
-    bool swept;
+    double slope, friction, speed;  // speed: the chain's slide along x at the start [m/s]
+    bool on_surface, swept;
     const char* what;
   };
-  for (const Case c :
-       { Case{ 0.0, 0.3, true, "level, mu 0.3" }, Case{ 0.1, 0.0, true, "tilted, frictionless" },
-         Case{ 0.1, 0.6, false, "tilted, mu 0.6" } })
+  for (const Case c : { Case{ 0.0, 0.3, 0.0, false, true, "level, mu 0.3" },
+                        Case{ 0.1, 0.0, 0.0, false, true, "tilted, frictionless" },
+                        Case{ 0.1, 0.0, 0.0, true, true, "tilted, frictionless, a surface row" },
+                        Case{ 0.1, 0.6, 0.0, false, false, "tilted, mu 0.6" },
+                        Case{ 0.0, 0.3, 0.5, false, false, "level, mu 0.3, sliding" } })
   {
     State start;
-    const Scene scene = chainOnTiltedPlane(10, c.friction, false, start, c.slope);
+    const Scene scene = chainOnTiltedPlane(10, c.friction, false, start, c.slope, c.on_surface);
+    start.velocities.row(0).setConstant(c.speed);
     bool swept = false, generic_swept = false;
     const Points a = stageOf(Model::compile(scene), start, swept);
     const Points b = stageOf(Model::compile(scene, SolveMethod::Automatic, StagePaths::Generic),

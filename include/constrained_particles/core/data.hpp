@@ -263,10 +263,10 @@ public:
   /// (chain_stages.cpp) only a surface row's C, Jdot v, diagonal and violation, and (after a
   /// projection) max_violation are of that stage (the fused stages keep their Jacobian in
   /// fused.chain_jacobian or fused.tree_jacobian; a fused tree's forward stage writes none of the
-  /// rows, its projection max_violation only; a contact tree's writes its contacts' rows, and its
-  /// projection max_violation too); the rest is of the last evaluation that stored it (a
-  /// generic stage or projection, SHAKE, a generic fallback). Read what a fused stage did not store
-  /// through evaluateRowRecords.
+  /// rows, its projection max_violation only; a contact tree's writes its contacts' and surface
+  /// rows, and its projection max_violation too); the rest is of the last evaluation that stored it
+  /// (a generic stage or projection, SHAKE, a generic fallback). Read what a fused stage did not
+  /// store through evaluateRowRecords.
   RowData rows;
   RowData trial_rows;     ///< rows at SHAKE's trial positions
   Points applied_forces;  ///< f at the last stage [N] (3 x n)

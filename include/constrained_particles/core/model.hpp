@@ -101,9 +101,9 @@ enum class ForwardPath
   Generic,     ///< every stage on its own, row records by kind (stages.cpp)
   FusedChain,  ///< links and surface rows with J W J^T tridiagonal (chain_stages.cpp)
   FusedTree,   ///< links forming a tree, few rows on a particle (tree_stages.cpp)
-  /// links and surface contacts forming a tree, few rows on a particle: the fused tree's sweeps
-  /// with each contact one more row (tree_stages.cpp); a stage with friction to solve for is
-  /// the generic one
+  /// links and surface contacts (and surface rows beside them) forming a tree, few rows on a
+  /// particle: the fused tree's sweeps with each contact or surface row one more row
+  /// (tree_stages.cpp); a stage with friction to solve for is the generic one
   FusedContactTree,
 };
 
@@ -193,8 +193,8 @@ struct TreeLink
   /// lambda is written, not added) and the last (its constraint force is then complete).
   bool first_opens = false, first_closes = false, second_opens = false, second_closes = false;
   /// A surface contact's row (ForwardPath::FusedContactTree): its index in Model::unilateral(),
-  /// its one block J (the contact's normal) on `first` (`second` is `first`, w_second 0); -1 for
-  /// a link.
+  /// its one block J (the contact's normal) on `first` (`second` is `first`, w_second 0); -1
+  /// otherwise.
   int contact = -1;
   /// A surface row's index in the SurfaceConstraint table (contact trees only): one block J on
   /// `first` as a contact's, always acting; -1 otherwise.
@@ -416,8 +416,8 @@ public:
   {
     return path_.path == ForwardPath::FusedTree;
   }
-  /// True if path() is ForwardPath::FusedContactTree: solvesTreeByRows(), every row a link or a
-  /// surface contact, no carried shape.
+  /// True if path() is ForwardPath::FusedContactTree: solvesTreeByRows(), every row a link, a
+  /// surface contact or (beside contacts) a surface row, no carried shape.
   bool fusedContactTree() const
   {
     return path_.path == ForwardPath::FusedContactTree;
