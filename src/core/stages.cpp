@@ -27,14 +27,9 @@ void evaluateKind(const std::vector<KindRecord<Kind>>& table, const Model& model
         static_assert(Kind::ROWS == 1, "a unilateral kind's row switches on and off whole");
         // switched off: an identity row (contact.hpp), not evaluated (most of a folded rope's
         // near link pairs, a chain's contacts in flight)
-        const int row = entry.first_row;
-        if (rows.inactive[row])
+        if (rows.inactive[entry.first_row])
         {
-          rows.value[row] = rows.jdot_v[row] = rows.violation[row] = rows.time_rate[row] = 0.0;
-          for (int k = 0; k < Kind::PARTICLES; ++k)
-            rows.jacobian[entry.first_block + k].setZero();
-          if (diagonals)
-            rows.diagonal[row] = 1.0;  // the identity row's (sparse.cpp's and dense.cpp's too)
+          writeIdentityRow(rows, entry.first_row, entry.first_block, Kind::PARTICLES, diagonals);
           continue;
         }
       }

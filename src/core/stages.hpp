@@ -35,6 +35,18 @@ void evaluateRowRecords(const Model& model, double time, const Points& positions
                         bool diagonals = true, const Points* frame_positions = nullptr,
                         const std::vector<AnchorTrack>* carriers = nullptr);
 
+/// A switched-off unilateral row as every path writes it (contact.hpp): an identity row, its C,
+/// Jdot v, violation and dC/dt 0, its `blocks` Jacobian blocks from `first_block` 0 and (if
+/// `diagonals`) its diagonal 1, which the dense and sparse solves put on J W J^T themselves.
+inline void writeIdentityRow(RowData& rows, int row, int first_block, int blocks, bool diagonals)
+{
+  rows.value[row] = rows.jdot_v[row] = rows.violation[row] = rows.time_rate[row] = 0.0;
+  for (int k = 0; k < blocks; ++k)
+    rows.jacobian[first_block + k].setZero();
+  if (diagonals)
+    rows.diagonal[row] = 1.0;
+}
+
 /// Stage 1, rows at positions: evaluateRowRecords into `rows`, counted in data.counters.
 void rowStage(const Model& model, Data& data, double time, const Points& positions,
               const Points& velocities, RowData& rows);

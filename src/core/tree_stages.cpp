@@ -11,8 +11,8 @@
 // factorises, and the back substitution and the correction share one.
 // A contact tree (Model::fusedContactTree(): links and surface contacts, and surface rows beside
 // them) takes the same sweeps, a contact's row (or a surface row) one more row of one block on
-// its particle's clique (its
-// elimination there is the projected inverse mass w (I - n n^T / |n|^2) the rows after it see):
+// its particle's clique (its elimination there is the projected inverse mass
+// w (I - n n^T / |n|^2) the rows after it see):
 // the stage's rows, solve and forces without the generic stages' passes, its friction checked
 // after them as contactForceStage checks it first; a stage whose friction must be solved for
 // (or whose pivot is singular) is taken by the generic stages. Its projection takes the sweeps
@@ -134,11 +134,11 @@ void countContactTreeRows(const Model& model, Data& data)
 
 // A contact tree's row of one block at place k (a contact's, `row.contact`, or a surface row's,
 // `row.surface`), into data.rows as evaluateKind writes it (a contact's an identity row while it
-// is off: contact.hpp) and its J by place into `jacobians`; its right-hand side -(Jdot v + J a0)
-// as constraintForceStage sums it into `r`. Returns its diagonal entry of J W J^T.
+// is off: contact.hpp) and its J by place into `jacobians`. Returns its diagonal entry of
+// J W J^T.
 inline double evaluateContactRowAt(const Model& model, Data& data, const TreeLink& row, int k,
                                    const EffectContext& context, const Points& positions,
-                                   const Points& velocities, double* jacobians, double& r)
+                                   const Points& velocities, double* jacobians)
 {
   RowData& rows = data.rows;
   const int r_index = row.row;
@@ -146,12 +146,9 @@ inline double evaluateContactRowAt(const Model& model, Data& data, const TreeLin
   Eigen::Map<Vec3> d(jacobians + 3 * k);
   if (rows.inactive[r_index])
   {
-    rows.value[r_index] = rows.jdot_v[r_index] = rows.violation[r_index] = rows.time_rate[r_index] =
-        0.0;
-    j.setZero();
+    writeIdentityRow(rows, r_index, row.block, 1, true);
     d.setZero();
-    r = -0.0;
-    return rows.diagonal[r_index] = 1.0;
+    return 1.0;
   }
   const RowBlock block{ rows.value.data() + r_index, rows.jdot_v.data() + r_index,
                         rows.violation.data() + r_index, &j, rows.time_rate.data() + r_index };
@@ -168,12 +165,18 @@ inline double evaluateContactRowAt(const Model& model, Data& data, const TreeLin
   d = j;
   double diagonal = 0.0;
   diagonal += row.w_first * j.squaredNorm();
-  double j_a0 = 0.0;
-  j_a0 += j.dot(data.free_accelerations.col(row.first));
-  double sum = rows.jdot_v[r_index] + 0.0;  // + 0.0: the generic sum's absent bias term
-  sum += j_a0;
-  r = -sum;
   return rows.diagonal[r_index] = diagonal;
+}
+
+// A one-block row's right-hand side -(Jdot v + J a0) as constraintForceStage sums it, from the
+// row evaluateContactRowAt wrote (-0 for an identity row, as there).
+inline double oneBlockRightHandSide(const Data& data, const TreeLink& row)
+{
+  double j_a0 = 0.0;
+  j_a0 += data.rows.jacobian[row.block].dot(data.free_accelerations.col(row.first));
+  double sum = data.rows.jdot_v[row.row] + 0.0;  // + 0.0: the generic sum's absent bias term
+  sum += j_a0;
+  return -sum;
 }
 
 // Up the tree; false at a singular pivot. REUSED: d, L and D in data are of these positions (the
@@ -205,9 +208,9 @@ bool treeSweepUp(const Model& model, Data& data, double time, const Points& posi
     if constexpr (CONTACTS)
       if (link.oneBlock())
       {
-        double r;
-        const double diagonal = evaluateContactRowAt(model, data, link, k, context, positions,
-                                                     velocities, jacobians, r);
+        const double diagonal =
+            evaluateContactRowAt(model, data, link, k, context, positions, velocities, jacobians);
+        double r = oneBlockRightHandSide(data, link);
         const double pivot = factorLink(link, cliques, jacobians + 3 * k, diagonal, jacobians,
                                         inverse_pivots, lower_entries, min_ratio);
         if (ConstraintSolver::isSingularPivot(pivot, diagonal))
@@ -343,9 +346,8 @@ bool treeProjectionSweep(const Model& model, Data& data, double time, const Poin
     {
       // a contact's row at zero velocities, as projectPositions evaluates rows; J v as
       // multiplyJacobian sums it
-      double unused;
       diagonal = evaluateContactRowAt(model, data, link, k, context, positions, data.stages.zero,
-                                      jacobians, unused);
+                                      jacobians);
       max_violation = worseError(max_violation, data.rows.violation[link.row]);
       if (!factorised)
         continue;
