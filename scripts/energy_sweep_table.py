@@ -44,10 +44,10 @@ def main(path):
         f"energy residual within the budget (**ok**), or stops on the named step check the node "
         f"faults on, its last accepted state finite and within the budget. The test asserts "
         f"exactly that; no accepted step exceeds the budget, in every scene the budget judges. "
-        f"A scene with contacts or a sampled holder is not judged ([stability.md]"
-        f"(stability.md#the-energy-ledger): an impact met a step late books its lift as the "
-        f"step's); its cells say **not judged**, and their share of the budget is the run's "
-        f"figure, not a bound.",
+        f"A scene with a sampled holder or a carried shape is not judged ([stability.md]"
+        f"(stability.md#the-energy-ledger): the trapezoid of a sampled path's power measures "
+        f"the quadrature); its cells say **not judged**, and their share of the budget is the "
+        f"run's figure, not a bound.",
         "",
         f"{len(runs)} runs: " + ", ".join(f"{n} {k}" for k, n in outcomes.most_common()) + ".",
         "",

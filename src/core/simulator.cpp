@@ -543,13 +543,8 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
     outcome.ledger_before = data.ledger;
     bookStep(settings_.dt, outcome.end_energies);
     const EnergyLedger& ledger = data.ledger;
-    // a NaN residual fails `<=`: it overdraws. A sampled holder (a frame anchor) is not judged:
-    // its path's acceleration jumps at every sample, which the trapezoid of its reaction's power
-    // cannot follow, so the ledger's residual there is the quadrature's, not the method's; nor is
-    // a scene with contacts: an impact found a step late is projected out of the surface, and
-    // the energy that lift books is the step's, not the motion's (docs/stability.md)
-    if (outcome.failed != StepCheck::None || settings_.energy_budget <= 0.0 ||
-        !model_->tracked().empty() || model_->numContacts() > 0 ||
+    // a NaN residual fails `<=`: it overdraws (a sampled path is not judged: budgetJudges)
+    if (outcome.failed != StepCheck::None || settings_.energy_budget <= 0.0 || !budgetJudges() ||
         ledger.residual() <= settings_.energy_budget * ledger.budgetScale(ENERGY_SCALE_FLOOR))
     {
       total.merge(taken);

@@ -202,6 +202,15 @@ public:
     return data_->ledger;
   }
 
+  /// Whether the energy budget judges this scene's steps (StepSettings::energy_budget): not
+  /// where a sampled path moves something (a frame anchor, a carried shape), whose
+  /// acceleration jumps at every sample so that the trapezoid of its power, and the residual,
+  /// measure the quadrature rather than the method (docs/stability.md).
+  bool budgetJudges() const
+  {
+    return model_->tracked().empty() && !model_->hasCarriers();
+  }
+
   /// Constraint forces [N] and multipliers at the current state (computed on demand); with
   /// contacts, of the active set settled there (no acting contact pulls). Reading them never
   /// changes the motion.
