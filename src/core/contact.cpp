@@ -276,11 +276,13 @@ double impactFraction(const Model& model, Data& data, const Points& p0, const Po
   const EffectContext at_end = contextAt(model, data, x.time);
   for (std::size_t k = 0; k < rows.size(); ++k)
   {
+    if (acts(data.contacts[k]) || held(model, rows[k]))  // no frame for them (a resting rope's)
+      continue;
     const Touch touch = touchOf(model, rows[k], at_end, x.positions, x.velocities);
     // a contact in but moving out is no impact (resolveImpacts lifts it): no time to meet; a
     // segment in at an end is its particle's contact's
-    if (acts(data.contacts[k]) || held(model, rows[k]) || !(touch.gap < -tolerance) ||
-        touch.at_end || (rows[k].kind != UnilateralKind::SlackLink && touch.opening > 0.0))
+    if (!(touch.gap < -tolerance) || touch.at_end ||
+        (rows[k].kind != UnilateralKind::SlackLink && touch.opening > 0.0))
       continue;
     if (!copied)
       p = x.positions;  // the other particles' columns are not read: rows touch their own
