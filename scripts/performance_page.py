@@ -323,7 +323,7 @@ def energy_sweep_block(bench):
     unjudged = [r for r in ok if r.get("judged", "1") == "0"]
     lines = [f"- {len(runs)} runs; {len(ok)} reach {horizon:g} s, {len(ok) - len(unjudged)} of "
              f"them within the energy budget and {len(unjudged)} in scenes it does not judge "
-             f"(contacts, sampled holders: their share of it is a figure in "
+             f"(sampled holders, carried shapes, friction: their share of it is a figure in "
              f"[energy_sweep.md](energy_sweep.md)), {len(handed)} handed to `fast_projection` "
              f"on the way;",
              f"- {len(runs) - len(ok)} stop on a named step check:"]

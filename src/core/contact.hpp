@@ -180,7 +180,7 @@ constexpr int MAX_IMPACT_SPLITS = 8;
 // Simulator calls each of these at its place in every step, with contacts or without; in a
 // model with no unilateral rows each is a no-op (or takes the sub-step as it is), so the step
 // branches on contacts only here (it still reads whether there are any where it chooses a
-// forward stage, the energy budget and whether its multipliers are current).
+// forward stage and whether its multipliers are current).
 
 /// The step's start: the active set (chooseContactModes), the kinetic energy a stick took out
 /// booked as dissipation, and whether the state's last solve still stands (it does unless a

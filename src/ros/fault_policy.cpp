@@ -62,12 +62,18 @@ std::string checkFault(const Simulator& simulator, const NodeParameters& paramet
     case StepCheck::EnergyBudget:
     {
       const EnergyLedger& ledger = simulator.energyLedger();
-      const double scale = simulator.data().control.budget_failure_scale;
+      const StepControl& control = simulator.data().control;
+      const double scale = control.budget_failure_scale;
+      // the fallback is judged by its own gain, from when it took the run over
+      const std::string since = control.budget_fallback
+                                    ? formatValue(control.budget_fallback_time) + " s, when " +
+                                          Simulator::STIFF_FALLBACK + " took the run over"
+                                    : formatValue(ledger.t0) + " s";
       return "step check energy_budget failed" + when + ": energy budget exceeded, residual " +
-             formatValue(simulator.data().control.budget_failure_residual) + " J > " +
+             formatValue(control.budget_failure_residual) + " J > " +
              formatValue(step.energy_budget * scale) + " J (~energy_budget " +
              formatValue(step.energy_budget) + " of scale " + formatValue(scale) +
-             " J, since t = " + formatValue(ledger.t0) + " s): the run gained energy" +
+             " J, since t = " + since + "): the run gained energy" +
              (step.max_substeps > 1 ? std::string(" even in steps of ") +
                                           Simulator::STIFF_FALLBACK + ", the stiff-safe method"
                                     : std::string(" (~max_substeps = 1: no fallback to ") +

@@ -117,6 +117,9 @@ struct StepControl
   /// The integrator overdrew the energy budget: the stiff-safe method (STIFF_FALLBACK) retook
   /// that step and takes every step until the ledger is opened again or the settings change.
   bool budget_fallback = false;
+  /// The ledger's residual when the fallback took the run over [J]: its steps are judged by what
+  /// they gain from there (Simulator::budgetResidual), a budget of their own
+  double budget_fallback_residual = 0.0;
   /// The contacts' modes at `start` (attempts start from them again)
   std::vector<ContactState> start_contacts;
   /// Each contact's normal force the last accepted step left [N] (its last stage's; velocity
@@ -162,7 +165,9 @@ struct EnergyLedger
   double potential = 0.0;        ///< U of the conservative forces at the current state [J]
   /// integral of f . v of external forces, drags and driven anchors (their reactions) [J]
   double work_in = 0.0;
-  double dissipated = 0.0;     ///< -integral of f . v of damping and drag [J], >= 0
+  /// -integral of f . v of damping, drag and friction, and the impacts' losses [J] (a lift out
+  /// of a surface, booked with the impacts, lowers it)
+  double dissipated = 0.0;
   double work_in_moved = 0.0;  ///< integral of |f . v| of the work-in forces [J], >= 0
   /// the most the motion has exchanged since t0, max |T - T(t0)| + |U - U(t0)| [J]: a bead
   /// released from rest has no scale of its own at t0

@@ -204,11 +204,21 @@ public:
 
   /// Whether the energy budget judges this scene's steps (StepSettings::energy_budget): not
   /// where a sampled path moves something (a frame anchor, a carried shape), whose
-  /// acceleration jumps at every sample so that the trapezoid of its power, and the residual,
-  /// measure the quadrature rather than the method (docs/stability.md).
+  /// acceleration jumps at every sample, nor where a contact has friction, whose power the
+  /// ledger's trapezoid takes at the steps' ends (first order against velocity Verlet's and
+  /// fast_projection's kick from the step's start): there the residual measures the quadrature
+  /// rather than the method (docs/stability.md).
   bool budgetJudges() const
   {
-    return model_->tracked().empty() && !model_->hasCarriers();
+    return budget_judges_;
+  }
+  /// The residual the energy budget judges [J]: the ledger's, less what the run had gained when
+  /// the stiff fallback took it over (StepControl::budget_fallback_residual): the fallback's
+  /// steps are judged by what they gain themselves, not by the integrator's gain they stopped.
+  double budgetResidual() const
+  {
+    return data_->ledger.residual() -
+           (data_->control.budget_fallback ? data_->control.budget_fallback_residual : 0.0);
   }
 
   /// Constraint forces [N] and multipliers at the current state (computed on demand); with
@@ -348,6 +358,7 @@ private:
   const IntegratorInfo* stiff_ = nullptr;                  // STIFF_FALLBACK's row
   bool conservative_ = false;   // only conservative forces, no driven anchor: energy is checked
   bool has_stiffness_ = false;  // rows or springs: the stability estimate has something to see
+  bool budget_judges_ = true;   // budgetJudges(), read from the scene (readSceneKind)
   bool driven_ = false;  // a driven anchor: its reactions are evaluated at each step's end (ledger)
   struct HoldLimit
   {
