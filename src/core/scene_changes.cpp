@@ -268,7 +268,16 @@ void Simulator::restoreState(const State& state)
 
 void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMethod method)
 {
-  Compiled compiled = compile(scene, initial_state, settings_, method, paths_);
+  setScene(scene, initial_state, settings_, method);
+}
+
+void Simulator::setScene(const Scene& scene, const State& initial_state,
+                         const StepSettings& settings, SolveMethod method)
+{
+  // compiled with the new settings (the initial state's projection reads them), which are taken
+  // only once it succeeds
+  Compiled compiled = compile(scene, initial_state, settings, method, paths_);
+  setStepSettings(settings);
   requested_method_ = method;
   // the world outside the scene goes on: an obstacle carried in both rests where it is now
   carryCarriers(*model_, *data_, *compiled.model, *compiled.data, true);
@@ -280,9 +289,15 @@ void Simulator::setScene(const Scene& scene, const State& initial_state, SolveMe
 void Simulator::setStepSettings(const StepSettings& settings)
 {
   validateStepSettings(settings);
-  // other settings may keep the budget; the same ones (a reconfigure of the node's own) not
+  // other settings take the run from here, judged by what they gain themselves (the account
+  // may stand at the budget's edge, where the fallback took over); the same ones (a
+  // reconfigure of the node's own) change nothing
   if (!(settings == settings_))
+  {
     data_->control.budget_fallback = false;
+    data_->control.budget_base_residual = data_->ledger.residual();
+    data_->control.budget_base_time = data_->state.time;
+  }
   integrator_ = &findIntegrator(settings.integrator);
   settings_ = settings;
   substep_settings_ = settings;

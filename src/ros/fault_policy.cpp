@@ -64,11 +64,12 @@ std::string checkFault(const Simulator& simulator, const NodeParameters& paramet
       const EnergyLedger& ledger = simulator.energyLedger();
       const StepControl& control = simulator.data().control;
       const double scale = control.budget_failure_scale;
-      // the fallback is judged by its own gain, from when it took the run over
-      const std::string since = control.budget_fallback
-                                    ? formatValue(control.budget_fallback_time) + " s, when " +
-                                          Simulator::STIFF_FALLBACK + " took the run over"
-                                    : formatValue(ledger.t0) + " s";
+      // each method is judged by its own gain, from when it took the run
+      std::string since = formatValue(control.budget_base_time) + " s";
+      if (control.budget_fallback)
+        since += std::string(", when ") + Simulator::STIFF_FALLBACK + " took the run over";
+      else if (control.budget_base_time > ledger.t0)
+        since += ", when these step settings took the run";
       return "step check energy_budget failed" + when + ": energy budget exceeded, residual " +
              formatValue(control.budget_failure_residual) + " J > " +
              formatValue(step.energy_budget * scale) + " J (~energy_budget " +

@@ -419,21 +419,11 @@ void SimulationRunner::finishStep(bool success, const std::string& message)
 void SimulationRunner::apply(const SceneSession::Candidate& candidate)
 {
   const double time_before = simulator_->state().time;
-  // settings first: if the scene is refused, put them back
-  const StepSettings saved = simulator_->stepSettings();
-  simulator_->setStepSettings(candidate.settings);
   Scene scene = candidate.built.scene;
   holders_.limitHolds(scene);
-  try
-  {
-    simulator_->setScene(scene, candidate.built.initial_state,
-                         candidate.description.solver.solve_method);
-  }
-  catch (const InvalidInput&)
-  {
-    simulator_->setStepSettings(saved);
-    throw;
-  }
+  // the settings with the scene: a refused scene leaves both (and the run) as they were
+  simulator_->setScene(scene, candidate.built.initial_state, candidate.settings,
+                       candidate.description.solver.solve_method);
   accuracy_.abandon();
   // an ~attach waiting for its frame asked for a particle of the scene that was
   if (holders_.attaching())

@@ -212,24 +212,18 @@ RunnerReply SimulationRunner::reconfigure(
         const SceneDescription& scene = *held;
         edit(candidate, scene);
         validateNodeParameters(candidate);
-        simulator_->setStepSettings(candidate.step);
-        // new forces recompile the model (and restart dopri5's step control): only on a change
+        // new forces recompile the model (and restart dopri5's step control): only on a change;
+        // before the settings, so a refused force leaves the run as it was (the budget's
+        // fallback too, which new settings end)
         if (const std::optional<SceneDescription> changed = session_.withGravityAndDamping(
                 candidate.overrides.gravity.value_or(sceneGravity(scene)),
                 candidate.overrides.damping.value_or(sceneDamping(scene))))
         {
-          try
-          {
-            simulator_->setForces(changed->forces);
-          }
-          catch (const InvalidInput&)
-          {
-            simulator_->setStepSettings(parameters_.step);
-            throw;
-          }
+          simulator_->setForces(changed->forces);
           session_.adoptChange(*changed);
           copyModel();
         }
+        simulator_->setStepSettings(candidate.step);
         // a step setting changed here is the user's choice from now on, for every scene
         session_.chooseStep(parameters_.step, candidate.step);
         // gravity and damping are now the current scene's (kept by ~reset ''): not overrides that

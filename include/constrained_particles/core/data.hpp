@@ -110,16 +110,19 @@ struct StepControl
   /// by anything that writes the state or the applied forces between steps.
   bool end_energies_current = false;
   double end_kinetic = 0.0, end_potential = 0.0, end_scale = 0.0;
-  /// The energy ledger's residual and budget scale (EnergyLedger::budgetScale) of the last step
-  /// that overdrew the energy budget [J] (the figures of the fallback's warning or the fault's
-  /// message: the step itself is put back, and the ledger with it).
+  /// The residual the budget judged (Simulator::budgetResidual) and its scale
+  /// (EnergyLedger::budgetScale) at the last step that overdrew it [J] (the fallback's warning's or
+  /// the fault's message: the step itself is put back, and the ledger with it).
   double budget_failure_residual = 0.0, budget_failure_scale = 0.0;
   /// The integrator overdrew the energy budget: the stiff-safe method (STIFF_FALLBACK) retook
   /// that step and takes every step until the ledger is opened again or the settings change.
   bool budget_fallback = false;
-  /// The ledger's residual when the fallback took the run over [J]: its steps are judged by what
-  /// they gain from there (Simulator::budgetResidual), a budget of their own
-  double budget_fallback_residual = 0.0;
+  /// The ledger's residual [J] and time [s] the energy budget judges from: 0 and t0 when the ledger
+  /// opens; where the fallback took the run over, or new step settings took it (setStepSettings),
+  /// what the run had gained then: each method is judged by what it gains itself, a whole budget
+  /// (Simulator::budgetResidual), not for what another gained before it
+  double budget_base_residual = 0.0;
+  double budget_base_time = 0.0;
   /// The contacts' modes at `start` (attempts start from them again)
   std::vector<ContactState> start_contacts;
   /// Each contact's normal force the last accepted step left [N] (its last stage's; velocity
@@ -150,11 +153,12 @@ struct StepControl
 };
 
 /// The run's energy account since t0, the last reset, setState, restoreState or change of the
-/// scene's forces (Simulator::energyLedger()), kept on every accepted step of every scene:
-/// residual() = E(t) - E(t0) - work_in + dissipated, zero for the exact motion. The work of the
-/// non-conservative forces is booked by the trapezoidal rule over each step (second order in
-/// dt); the projections' velocity corrections and fast projection's losses are not booked, so
-/// they show in the residual, as losses. docs/physics.md, "The energy ledger".
+/// scene's forces, constraints, surfaces or obstacles (Simulator::energyLedger()), kept on every
+/// accepted step of every scene: residual() = E(t) - E(t0) - work_in + dissipated, zero for the
+/// exact motion. The work of the non-conservative forces is booked by the trapezoidal rule over
+/// each step (second order in dt); the projections' velocity corrections and fast projection's
+/// losses are not booked, so they show in the residual, as losses. docs/physics.md, "The energy
+/// ledger".
 struct EnergyLedger
 {
   double t0 = 0.0;               ///< when it was opened [s]
@@ -173,7 +177,7 @@ struct EnergyLedger
   /// released from rest has no scale of its own at t0
   double exchanged = 0.0;
   double power_in = 0.0;          ///< f . v of the work-in forces at the current state [W]
-  double power_dissipated = 0.0;  ///< -f . v of damping and drag at the current state [W]
+  double power_dissipated = 0.0;  ///< -f . v of damping, drag and friction now [W]
 
   /// E(t) - E(t0) - work_in + dissipated [J]
   double residual() const

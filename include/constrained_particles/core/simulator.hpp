@@ -67,6 +67,10 @@ public:
   /// changes
   void setScene(const Scene& scene, const State& initial_state,
                 SolveMethod method = SolveMethod::Automatic);
+  /// The same with new step settings, taken only with the scene. @throws InvalidInput; nothing
+  /// changes, the settings neither
+  void setScene(const Scene& scene, const State& initial_state, const StepSettings& settings,
+                SolveMethod method = SolveMethod::Automatic);
 
   /// @throws InvalidInput naming the bad setting; settings untouched
   void setStepSettings(const StepSettings& settings);
@@ -196,7 +200,7 @@ public:
   /// Errors and energies of the current state.
   Diagnostics diagnostics() const;
 
-  /// The energy account since the last reset, setState, restoreState or setForces (data.hpp).
+  /// The energy account since the last change of the state or the world (openLedger, data.hpp).
   const EnergyLedger& energyLedger() const
   {
     return data_->ledger;
@@ -213,12 +217,11 @@ public:
     return budget_judges_;
   }
   /// The residual the energy budget judges [J]: the ledger's, less what the run had gained when
-  /// the stiff fallback took it over (StepControl::budget_fallback_residual): the fallback's
-  /// steps are judged by what they gain themselves, not by the integrator's gain they stopped.
+  /// the method taking the steps took it (StepControl::budget_base_residual: the stiff fallback
+  /// at its takeover, new step settings when set): a method is judged by what it gains itself.
   double budgetResidual() const
   {
-    return data_->ledger.residual() -
-           (data_->control.budget_fallback ? data_->control.budget_fallback_residual : 0.0);
+    return data_->ledger.residual() - data_->control.budget_base_residual;
   }
 
   /// Constraint forces [N] and multipliers at the current state (computed on demand); with
