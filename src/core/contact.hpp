@@ -113,12 +113,18 @@ bool frictionAtRounding(const Model& model, Data& data, const Points& velocities
 /// contactForceStage before its sweeps (the same stage either way).
 bool slidesWithFriction(const Model& model, const Data& data);
 
-/// velocities += dt W f_t, f_t each acting contact's friction force [N] as data.contacts hold it
-/// (the step's start: chooseContactModes' solve). For the integrators that hold the constraints
-/// themselves (velocity Verlet, fast projection): they evaluate no stage forces, so friction is
-/// an explicit force there, held over the step (exact while it is constant, as on a plane; first
-/// order where it turns within a step). `velocities`: 3 x numParticles() [m/s]; dt [s].
-void kickFriction(const Model& model, const Data& data, double dt, Points& velocities);
+/// velocities += dt W (f + f_t): f the applied forces (data.applied_forces), f_t each acting
+/// contact's friction force [N] as data.contacts hold it (the step's start: chooseContactModes'
+/// solve). The kick of the integrators that hold the constraints themselves (velocity Verlet,
+/// fast projection): they evaluate no stage forces, so friction is an explicit force there, held
+/// over the step (exact while it is constant, as on a plane; first order where it turns within a
+/// step). `velocities`: 3 x numParticles() [m/s]; dt [s]. Books friction's share of the kick's
+/// energy change exactly, -dt f_t . (v_0 + v_1) / 2 with v_0, v_1 the velocities before and
+/// after the whole kick (1/2 m (|v_1|^2 - |v_0|^2) = dt (f + f_t) . (v_0 + v_1) / 2: a stick,
+/// whose friction cancels the applied force's slope, takes nothing out), into
+/// StepControl::friction_kick_loss; not with a moving obstacle, whose slip is relative to its
+/// point (the ledger's trapezoid there).
+void kickForces(const Model& model, Data& data, double dt, Points& velocities);
 
 /// Baraff's active set at data.state with the modes it has: a forward stage (data.accelerations,
 /// multipliers, forces), then the contact with the most negative multiplier switched off, or a
@@ -192,10 +198,10 @@ void startContactStep(const Model& model, Data& data, const StepSettings& settin
 void restoreStartContacts(const Model& model, Data& data);
 
 /// The contacts' part of the ledger's powers at `x` [W]: friction only dissipates, against the
-/// slip; on a moving obstacle a contact's force (a particle's normal and friction, a segment's
-/// normal) does work through the obstacle's point, put in by its holder (`in`).
+/// slip (`friction`); on a moving obstacle a contact's force (a particle's normal and friction, a
+/// segment's normal) does work through the obstacle's point, put in by its holder (`in`).
 void addContactPowers(const Model& model, const Data& data, const State& x, double& in,
-                      double& dissipated);
+                      double& friction);
 
 /// One sub-step of length h ending at `end` with its contact events: `take_piece(length, end)`
 /// advances data.state by one piece (the integrator, then projection); without contacts that is
@@ -239,6 +245,7 @@ void takeContactSubstep(const Model& model, Data& data, const State& start, bool
     const bool solve_singular = now.solve.singular, converged = now.projection.converged,
                projection_singular = now.projection.singular;
     const long forced = now.forced_internal_steps;
+    const double kicked = control.friction_kick_loss;  // the friction kicks' loss before it
     take_piece(length, end);
     // the piece is taken again to the first event in it: an impact, or a contact that should
     // have let go (its force crossing 0) and was held on
@@ -263,6 +270,7 @@ void takeContactSubstep(const Model& model, Data& data, const State& start, bool
     data.statistics.projection.converged = converged;
     data.statistics.projection.singular = projection_singular;
     data.statistics.forced_internal_steps = forced;
+    control.friction_kick_loss = kicked;
     data.contacts = *piece_contacts;
     writeContactRows(model, data);
     data.noteStateChange();

@@ -260,16 +260,34 @@ bool slidesWithFriction(const Model& model, const Data& data)
   return false;
 }
 
-void kickFriction(const Model& model, const Data& data, double dt, Points& velocities)
+void kickForces(const Model& model, Data& data, double dt, Points& velocities)
 {
-  const auto& table = model.unilateral();
   const auto& w = model.inverseMasses();
+  const Points& applied = data.applied_forces;
+  for (int i = 0; i < model.numParticles(); ++i)
+    velocities.col(i) += (dt * w[i]) * applied.col(i);
+  const auto& table = model.unilateral();
+  double loss = 0.0;
   for (std::size_t k = 0; k < static_cast<std::size_t>(model.numParticleContacts()); ++k)
     if (acts(data.contacts[k]) && table[k].friction > 0.0)
     {
       const int i = table[k].particles[0];
-      velocities.col(i) += (dt * w[i]) * data.contacts[k].friction_force;
+      if (w[i] == 0.0)  // an eliminated particle: not moved, no work
+        continue;
+      const Vec3& f = data.contacts[k].friction_force;
+      const Vec3 before = velocities.col(i);
+      velocities.col(i) += (dt * w[i]) * f;
+      // dt f . (v_0 + v_1) / 2 from the velocities around this contact's kick, less what they
+      // hold of the applied force's kick (v_0 is before it): summed over a particle's contacts,
+      // friction's share of the whole kick
+      loss -= 0.5 * dt * f.dot(before + velocities.col(i)) -
+              0.5 * dt * dt * w[i] * f.dot(applied.col(i));
     }
+  // a moving obstacle's slip is relative to its point: the ledger's trapezoid books it there
+  if (model.hasCarriers())
+    return;
+  data.control.friction_kicked = true;
+  data.control.friction_kick_loss += loss;
 }
 
 }  // namespace constrained_particles

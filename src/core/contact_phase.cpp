@@ -27,11 +27,12 @@ void restoreStartContacts(const Model& model, Data& data)
     return;
   data.contacts = data.control.start_contacts;
   writeContactRows(model, data);
-  data.control.contact_loss = 0.0;
+  data.control.contact_loss = data.control.friction_kick_loss = 0.0;
+  data.control.friction_kicked = false;
 }
 
 void addContactPowers(const Model& model, const Data& data, const State& x, double& in,
-                      double& dissipated)
+                      double& friction)
 {
   // friction, at its last stage's value (contact.hpp; the step start's under velocity Verlet and
   // fast projection; a contact off holds none): it only dissipates, against the slip
@@ -43,14 +44,14 @@ void addContactPowers(const Model& model, const Data& data, const State& x, doub
     const Vec3 v = x.velocities.col(contacts[k].particles[0]);
     if (!model.hasCarriers() || contact.mode == ContactMode::Separated)
     {
-      dissipated -= contact.friction_force.dot(v);
+      friction -= contact.friction_force.dot(v);
       continue;
     }
     // on a moving obstacle the slip is relative to its point, and the contact force (normal and
     // friction) does work through that point's motion: the obstacle's holder puts it in
     const ContactFrame frame = contactFrame(model, contacts[k], context, x.positions, x.velocities);
     const Vec3 force = contact.normal_force * frame.normal.normalized() + contact.friction_force;
-    dissipated -= contact.friction_force.dot(frame.relative(v));
+    friction -= contact.friction_force.dot(frame.relative(v));
     in += force.dot(frame.surface_velocity);
   }
   // a segment's normal force on a moving obstacle likewise (frictionless)

@@ -544,7 +544,8 @@ void Simulator::setPerturbations(const std::vector<Force>& perturbations)
   // the next step's work is booked from the new forces' power at its start, and the account is
   // measured against what they could move too (a drag on a chain at rest: |f| times its extent)
   EnergyLedger& ledger = data_->ledger;
-  ledgerPowers(*model_, *data_, data_->state, ledger.power_in, ledger.power_dissipated);
+  ledgerPowers(*model_, *data_, data_->state, ledger.power_in, ledger.power_dissipated,
+               ledger.power_friction);
   ledger.power_in += drivenPower();
   ledger.scale = std::max(ledger.scale, ledgerScale(*model_, *data_));
 }

@@ -12,11 +12,11 @@
 
 namespace constrained_particles
 {
-/// The power [W] the applied forces put in (`in`) and the dissipative ones, friction and slip
-/// against a moving obstacle take out (`dissipated`, >= 0) at state `x`; a moving obstacle's
-/// work through its contacts is in `in`.
+/// The power [W] the applied forces put in (`in`), the dissipative ones take out (`dissipated`,
+/// >= 0) and the contacts' friction takes out (`friction`, >= 0: against the slip, relative to a
+/// moving obstacle) at state `x`; a moving obstacle's work through its contacts is in `in`.
 void ledgerPowers(const Model& model, const Data& data, const State& x, double& in,
-                  double& dissipated);
+                  double& dissipated, double& friction);
 
 /// energyScale() at the current state with the forces acting now, the model's and the
 /// perturbations' [J].

@@ -132,6 +132,10 @@ struct StepControl
   std::vector<double> step_normal_forces;
   /// Energy the contacts' velocity jumps (impacts) took out in this attempt [J], for the ledger
   double contact_loss = 0.0;
+  /// Energy the friction kicks of this attempt took out [J] (kickFriction: velocity Verlet's and
+  /// fast projection's friction, held over the step), booked as it is where `friction_kicked`
+  bool friction_kicked = false;
+  double friction_kick_loss = 0.0;
   /// A sub-step split at an impact (takeContactSubstep, contact.hpp): the state and contact modes
   /// the piece being taken started from, and the positions the time of impact is sought along
   /// (impactFraction, contact.hpp); sized once, with contacts only
@@ -177,7 +181,8 @@ struct EnergyLedger
   /// released from rest has no scale of its own at t0
   double exchanged = 0.0;
   double power_in = 0.0;          ///< f . v of the work-in forces at the current state [W]
-  double power_dissipated = 0.0;  ///< -f . v of damping, drag and friction now [W]
+  double power_dissipated = 0.0;  ///< -f . v of damping and drag at the current state [W]
+  double power_friction = 0.0;    ///< -f . v_slip of the contacts' friction now [W]
 
   /// E(t) - E(t0) - work_in + dissipated [J]
   double residual() const

@@ -208,10 +208,9 @@ public:
 
   /// Whether the energy budget judges this scene's steps (StepSettings::energy_budget): not
   /// where a sampled path moves something (a frame anchor, a carried shape), whose
-  /// acceleration jumps at every sample, nor where a contact has friction, whose power the
-  /// ledger's trapezoid takes at the steps' ends (first order against velocity Verlet's and
-  /// fast_projection's kick from the step's start): there the residual measures the quadrature
-  /// rather than the method (docs/stability.md).
+  /// acceleration jumps at every sample (there the residual measures the quadrature rather
+  /// than the method), nor yet where a contact has friction: fast_projection, the fallback,
+  /// gains energy at first order sliding with friction over a convex surface (docs/stability.md).
   bool budgetJudges() const
   {
     return budget_judges_;

@@ -31,10 +31,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
   Points& p = x.positions;
   Points& v = x.velocities;
   appliedForceStage(model, data, p, v);
-  const auto& w = model.inverseMasses();
-  for (int i = 0; i < model.numParticles(); ++i)
-    v.col(i) += (dt * w[i]) * data.applied_forces.col(i);
-  kickFriction(model, data, dt, v);  // friction as it stood at the step's start (contact.hpp)
+  kickForces(model, data, dt, v);  // friction as it stood at the step's start (contact.hpp)
   p += dt * v;
   s.p_unprojected = p;  // p*
   const ProjectionReport report =

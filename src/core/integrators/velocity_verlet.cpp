@@ -12,16 +12,6 @@ namespace constrained_particles
 {
 namespace
 {
-// v += dt/2 W f (eliminated particles: W = 0), f the applied forces and the contacts' friction
-// at the step's start (contact.hpp)
-void halfKick(const Model& model, Data& data, double dt, Points& velocities)
-{
-  const auto& w = model.inverseMasses();
-  for (int i = 0; i < model.numParticles(); ++i)
-    velocities.col(i) += (0.5 * dt * w[i]) * data.applied_forces.col(i);
-  kickFriction(model, data, 0.5 * dt, velocities);  // none without contacts
-}
-
 void step(const Model& model, Data& data, const StepSettings& settings)
 {
   State& x = data.state;
@@ -31,7 +21,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
   Points& v = x.velocities;
   s.p_start = p;
   appliedForceStage(model, data, p, v);
-  halfKick(model, data, dt, v);
+  kickForces(model, data, 0.5 * dt, v);  // the applied forces and the start's friction
   p += dt * v;
   // v_n+1/2 = (p_n+1 - p_n) / dt, formed as v + correction / dt: subtracting positions would
   // turn their round-off into a velocity error that grows like 1 / dt
@@ -41,7 +31,7 @@ void step(const Model& model, Data& data, const StepSettings& settings)
                      settings.projection_max_iterations, &s.correction);
   v += s.correction / dt;
   appliedForceStage(model, data, p, v);
-  halfKick(model, data, dt, v);
+  kickForces(model, data, 0.5 * dt, v);  // the applied forces and the start's friction
   finishProjection(model, data, t_end, p, v, false, true, report);
   ++data.statistics.internal_steps;
 }
