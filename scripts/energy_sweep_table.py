@@ -45,8 +45,9 @@ def main(path):
         f"faults on, its last accepted state finite and within the budget. The test asserts "
         f"exactly that; no accepted step exceeds the budget, in every scene the budget judges. "
         f"A scene with a sampled holder, a carried shape or a contact with friction is not "
-        f"judged ([stability.md](stability.md#the-energy-ledger): there the ledger's trapezoid "
-        f"measures the quadrature); its cells say **not judged**, and their share of the budget "
+        f"judged ([stability.md](stability.md#the-energy-ledger): a sampled path's power is not a "
+        f"trapezoid's, and `fast_projection`, the fallback, gains at first order sliding with "
+        f"friction over a convex surface); its cells say **not judged**, and their share of the budget "
         f"is the run's figure, not a bound. A run handed to `fast_projection` may end above "
         f"100 %: the fallback is judged by what it gains itself.",
         "",

@@ -289,10 +289,11 @@ void Simulator::setScene(const Scene& scene, const State& initial_state,
 void Simulator::setStepSettings(const StepSettings& settings)
 {
   validateStepSettings(settings);
-  // other settings take the run from here, judged by what they gain themselves (the account
-  // may stand at the budget's edge, where the fallback took over); the same ones (a
-  // reconfigure of the node's own) change nothing
-  if (!(settings == settings_))
+  // other settings end the fallback and take the run from here, judged by what they gain
+  // themselves (the fallback took over at the budget's edge); without a fallback the account
+  // stands (a method study's segments change dt and stay judged on the whole run); the same
+  // settings (a reconfigure of the node's own) change nothing
+  if (!(settings == settings_) && data_->control.budget_fallback)
   {
     data_->control.budget_fallback = false;
     data_->control.budget_base_residual = data_->ledger.residual();

@@ -581,6 +581,7 @@ Simulator::StepOutcome Simulator::takeStep(StepPlan& plan, StepStatistics& total
     }
     // retaken: its work is counted, its outcome (singular solves, projections' state) is not
     control.budget_fallback_time = control.start.time;
+    control.budget_handed_by = plan.method->name;
     countRejected(taken, StepCheck::EnergyBudget, total);
     data.setState(control.start);
     data.ledger = outcome.ledger_before;

@@ -100,7 +100,7 @@ std::string faultOf(const Simulator& simulator, const NodeParameters& parameters
       !reason.empty() && control.budget_fallback)
     reason += "; the run had been taken by " + std::string(Simulator::STIFF_FALLBACK) +
               " since t = " + formatValue(control.budget_fallback_time) + " s, after " +
-              parameters.step.integrator + " overdrew ~energy_budget";
+              control.budget_handed_by + " overdrew ~energy_budget";
   return reason;
 }
 
@@ -110,7 +110,7 @@ std::string energyFallbackText(const Simulator& simulator, const NodeParameters&
   if (!control.budget_fallback)
     return "";
   return "energy budget overdrawn at t = " + formatValue(control.budget_fallback_time) + " s by " +
-         parameters.step.integrator + " (residual " + formatValue(control.budget_failure_residual) +
+         control.budget_handed_by + " (residual " + formatValue(control.budget_failure_residual) +
          " J > " + formatValue(parameters.step.energy_budget * control.budget_failure_scale) +
          " J, ~energy_budget " + formatValue(parameters.step.energy_budget) + " of " +
          formatValue(control.budget_failure_scale) + " J): " + Simulator::STIFF_FALLBACK +

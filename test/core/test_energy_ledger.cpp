@@ -297,8 +297,8 @@ TEST(EnergyLedger, ABeadReleasedFromRestPassesTheBudget)
 // explicit Euler on the shipped slack_rope (12 slack links between two pins, no friction) at
 // dt 10 ms gains energy between impacts; no accepted step overdraws the budget, the run is
 // handed to the fallback, and the fallback stays within it. Not judged: a scene with friction
-// (the ledger's trapezoid of its power is first order against a kick from the step's start) and
-// a carried shape's (its sampled path's power is not a trapezoid's).
+// (fast_projection, the fallback, gains at first order sliding with friction over a convex
+// surface) and a carried shape's (its sampled path's power is not a trapezoid's).
 TEST(EnergyLedger, AContactSceneIsJudgedByTheBudget)
 {
   const BuiltScene built = shippedScene("slack_rope");
@@ -362,10 +362,6 @@ TEST(EnergyLedger, EveryKindOfFrictionlessContactIsJudged)
     {
       const StepStatistics s = simulator.step();
       ASSERT_EQ(s.failed_check, StepCheck::None) << name << " at t = " << simulator.state().time;
-      const EnergyLedger& ledger = simulator.energyLedger();
-      ASSERT_LE(simulator.budgetResidual(),
-                settings.energy_budget * ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR))
-          << name << " at t = " << simulator.state().time;
       handed_over = handed_over || simulator.data().control.budget_fallback;
     }
     EXPECT_EQ(handed_over, overdraws) << name;
@@ -424,22 +420,48 @@ TEST(EnergyLedger, KickedFrictionIsBookedAsTheKickTakesIt)
     {
       const StepSettings settings = settingsOf(integrator, dt);
       Simulator simulator(built.scene, built.initial_state, settings);
-      double worst = 0.0;  // the largest residual over its budget [1]
+      // the largest residual over its budget [1], above 0: the projections' losses (RATTLE's,
+      // fast projection's) are not booked, so below 0 is theirs (the block below bounds both
+      // ways, where there are none)
+      double worst = 0.0;
       for (int k = 0; k < std::lround(5.0 / dt); ++k)
       {
         ASSERT_EQ(simulator.step().failed_check, StepCheck::None) << integrator;
         const EnergyLedger& ledger = simulator.energyLedger();
-        worst = std::max(worst,
-                         ledger.residual() / (settings.energy_budget *
-                                              ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR)));
+        const double r = ledger.residual() / (settings.energy_budget *
+                                              ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR));
+        worst = std::max(worst, r);
       }
       EXPECT_LT(worst, 0.02) << integrator << " at dt " << dt;
       std::printf(
           "[energy ledger] rope_on_table, %s, dt %g ms: the residual at most %.3g of the "
-          "budget\n",
+          "budget above 0\n",
           integrator.c_str(), 1e3 * dt, worst);
-      EXPECT_GT(simulator.energyLedger().dissipated, 0.0) << integrator;
     }
+
+  // a block sliding on a level plane at v0 = 2 m/s, friction 0.3: the kick is exact there, so
+  // all of its kinetic energy, 1/2 m v0^2, is booked as dissipated by the time it stops, and it
+  // stops within a step of v0^2 / (2 mu g) = 0.680 m
+  Scene level;
+  level.masses = { 1.0 };
+  level.forces = { GravityForce{} };
+  ShapeContact sliding;
+  sliding.shape.type = ShapeType::Plane;
+  sliding.friction = 0.3;
+  level.constraints.push_back(sliding);
+  Points moving = Points::Zero(3, 1);
+  moving(0, 0) = 2.0;
+  for (const std::string integrator : { "velocity_verlet", "fast_projection" })
+  {
+    Simulator simulator(level, stateOf(Points::Zero(3, 1), moving), settingsOf(integrator, 1e-2));
+    simulator.step(100);
+    const EnergyLedger& ledger = simulator.energyLedger();
+    EXPECT_EQ(simulator.state().velocities.col(0).norm(), 0.0) << integrator;
+    EXPECT_NEAR(ledger.dissipated, 2.0, 1e-12) << integrator;
+    EXPECT_LT(std::abs(ledger.residual()), 1e-12) << integrator;
+    EXPECT_NEAR(simulator.state().positions(0, 0), 4.0 / (2.0 * 0.3 * 9.81), 2.0 * 2e-2)
+        << integrator;
+  }
 
   // a particle at rest on a plane tilted by 0.2 rad, friction 0.5 > tan 0.2: it sticks, each
   // step's friction kick cancels gravity's: nothing dissipated, nothing gained

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace constrained_particles
@@ -114,13 +115,16 @@ struct StepControl
   /// (EnergyLedger::budgetScale) at the last step that overdrew it [J] (the fallback's warning's or
   /// the fault's message: the step itself is put back, and the ledger with it).
   double budget_failure_residual = 0.0, budget_failure_scale = 0.0;
+  /// The method whose step overdrew it and handed the run to the fallback (the integrator, or
+  /// the stiff-safe method where the stability estimate chose it for a stiff step)
+  std::string budget_handed_by;
   /// The integrator overdrew the energy budget: the stiff-safe method (STIFF_FALLBACK) retook
   /// that step and takes every step until the ledger is opened again or the settings change.
   bool budget_fallback = false;
   /// The ledger's residual [J] and time [s] the energy budget judges from: 0 and t0 when the ledger
-  /// opens; where the fallback took the run over, or new step settings took it (setStepSettings),
-  /// what the run had gained then: each method is judged by what it gains itself, a whole budget
-  /// (Simulator::budgetResidual), not for what another gained before it
+  /// opens; where the fallback took the run over, or new step settings took it from the fallback
+  /// (setStepSettings), what the run had gained then: each method is judged by what it gains
+  /// itself, a whole budget (Simulator::budgetResidual), not for what another gained before it
   double budget_base_residual = 0.0;
   double budget_base_time = 0.0;
   /// The contacts' modes at `start` (attempts start from them again)
@@ -132,7 +136,7 @@ struct StepControl
   std::vector<double> step_normal_forces;
   /// Energy the contacts' velocity jumps (impacts) took out in this attempt [J], for the ledger
   double contact_loss = 0.0;
-  /// Energy the friction kicks of this attempt took out [J] (kickFriction: velocity Verlet's and
+  /// Energy the friction kicks of this attempt took out [J] (kickForces: velocity Verlet's and
   /// fast projection's friction, held over the step), booked as it is where `friction_kicked`
   bool friction_kicked = false;
   double friction_kick_loss = 0.0;
@@ -160,7 +164,8 @@ struct StepControl
 /// scene's forces, constraints, surfaces or obstacles (Simulator::energyLedger()), kept on every
 /// accepted step of every scene: residual() = E(t) - E(t0) - work_in + dissipated, zero for the
 /// exact motion. The work of the non-conservative forces is booked by the trapezoidal rule over
-/// each step (second order in dt); the projections' velocity corrections and fast projection's
+/// each step (second order in dt; friction kicked from the step's start as the kick takes it:
+/// StepControl::friction_kick_loss); the projections' velocity corrections and fast projection's
 /// losses are not booked, so they show in the residual, as losses. docs/physics.md, "The energy
 /// ledger".
 struct EnergyLedger
@@ -339,7 +344,7 @@ public:
   EffectCounters counters;    ///< evaluations since this data was made
   StepStatistics statistics;  ///< of the batch being stepped
   StepControl control;        ///< the step checks' and sub-steps' memory
-  EnergyLedger ledger;        ///< the energy account since the last reset (Simulator)
+  EnergyLedger ledger;        ///< the energy account since t0 (Simulator::energyLedger)
 
   /// The factorisation of J W J^T (src/core/solvers).
   ConstraintSolver& solver()

@@ -56,9 +56,9 @@ struct Snapshot
   /// The carried shapes' tracks (Data::carriers): where each is at the state's time
   std::vector<AnchorTrack> carriers;
   Diagnostics diagnostics;  ///< errors and energies of `state`
-  EnergyLedger ledger;      ///< the energy account since the last reset, teleport or force change
-  /// The integrator overdrew ~energy_budget: fast_projection takes the steps (StepControl::
-  /// budget_fallback) until a reset, teleport, force or settings change; what it said, else ''
+  EnergyLedger ledger;  ///< the energy account since t0 (a reset, teleport, force or world change)
+  /// The steps overdrew ~energy_budget: fast_projection takes them (StepControl::budget_fallback)
+  /// until the ledger opens again or the settings change; what it said, else ''
   std::string energy_fallback;
   /// The stage path the steps take under the settings in force, and why (forward_path.hpp).
   PathChoice forward_path;
