@@ -238,6 +238,31 @@ def self_collision_block(bench):
                    f"{float(r['closest_links_less_2r_m']):.2g}"])
 
 
+def contact_block(bench):
+    """docs/bench/contact.csv (bench/contact_chain.cpp): the chain lying on a plane with and
+    without contact, and the exponents its '# exponent' lines give."""
+    rows = read(bench / "contact.csv")
+    measured = [r for r in rows if not r["n"].startswith("#")]
+    lines = ["| n | with contact (tree) | with contact (sparse) | no contact (fused) | "
+             "no contact (generic, sparse) | contact / fused | contact / generic |",
+             "|---|---|---|---|---|---|---|"]
+    for r in measured:
+        lines.append("| " + " | ".join(
+            [f"{int(r['n']):,}"] +
+            [f"{float(r[k]):.3g}" for k in ("contact_us_per_particle_step",
+                                             "contact_sparse_us_per_particle_step",
+                                             "free_fused_us_per_particle_step",
+                                             "free_generic_sparse_us_per_particle_step")] +
+            [f"{float(r[k]):.1f}" for k in ("contact_over_fused", "contact_over_generic")]) + " |")
+    exponents = [(r["n"][len("# exponent "):], r["contact_us_per_particle_step"]) for r in rows
+                 if r["n"].startswith("# exponent")]
+    text = "\n".join(lines) + "\n"
+    if exponents:
+        text += "\nThe cost per step's exponent in n: " + "; ".join(
+            f"{name}, {float(value):.3f}" for name, value in exponents) + ".\n"
+    return stamp_line(f"From {stamp_of(bench, 'contact')} (`docs/bench/contact.csv`).") + text
+
+
 def kernel_block(bench):
     def cells(r):
         checked = bool(r.get("checked_s_per_step"))
@@ -535,7 +560,8 @@ NOT_MEASURED = {"cores": "`bash scripts/bench.sh --cores BASE`",
                 "compare_methods": "`bash scripts/compare_methods_demo.sh`",
                 "tiers": "`bash scripts/tier_times.sh`",
                 "hard_cases": "`bash scripts/hard_cases.sh --csv docs/bench/hard_cases.csv`",
-                "self_collision": "`bash scripts/bench.sh --self-collision`"}
+                "self_collision": "`bash scripts/bench.sh --self-collision`",
+                "contact": "`bash scripts/bench.sh --contact`"}
 BLOCKS = {"stability": stability_block, "scenes": scenes_block, "trees": trees_block, "orders": orders_block, "headline": headline_block, "peers": peers_block,
           "cores": cores_block, "kernel": kernel_block, "node_kernel": node_kernel_block,
           "node_engine": node_engine_block,
@@ -544,7 +570,8 @@ BLOCKS = {"stability": stability_block, "scenes": scenes_block, "trees": trees_b
           "default_substeps": default_substeps_block, "energy_sweep": energy_sweep_block,
           "energy_sweep_stamp": energy_sweep_stamp_block, "compare_methods": compare_methods_block,
           "reliability": reliability_block, "tiers": tiers_block,
-          "hard_cases": hard_cases_block, "self_collision": self_collision_block}
+          "hard_cases": hard_cases_block, "self_collision": self_collision_block,
+          "contact": contact_block}
 
 
 def fill(root):

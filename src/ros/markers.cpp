@@ -1,5 +1,7 @@
 #include "constrained_particles/ros/markers.hpp"
 
+#include "constrained_particles/core/rope_readings.hpp"
+
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <algorithm>
@@ -358,8 +360,19 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
   return array;
 }
 
+std_msgs::ColorRGBA tensionColor(double tension, double largest)
+{
+  // grey at no load, to red at the largest pull now, to blue at the largest push
+  const float share =
+      largest > 0.0 ? static_cast<float>(std::min(std::abs(tension) / largest, 1.0)) : 0.0f;
+  const float grey = 0.8f * (1.0f - share);
+  return tension >= 0.0 ? color(grey + share, grey, grey, 1.0f)
+                        : color(grey, grey, grey + share, 1.0f);
+}
+
 visualization_msgs::MarkerArray sceneMarkers(const std_msgs::Header& header, const Model& model,
-                                             const Points& positions)
+                                             const Points& positions,
+                                             const Eigen::VectorXd& multipliers)
 {
   visualization_msgs::MarkerArray array;
   const double size = particleSize(model);
@@ -376,12 +389,21 @@ visualization_msgs::MarkerArray sceneMarkers(const std_msgs::Header& header, con
       makeMarker(header, "links", 0, visualization_msgs::Marker::LINE_LIST);
   links.scale.x = 0.25 * size;
   links.color = color(0.8f, 0.8f, 0.8f, 1.0f);
-  for (const Constraint& c : model.scene().constraints)
-    if (const auto* link = std::get_if<LinkConstraint>(&c))
-    {
-      links.points.push_back(tf2::toMsg(Eigen::Vector3d(positions.col(link->first))));
-      links.points.push_back(tf2::toMsg(Eigen::Vector3d(positions.col(link->second))));
-    }
+  // each link and slack link, coloured by its tension (rope_readings.hpp) where it is known
+  const bool known = multipliers.size() >= model.numRows() && multipliers.allFinite();
+  const std::vector<LinkTension> tensions =
+      linkTensions(model, positions, known ? multipliers : Eigen::VectorXd::Zero(model.numRows()));
+  double largest = 0.0;
+  for (const LinkTension& link : tensions)
+    largest = std::max(largest, std::abs(link.tension));
+  for (const LinkTension& link : tensions)
+  {
+    links.points.push_back(tf2::toMsg(Eigen::Vector3d(positions.col(link.first))));
+    links.points.push_back(tf2::toMsg(Eigen::Vector3d(positions.col(link.second))));
+    const std_msgs::ColorRGBA shade = tensionColor(link.tension, largest);
+    links.colors.push_back(shade);
+    links.colors.push_back(shade);
+  }
   array.markers.push_back(links.points.empty() ? deleteMarker(header, "links", 0) : links);
   return array;
 }

@@ -37,7 +37,7 @@ void ScenePublisher::publish(const Snapshot& snap, const std_msgs::Header& heade
     publishArrows(snap, header);
   if (scene_.getNumSubscribers() > 0)
   {
-    scene_.publish(sceneMarkers(header, *snap.model, snap.state.positions));
+    scene_.publish(sceneMarkers(header, *snap.model, snap.state.positions, snap.multipliers));
     // ghosts only where the shadow's sample is at this snapshot's time: the distance is the error
     if (snap.reference_positions && snap.reference_positions->cols() == n &&
         snap.reference_positions->allFinite())

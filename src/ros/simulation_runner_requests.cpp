@@ -219,7 +219,7 @@ RunnerReply SimulationRunner::reconfigure(
                 candidate.overrides.gravity.value_or(sceneGravity(scene)),
                 candidate.overrides.damping.value_or(sceneDamping(scene))))
         {
-          simulator_->setForces(changed->forces);
+          simulator_->setForces(sceneForces(*changed));
           session_.adoptChange(*changed);
           copyModel();
         }

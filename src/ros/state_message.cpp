@@ -3,6 +3,8 @@
 #include "constrained_particles/ros/conversions.hpp"
 #include "constrained_particles/ros/health.hpp"
 
+#include "constrained_particles/core/rope_readings.hpp"
+
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <algorithm>
@@ -205,8 +207,29 @@ void fillContacts(const Snapshot& snap, SimState& msg)
   }
 }
 
-void (*const ARRAY_ROWS[])(const Snapshot&, SimState&) = { fillHolders, fillReleases,
-                                                           fillContacts };
+// each link's tension and each bend's moment (rope_readings.hpp), finite ones only
+void fillRope(const Snapshot& snap, SimState& msg)
+{
+  if (snap.multipliers.size() < snap.model->numRows() ||
+      snap.state.positions.cols() != snap.model->numParticles())
+    return;
+  for (const LinkTension& link : linkTensions(*snap.model, snap.state.positions, snap.multipliers))
+    if (std::isfinite(link.tension))
+    {
+      msg.link_first.push_back(link.first);
+      msg.link_second.push_back(link.second);
+      msg.link_tensions.push_back(link.tension);
+    }
+  for (const JointMoment& joint : bendingMoments(*snap.model, snap.state.positions))
+    if (std::isfinite(joint.moment))
+    {
+      msg.bend_particles.push_back(joint.particle);
+      msg.bending_moments.push_back(joint.moment);
+    }
+}
+
+void (*const ARRAY_ROWS[])(const Snapshot&, SimState&) = { fillHolders, fillReleases, fillContacts,
+                                                           fillRope };
 
 const CountField COUNT_FIELDS[] = {
   { &SimState::interval_steps, "steps in the last second",

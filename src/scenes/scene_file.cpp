@@ -672,8 +672,24 @@ BuiltScene buildScene(const SceneDescription& d, bool refuse_start_inside)
   for (std::size_t k = 0; k < d.constraints.size(); ++k)
     validateConstraint(scene.constraints[first_own + k], n, static_cast<int>(scene.surfaces.size()),
                        "constraints[" + std::to_string(k) + "]");
-  scene.forces = d.forces;
+  scene.forces = sceneForces(d);
   return built;
+}
+
+std::vector<Force> sceneForces(const SceneDescription& d)
+{
+  // the file's forces first, so forces[k] in a message is the file's k-th; the chains' after
+  std::vector<Force> forces = d.forces;
+  int next = static_cast<int>(d.particles.size());  // chains are numbered after the particles
+  for (const ChainSpec& chain : d.chains)
+  {
+    // bending stiffness at each inner particle, spread over a link's length either side
+    if (chain.bend_stiffness > 0.0)
+      for (int i = next + 1; i + 1 < next + chain.particles; ++i)
+        forces.push_back(BendingForce{ i - 1, i, i + 1, chain.bend_stiffness, chain.link_length });
+    next += chain.particles;
+  }
+  return forces;
 }
 
 std::vector<std::string> listScenes(const std::string& directory)

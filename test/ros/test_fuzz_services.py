@@ -40,7 +40,7 @@ SURFACE_TYPES = {"plane": 3, "bowl": 2, "saddle": 2, "waves": 3, "gaussian": 4}
 CHAIN_COUNTS = {"chain": 5, "surface_chain": 5, "pinned_pendulum": 4, "two_chains_on_surface": 4,
                 "mobile": 3, "shaken_chain": 6, "stiff_rod": 4, "hold_the_rope": 8,
                 "surface_chain_contact": 5, "friction_ramp": 4, "rope_on_table": 20,
-                "rope_over_post": 30, "rope_over_edge": 20, "rope_pile": 30}
+                "rope_over_post": 30, "rope_over_edge": 20, "rope_pile": 30, "cable": 10}
 # scenes with a surface_contact or shape_contact: a chain or surface change that would start a
 # particle below the surface or inside an obstacle, or a teleport that would put one there, is
 # refused, naming the particle (a request
@@ -54,7 +54,8 @@ def contact_refusal(scene, expect, response):
     start (the message says so): then not valid, and its refusal counts as one."""
     return expect and scene in CONTACT_SCENES and not response.success and \
         ("below surface" in response.message or "inside obstacle" in response.message)
-FIXED_COUNT = {"two_chains_on_surface", "mobile", "shaken_chain", "stiff_rod", "hold_the_rope"}
+FIXED_COUNT = {"two_chains_on_surface", "mobile", "shaken_chain", "stiff_rod", "hold_the_rope",
+               "cable"}
 # pinning these chains' first particles over-constrains them (the hub; the driven or held top):
 # refused
 NO_PIN_FIRST = {"mobile", "shaken_chain", "hold_the_rope"}

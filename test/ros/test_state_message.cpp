@@ -86,6 +86,8 @@ SimState stateOf(Simulator& simulator, const SceneDescription& description)
   snap.model = std::make_shared<const Model>(simulator.model());
   snap.scene = std::make_shared<const SceneDescription>(description);
   snap.state = simulator.state();
+  snap.constraint_forces = forces;
+  snap.multipliers = multipliers;
   snap.contacts = simulator.data().contacts;
   SimState msg;
   fillState(snap, StepStatistics{}, msg);
@@ -182,6 +184,44 @@ forces:
       EXPECT_NEAR(m.points[1].z - m.points[0].z, 0.01 * 4.0 * 9.81, 1e-6);
     }
   EXPECT_EQ(drawn, 1);
+}
+
+// What the rope carries: a rope hanging straight down from a pin lists each link's tension, the
+// weight below it (1e-9 relative), and each bend's moment (0 on its straight joints); a bend held
+// at a right angle by pins carries 2 EI tan(pi/4) / (l cos^2(pi/4)) = 4 EI / l. In the order of
+// the scene's records: the file's bend first, then the chain's.
+TEST(StateMessage, EachLinksTensionAndEachBendsMomentAreListed)
+{
+  const SceneDescription description = parseScene(R"(
+name: hanging
+particles:
+  - {position: [0, 0, 0]}
+  - {position: [1, 0, 0]}
+  - {position: [1, 1, 0]}
+chains:
+  - {particles: 4, link_length: 0.25, particle_mass: 0.5, start: [2, 0, 0], direction: [0, 0, -1],
+     pin_first: true, bend_stiffness: 0.5}
+constraints:
+  - {type: pin, particle: 0}
+  - {type: pin, particle: 1}
+  - {type: pin, particle: 2}
+forces:
+  - {type: gravity}
+  - {type: bend, first: 0, middle: 1, last: 2, stiffness: 0.5, length: 1}
+)",
+                                                  "hanging.yaml");
+  const std::unique_ptr<Simulator> simulator = afterTenSteps(description);
+  const SimState msg = stateOf(*simulator, description);
+  EXPECT_EQ(msg.link_first, (std::vector<int>{ 3, 4, 5 }));
+  EXPECT_EQ(msg.link_second, (std::vector<int>{ 4, 5, 6 }));
+  ASSERT_EQ(msg.link_tensions.size(), 3u);
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(msg.link_tensions[k] / ((3 - k) * 0.5 * 9.81), 1.0, 1e-9) << k;
+  EXPECT_EQ(msg.bend_particles, (std::vector<int>{ 1, 4, 5 }));
+  ASSERT_EQ(msg.bending_moments.size(), 3u);
+  EXPECT_NEAR(msg.bending_moments[0], 4.0 * 0.5 / 1.0, 1e-12);
+  EXPECT_LT(msg.bending_moments[1], 1e-9);
+  EXPECT_LT(msg.bending_moments[2], 1e-9);
 }
 
 // A self-colliding rope with no obstacle is drawn as thick as it collides (2 r), not 0.3 of a link.

@@ -8,6 +8,7 @@
 /// files follow.
 #pragma once
 
+#include "constrained_particles/core/effects/bending.hpp"
 #include "constrained_particles/core/effects/external_force.hpp"
 #include "constrained_particles/core/effects/gravity.hpp"
 #include "constrained_particles/core/effects/linear_damping.hpp"
@@ -24,7 +25,7 @@ namespace constrained_particles
 {
 /// One applied force of a scene: the registry of force kinds.
 using Force = std::variant<GravityForce, LinearDampingForce, ExternalForce, QuadraticDragForce,
-                           SpringForce, TargetSpringForce>;
+                           SpringForce, TargetSpringForce, BendingForce>;
 
 /// Number of force kinds.
 constexpr int NUM_FORCE_KINDS = static_cast<int>(std::variant_size_v<Force>);

@@ -75,6 +75,8 @@ constexpr Range RESTITUTION{ 0.0, false, 1.0, "1", false };
 constexpr Range FORCE{ -1e9, false, 1e9, "N", false };
 /// Spring stiffness k [N/m].
 constexpr Range STIFFNESS{ 0.0, false, 1e9, "N/m", false };
+/// Bending stiffness EI [N m^2] (a 1 cm steel rod: about 100).
+constexpr Range BEND_STIFFNESS{ 0.0, false, 1e4, "N m^2", false };
 /// Spring rest length L [m].
 constexpr Range REST_LENGTH{ 0.0, false, 1e3, "m", false };
 

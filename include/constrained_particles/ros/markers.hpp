@@ -81,10 +81,16 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
 /// ~obstacles goes out again with each state).
 bool topicCarriedShapes(const Model& model);
 
-/// Scene markers: particles (SPHERE_LIST, ns "particles") and links (LINE_LIST, ns "links"; a
-/// DELETE when there are none).
+/// Scene markers: particles (SPHERE_LIST, ns "particles") and links and slack links (LINE_LIST,
+/// ns "links"; a DELETE when there are none), each coloured by its tension under `multipliers`
+/// (Data::multipliers' layout) over the largest |tension| now: grey at none, red at the largest
+/// pull, blue at the largest push (all grey where the multipliers are short or not finite).
 visualization_msgs::MarkerArray sceneMarkers(const std_msgs::Header& header, const Model& model,
-                                             const Points& positions);
+                                             const Points& positions,
+                                             const Eigen::VectorXd& multipliers);
+
+/// A link's colour at `tension` [N] against the `largest` |tension| now [N] (sceneMarkers).
+std_msgs::ColorRGBA tensionColor(double tension, double largest);
 
 /// Namespaces of the live accuracy's ghosts: the shadow reference's particles and the segments
 /// from each live particle to its reference (their length is the error).

@@ -57,6 +57,7 @@ struct ChainSpec
   double radius = 0.0;                 ///< the chain's radius against its obstacles [m]
   bool capsules = false;        ///< its links too keep out of the obstacles (segment_contact)
   bool self_collision = false;  ///< its links cannot pass through each other (SelfCollision)
+  double bend_stiffness = 0.0;  ///< EI [N m^2]: a bend record at every inner particle; 0: limp
 
   static constexpr auto fields()
   {
@@ -98,7 +99,10 @@ struct ChainSpec
         field("self_collision", &ChainSpec::self_collision, FieldKind::Flag, nullptr,
               "its links are capsules of that radius that cannot pass through each other "
               "(link_pair_contact rows for the pairs near, frictionless and inelastic); the "
-              "radius must be under half of link_length"));
+              "radius must be under half of link_length"),
+        field("bend_stiffness", &ChainSpec::bend_stiffness, FieldKind::Number,
+              &limits::BEND_STIFFNESS,
+              "EI: it resists bending (a bend record at every inner particle); 0: limp"));
   }
 };
 
@@ -225,6 +229,10 @@ SceneDescription loadSceneFile(const std::string& path, const SceneInputs& input
 /// it out of (false: ~set_obstacle, whose change meets the running state, not the start)
 /// @throws InvalidInput naming the bad field
 BuiltScene buildScene(const SceneDescription& description, bool refuse_start_inside = true);
+
+/// The scene's applied forces: the file's `forces`, in its order, then each chain's bend records
+/// (bend_stiffness). buildScene's, and what a change of gravity or damping hands the Simulator.
+std::vector<Force> sceneForces(const SceneDescription& description);
 
 /// Least margin the region keeps around the particles [m].
 constexpr double REGION_MARGIN = 0.25;
