@@ -249,7 +249,7 @@ def contact_block(bench):
     for r in measured:
         lines.append("| " + " | ".join(
             [f"{int(r['n']):,}"] +
-            [f"{float(r[k]):.3g}" for k in ("contact_us_per_particle_step",
+            [f"{float(r[k]):#.3g}" for k in ("contact_us_per_particle_step",
                                              "contact_sparse_us_per_particle_step",
                                              "free_fused_us_per_particle_step",
                                              "free_generic_sparse_us_per_particle_step")] +

@@ -231,12 +231,14 @@ StepCheck Simulator::attemptStep(const IntegratorInfo& method, int substeps, boo
     {
       const double kinetic_now = sums.kinetic;
       const double potential_now = potentialEnergy(model, x);
-      // the scale includes the energy the sub-step exchanged: a particle alone has no extent
+      // the scale includes the energy the sub-step exchanged (a particle alone has no extent),
+      // and is at least ENERGY_SCALE_FLOOR: a particle alone at rest has neither, and rounding
+      // alone would fail it
       const double exchanged =
           std::abs(kinetic_now - kinetic) + std::abs(potential_now - potential);
       const double rise = (kinetic_now + potential_now) - (kinetic + potential);
       // not `<=`: a NaN energy fails too
-      if (!(rise <= ENERGY_RISE_TOLERANCE * (scale + exchanged)))
+      if (!(rise <= ENERGY_RISE_TOLERANCE * std::max(scale + exchanged, ENERGY_SCALE_FLOOR)))
         return StepCheck::EnergyRise;
       kinetic = kinetic_now;
       potential = potential_now;

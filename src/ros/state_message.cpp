@@ -207,19 +207,21 @@ void fillContacts(const Snapshot& snap, SimState& msg)
   }
 }
 
-// each link's tension and each bend's moment (rope_readings.hpp), finite ones only
+// each link's tension (with the multipliers) and each bend's moment (the positions alone),
+// finite ones only (rope_readings.hpp)
 void fillRope(const Snapshot& snap, SimState& msg)
 {
-  if (snap.multipliers.size() < snap.model->numRows() ||
-      snap.state.positions.cols() != snap.model->numParticles())
+  if (snap.state.positions.cols() != snap.model->numParticles())
     return;
-  for (const LinkTension& link : linkTensions(*snap.model, snap.state.positions, snap.multipliers))
-    if (std::isfinite(link.tension))
-    {
-      msg.link_first.push_back(link.first);
-      msg.link_second.push_back(link.second);
-      msg.link_tensions.push_back(link.tension);
-    }
+  if (snap.multipliers.size() >= snap.model->numRows())
+    for (const LinkTension& link :
+         linkTensions(*snap.model, snap.state.positions, snap.multipliers))
+      if (std::isfinite(link.tension))
+      {
+        msg.link_first.push_back(link.first);
+        msg.link_second.push_back(link.second);
+        msg.link_tensions.push_back(link.tension);
+      }
   for (const JointMoment& joint : bendingMoments(*snap.model, snap.state.positions))
     if (std::isfinite(joint.moment))
     {

@@ -543,7 +543,7 @@ BuiltScene buildScene(const SceneDescription& d, bool refuse_start_inside)
     state.velocities.col(next) = particle.velocity;
     ++next;
   }
-  // chains are expanded here and nowhere else
+  // chains are expanded here (their bends in sceneForces, numbered the same way)
   for (const ChainSpec& chain : d.chains)
   {
     const int first = next;

@@ -30,14 +30,14 @@ Points jointAt(double phi, double l)
   return p;
 }
 
-// A cable of `segments` links beyond a clamp, L = 1 m long, EI 1 N m^2, 0.01 kg/m: particles 0
-// and 1 pinned on the x axis (0 at -l, 1 at the clamp x = 0), the rest along +x with a bend record
-// at each of particles 1 .. segments. The clamp's spreads its bend over the half link on the
-// cable's side (length l / 2: the other half is in the wall; with l, the clamp turns by the moment
-// there times l / (2 EI) too much, and the tip's error is 3 l / (2 L), first order). Lumped
-// masses: l rho on the inner particles, half that on the tip. `tip_force` [N] pulls the tip along
-// -z; `gravity` [m/s^2] along -z; critically damped for the first mode. Stepped to rest (rk4);
-// returns the tip's deflection [m].
+// A cable of `segments` links beyond a clamp, L = 1 m long, EI 1 N m^2, 0.01 kg/m: particle 1
+// pinned at the clamp (x = 0), the rest linked along +x from it, and particle 0 pinned a link
+// behind it, unlinked (a link between two pinned particles is a zero row), which sets the
+// direction the cable leaves the clamp. The clamp's bend, at particle 1, is spread over the half
+// link on the cable's side (length l / 2: the other half is in the wall; with l the clamp turns
+// too far, by the moment there times l / (2 EI), and the tip is off at first order, by 3 l / (2 L)
+// under a tip load and 2 l / L under the cable's weight); the others at 2 .. segments over l.
+// Lumped masses: l rho on the inner particles, half that on the tip.
 double clampedTipDeflection(int segments, double tip_force, double gravity)
 {
   const double L = 1.0, EI = 1.0, rho = 0.01, l = L / segments;
@@ -48,7 +48,7 @@ double clampedTipDeflection(int segments, double tip_force, double gravity)
   Points p = Points::Zero(3, n);
   for (int i = 0; i < n; ++i)
     p(0, i) = (i - 1) * l;
-  for (int i = 0; i + 1 < n; ++i)
+  for (int i = 1; i + 1 < n; ++i)
     scene.constraints.push_back(LinkConstraint{ i, i + 1, l });
   scene.constraints.push_back(PinConstraint{ 0, Vec3(p.col(0)) });
   scene.constraints.push_back(PinConstraint{ 1, Vec3(p.col(1)) });
@@ -73,6 +73,7 @@ double clampedTipDeflection(int segments, double tip_force, double gravity)
   const StepStatistics stats = simulator.step(steps);
   EXPECT_EQ(stats.failed_check, StepCheck::None) << segments;
   EXPECT_EQ(stats.stiff_steps, 0) << segments;
+  EXPECT_EQ(stats.solve.singular_count, 0) << segments;
   // at rest: what motion is left, v / omega_1, is under 3e-5 of the deflection
   EXPECT_LT(simulator.state().velocities.norm(), 1e-6) << segments << " segments: not at rest";
   return -simulator.state().positions(2, tip);
@@ -140,7 +141,7 @@ TEST(Bending, AClampedCablesTipDeflectsAsBeamTheorySays)
       std::printf("%s, %d links: tip %.9g m, beam theory %.9g m, relative error %.3g\n", c.name,
                   segments, deflection, c.exact, error[k]);
     }
-    EXPECT_LT(std::abs(error[2]), 1e-2) << c.name;
+    EXPECT_LT(std::abs(error[2]), 1e-3) << c.name;
     EXPECT_LT(std::abs(error[1]), std::abs(error[0])) << c.name;
     EXPECT_LT(std::abs(error[2]), std::abs(error[1])) << c.name;
     const double order = observedOrder(error);
@@ -149,10 +150,11 @@ TEST(Bending, AClampedCablesTipDeflectsAsBeamTheorySays)
   }
 }
 
-// A cable bent into an arc, pinned at one end, swings under gravity for 60 s: its bending energy
-// trades with the kinetic and gravity's (each over a tenth of the motion's), and the energy
-// ledger balances within the budget (no step handed over) under rk4 and velocity Verlet.
-TEST(Bending, ABentCableSwingingFor60SecondsBalancesItsLedger)
+// A cable bent into a quarter circle, pinned at one end, with no gravity, springs straight and
+// bends back for 60 s: its energy, all bending at the start, goes nearly all kinetic and back
+// (each over 0.9 of it), and the energy ledger balances within the budget (no step handed over)
+// under rk4 and velocity Verlet.
+TEST(Bending, ABentCableSpringingFor60SecondsBalancesItsLedger)
 {
   const int n = 10;
   const double l = 0.1, m = 0.05, EI = 0.01;
@@ -170,8 +172,6 @@ TEST(Bending, ABentCableSwingingFor60SecondsBalancesItsLedger)
   scene.constraints.push_back(PinConstraint{ 0, Vec3(p.col(0)) });
   for (int i = 1; i + 1 < n; ++i)
     scene.forces.push_back(BendingForce{ i - 1, i, i + 1, EI, chord });
-  scene.forces.push_back(GravityForce{});
-  std::vector<Force> bending(scene.forces.begin(), scene.forces.end() - 1);
   for (const char* integrator : { "rk4", "velocity_verlet" })
   {
     StepSettings settings;
@@ -186,12 +186,9 @@ TEST(Bending, ABentCableSwingingFor60SecondsBalancesItsLedger)
       ASSERT_EQ(stats.rejections[static_cast<int>(StepCheck::EnergyBudget)], 0)
           << integrator << " at t = " << simulator.state().time;
       ASSERT_EQ(stats.stiff_steps, 0) << integrator;
-      double u = 0.0;
-      for (const Force& f : bending)
-        u += potentialEnergy(f, scene.masses, simulator.state().positions);
-      most_bending = std::max(most_bending, u);
-      least_bending = std::min(least_bending, u);
       const EnergyLedger& ledger = simulator.energyLedger();
+      most_bending = std::max(most_bending, ledger.potential);  // the bends' only
+      least_bending = std::min(least_bending, ledger.potential);
       most_kinetic = std::max(most_kinetic, ledger.kinetic);
       worst = std::max(
           worst, std::abs(ledger.residual()) / ledger.budgetScale(Simulator::ENERGY_SCALE_FLOOR));
@@ -199,11 +196,13 @@ TEST(Bending, ABentCableSwingingFor60SecondsBalancesItsLedger)
     EXPECT_FALSE(simulator.data().control.budget_fallback) << integrator;
     const EnergyLedger& ledger = simulator.energyLedger();
     std::printf(
-        "%s: bending energy %.4g..%.4g J, kinetic up to %.4g J, |residual| up to %.3g of "
-        "the budget's scale (budget %.3g)\n",
-        integrator, least_bending, most_bending, most_kinetic, worst, settings.energy_budget);
-    EXPECT_GT(most_bending - least_bending, 0.1 * ledger.exchanged) << integrator;
-    EXPECT_GT(most_kinetic, 0.1 * ledger.exchanged) << integrator;
+        "%s: bending energy %.4g..%.4g J (%.4g J at the start), kinetic up to %.4g J, "
+        "|residual| up to %.3g of the budget's scale (budget %.3g)\n",
+        integrator, least_bending, most_bending, ledger.initial_energy, most_kinetic, worst,
+        settings.energy_budget);
+    // the energy, all bending at the start, goes nearly all kinetic and back
+    EXPECT_GT(most_bending - least_bending, 0.9 * ledger.initial_energy) << integrator;
+    EXPECT_GT(most_kinetic, 0.9 * ledger.initial_energy) << integrator;
     EXPECT_LT(worst, settings.energy_budget) << integrator;
   }
 }

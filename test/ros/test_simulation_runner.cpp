@@ -187,6 +187,28 @@ TEST(SimulationRunner, ReconfiguredForcesStayWithTheirScene)
   EXPECT_EQ(runner.snapshot()->parameters.step.dt, 0.002);
 }
 
+// A change of gravity or damping recompiles the scene's forces: the bends a chain's
+// bend_stiffness makes stay (sceneForces), beside the file's own and the new gravity.
+TEST(SimulationRunner, ReconfiguredGravityKeepsAChainsBends)
+{
+  SimulationRunner runner(parametersFor("cable"), scene("cable"));
+  runner.start(true);
+  auto bends = [&]
+  {
+    int count = 0;
+    for (const Force& force : runner.snapshot()->model->scene().forces)
+      count += std::holds_alternative<BendingForce>(force) ? 1 : 0;
+    return count;
+  };
+  ASSERT_EQ(bends(), 9);  // the clamp's (the file's) and one at each of the chain's 8 inner ones
+  ASSERT_TRUE(runner
+                  .reconfigure([](NodeParameters& p, const SceneDescription&)
+                               { p.overrides.gravity = Vec3(0, 0, -1.0); })
+                  .success);
+  EXPECT_EQ(sceneGravity(*runner.snapshot()->scene), Vec3(0, 0, -1.0));
+  EXPECT_EQ(bends(), 9);
+}
+
 TEST(SimulationRunner, FaultKeepsEveryGoodBatch)
 {
   // no stabilisation: the links drift until the error passes ~max_constraint_error

@@ -129,6 +129,32 @@ class SimulatorInterfaceTest(WallClockWaits, unittest.TestCase):
         self.assertEqual(second.header.frame_id, "world")
         self.assert_finite(second)
 
+    def test_a_hanging_ropes_tensions_are_the_weight_below_each_link(self):
+        """~state reads what the rope carries: a rope of the user's own scene file hanging at rest
+        from a pin, each link's tension the weight below it (1e-9 of it), each bend straight."""
+        n, mass = 6, 0.3
+        with tempfile.TemporaryDirectory() as folder:
+            path = os.path.join(folder, "hanging_rope.yaml")
+            with open(path, "w") as f:
+                f.write(f"chains:\n  - {{particles: {n}, link_length: 0.2, particle_mass: {mass}, "
+                        "start: [0, 0, 1], direction: [0, 0, -1], pin_first: true, "
+                        "bend_stiffness: 0.1}\nforces:\n  - {type: gravity}\n")
+            response = self.reset(path)
+            self.assertTrue(response.success, response.message)
+        self.unpause()
+        state = self.wait_until(
+            lambda: self.latest_state if self.latest_state is not None and
+            self.latest_state.scenario == "hanging_rope" and self.latest_state.steps > 0 else None,
+            "a ~state of the hanging rope, stepped")
+        self.assertEqual(list(state.link_first), list(range(n - 1)))
+        self.assertEqual(list(state.link_second), list(range(1, n)))
+        for k, tension in enumerate(state.link_tensions):
+            below = (n - 1 - k) * mass * 9.81
+            self.assertAlmostEqual(tension / below, 1.0, delta=1e-9, msg=f"link {k}")
+        self.assertEqual(len(state.link_tensions), n - 1)
+        self.assertEqual(list(state.bend_particles), list(range(1, n - 1)))
+        self.assertLess(max(state.bending_moments), 1e-9)
+
     def test_tf_frames_match_state(self):
         state = self.fresh_state()
         for i, position in enumerate(positions_of(state)):

@@ -32,7 +32,8 @@ struct JointMoment
   double moment = 0;  ///< [N m], >= 0 (bendingMoment)
 };
 
-/// Each bend record of the model (BendingForce), in the scene's force order, with its moment at
+/// Each bend record of the model (BendingForce: a chain's bend_stiffness, or a scene's own), in
+/// the scene's force order, with its moment at
 /// `positions` [m] (3 x n).
 std::vector<JointMoment> bendingMoments(const Model& model, const Points& positions);
 

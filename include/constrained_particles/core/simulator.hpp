@@ -33,7 +33,8 @@ public:
   ///    2^k sub-steps that keep omega_max dt_sub inside the integrator's stability limit;
   ///  - after each (sub-)step, the checks (StepCheck): finite; every projection converged;
   ///    for a conservative scene (only conservative forces, no driven anchor) total energy
-  ///    rose by at most ENERGY_RISE_TOLERANCE of energyScale(); no singular solve where the last
+  ///    rose by at most ENERGY_RISE_TOLERANCE of energyScale() plus what the sub-step
+  ///    exchanged, at least ENERGY_SCALE_FLOOR; no singular solve where the last
   ///    accepted step had none; dopri5 within its guards. A failed step is put back and retaken
   ///    as twice the sub-steps, up to max_substeps; the count then relaxes back, halving after
   ///    RELAX_AFTER_STEPS accepted steps;

@@ -21,8 +21,10 @@ namespace constrained_particles
 /// integral of EI kappa^2 / 2 along the rope, kappa = phi / l. Conservative: f = -grad U,
 ///   f_h = -K (b^ - c a^) / |a|,  f_k = K (a^ - c b^) / |b|,  f_i = -(f_h + f_k),
 /// with c = cos phi and K = 4 EI / (l (1 + c)^2). U grows without bound as the joint folds back
-/// on itself (phi -> pi); at phi = pi exactly, and where a link has no length, the joint has no
-/// direction to bend in and exerts no force.
+/// on itself (phi -> pi; 1 + c is floored at BEND_FOLD_FLOOR, so it stays finite); at phi = pi
+/// exactly, and where a link has no length, the joint has no direction to bend in and exerts no
+/// force. kappa b is 2 tan(phi/2) while the links are at their rest lengths (links; not a slack
+/// or unlinked pair).
 struct BendingForce
 {
   int first = 0;           ///< particle h, before the joint
@@ -52,40 +54,46 @@ struct BendingForce
   }
 };
 
-/// The joint's geometry: unit links a^, b^, their lengths and c = a^.b^; `bends` false where a
-/// link has no length.
-struct JointAngle
+/// The floor 1 + cos phi is taken at where a joint folds back (phi -> pi), so the energy, force
+/// and moment there stay finite: machine epsilon.
+constexpr double BEND_FOLD_FLOOR = 2.220446049250313e-16;
+
+/// A bend's geometry: unit links a^, b^, their lengths, c = a^.b^ and s = |a^ x b^| (cos and
+/// sin phi); `bends` false where a link has no length.
+struct BendGeometry
 {
   Vec3 a_unit, b_unit;
-  double a_length, b_length, cosine;
+  double a_length, b_length, cosine, sine;
   bool bends;
 };
-inline JointAngle jointAngle(const BendingForce& joint, const Points& positions)
+inline BendGeometry bendGeometry(const BendingForce& joint, const Points& positions)
 {
   const Vec3 a = positions.col(joint.middle) - positions.col(joint.first);
   const Vec3 b = positions.col(joint.last) - positions.col(joint.middle);
-  JointAngle angle{ Vec3::Zero(), Vec3::Zero(), a.norm(), b.norm(), 1.0, false };
-  if (!(angle.a_length > 0.0) || !(angle.b_length > 0.0))
-    return angle;
-  angle.a_unit = a / angle.a_length;
-  angle.b_unit = b / angle.b_length;
+  BendGeometry bend{ Vec3::Zero(), Vec3::Zero(), a.norm(), b.norm(), 1.0, 0.0, false };
+  if (!(bend.a_length > 0.0) || !(bend.b_length > 0.0))
+    return bend;
+  bend.a_unit = a / bend.a_length;
+  bend.b_unit = b / bend.b_length;
   // rounding can take |a^.b^| past 1
-  angle.cosine = std::clamp(angle.a_unit.dot(angle.b_unit), -1.0, 1.0);
-  angle.bends = true;
-  return angle;
+  bend.cosine = std::clamp(bend.a_unit.dot(bend.b_unit), -1.0, 1.0);
+  bend.sine = bend.a_unit.cross(bend.b_unit).norm();  // no cancellation at small angles
+  bend.bends = true;
+  return bend;
 }
 
 /// Adds the joint's bending force to its three particles [N]. Stateless.
 inline void accumulateForce(const BendingForce& joint, const std::vector<double>& /*masses*/,
                             const Points& positions, const Points& /*velocities*/, Points& forces)
 {
-  const JointAngle angle = jointAngle(joint, positions);
-  const double opening = 1.0 + angle.cosine;  // 1 + cos phi, 0 where the joint folds back
-  if (!angle.bends || !(opening > 0.0))
+  const BendGeometry bend = bendGeometry(joint, positions);
+  if (!bend.bends)
     return;
+  const double opening = std::max(1.0 + bend.cosine, BEND_FOLD_FLOOR);  // 1 + cos phi
   const double k = 4.0 * joint.stiffness / (joint.length * opening * opening);
-  const Vec3 on_first = (-k / angle.a_length) * (angle.b_unit - angle.cosine * angle.a_unit);
-  const Vec3 on_last = (k / angle.b_length) * (angle.a_unit - angle.cosine * angle.b_unit);
+  // b^ - c a^ is 0 where the joint folds back exactly: no direction to bend in, no force
+  const Vec3 on_first = (-k / bend.a_length) * (bend.b_unit - bend.cosine * bend.a_unit);
+  const Vec3 on_last = (k / bend.b_length) * (bend.a_unit - bend.cosine * bend.b_unit);
   forces.col(joint.first) += on_first;
   forces.col(joint.last) += on_last;
   forces.col(joint.middle) -= on_first + on_last;
@@ -97,37 +105,41 @@ inline double power(const BendingForce&, const std::vector<double>&, const Point
   return 0.0;
 }
 
-/// EI |kappa b|^2 / (2 l) = 2 EI (1 - c) / (l (1 + c)) [J]; 0 where a link has no length. At
-/// phi = pi exactly (c = -1) the bound is taken at 1 + c = 1e-300 (finite, far past any
-/// energy a step reaches).
+/// EI |kappa b|^2 / (2 l) = 2 EI tan^2(phi/2) / l = 2 EI s^2 / (l (1 + c)^2) [J] (s = sin phi, the
+/// half-angle tangent s / (1 + c) with no cancellation at small angles); 0 where a link has no
+/// length; 1 + c floored at BEND_FOLD_FLOOR (a joint folded back exactly: finite).
 inline double potentialEnergy(const BendingForce& joint, const std::vector<double>& /*masses*/,
                               const Points& positions)
 {
-  const JointAngle angle = jointAngle(joint, positions);
-  if (!angle.bends)
+  const BendGeometry bend = bendGeometry(joint, positions);
+  if (!bend.bends)
     return 0.0;
-  const double opening = std::max(1.0 + angle.cosine, 1e-300);
-  return 2.0 * joint.stiffness * (1.0 - angle.cosine) / (joint.length * opening);
+  const double opening = std::max(1.0 + bend.cosine, BEND_FOLD_FLOOR);
+  const double tangent =
+      (bend.cosine > 0.0 ? bend.sine : std::sqrt(1.0 - bend.cosine) * std::sqrt(opening)) /
+      opening;  // tan(phi/2): s / (1 + c), or sqrt((1 - c) / (1 + c)) near pi
+  return 2.0 * joint.stiffness * tangent * tangent / joint.length;
 }
 
 /// The bending moment [N m] the joint carries, dU/dphi = 2 EI tan(phi/2) / (l cos^2(phi/2)) =
-/// 4 EI sqrt((1 - c) / (1 + c)) / (l (1 + c)) (EI phi / l = EI kappa for small phi): >= 0, 0 on a
-/// straight joint or where a link has no length; at a joint folded back exactly, its value at
-/// 1 + c = 1e-12 (finite).
+/// 4 EI tan(phi/2) / (l (1 + c)) (EI phi / l = EI kappa for small phi): >= 0, 0 on a straight
+/// joint or where a link has no length; 1 + c floored at BEND_FOLD_FLOOR.
 inline double bendingMoment(const BendingForce& joint, const Points& positions)
 {
-  const JointAngle angle = jointAngle(joint, positions);
-  if (!angle.bends)
+  const BendGeometry bend = bendGeometry(joint, positions);
+  if (!bend.bends)
     return 0.0;
-  const double opening = std::max(1.0 + angle.cosine, 1e-12);
-  return 4.0 * joint.stiffness * std::sqrt(std::max(1.0 - angle.cosine, 0.0) / opening) /
-         (joint.length * opening);
+  const double opening = std::max(1.0 + bend.cosine, BEND_FOLD_FLOOR);
+  const double tangent =
+      (bend.cosine > 0.0 ? bend.sine : std::sqrt(1.0 - bend.cosine) * std::sqrt(opening)) / opening;
+  return 4.0 * joint.stiffness * tangent / (joint.length * opening);
 }
 
 /// The stability estimate's row sums [N/m] of the straight rope's Hessian, EI / l g g^T with
 /// g = (1, -2, 1) / l: 4 EI / l^3 at the ends, 8 EI / l^3 at the joint (16 EI / l^3 on an inner
-/// particle of a rope, the fourth difference's stencil). A bent joint is stiffer, by up to
-/// 4 / (1 + cos phi)^2; the step checks catch what this misses.
+/// particle of a rope, the fourth difference's stencil), for links of length l. A bent joint is
+/// stiffer (its ends' rows 8x at a right angle, over 200x at 2.5 rad) and shorter links too; the
+/// step checks catch what this misses.
 inline void addStiffness(const BendingForce& joint, double* stiffness)
 {
   const double unit = joint.stiffness / (joint.length * joint.length * joint.length);
