@@ -15,7 +15,8 @@ namespace constrained_particles
 /// a.b / (|a| |b|)):
 ///   U = EI |kappa b|^2 / (2 l),  |kappa b| = 2 tan(phi / 2),
 /// the discrete elastic rod's bending term (Bergou, Wardetzky, Robinson, Audoly, Grinspun,
-/// "Discrete Elastic Rods", SIGGRAPH 2008, eq. 4 with an isotropic rod; their l_i is our 2 l),
+/// "Discrete Elastic Rods", SIGGRAPH 2008: the bending energy of an isotropic rod, their \bar l_i
+/// being our 2 l),
 /// with EI the bending stiffness [N m^2] and l [m] the length of rope the joint's bend is spread
 /// over, half its two links' rest lengths summed. For small angles U = EI phi^2 / (2 l): the
 /// integral of EI kappa^2 / 2 along the rope, kappa = phi / l. Conservative: f = -grad U,
